@@ -1,0 +1,7 @@
+"""Finite elements: shape functions, quadrature, and the element integrals κ, M, ϱ, m."""
+
+from .beam import (
+    NODAL_VECTORS_PER_NODE as NODAL_VECTORS_PER_NODE,
+    beam_element_integrals as beam_element_integrals,
+    beam_shape_functions as beam_shape_functions,
+)

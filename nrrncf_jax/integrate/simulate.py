@@ -1,0 +1,319 @@
+"""Adaptive generalized-α time integration of a second-order model: one jit-compiled loop.
+
+Hand-written rather than a diffrax solver because the step must solve for the acceleration
+with prescribed coordinates, keep the auxiliary acceleration ā between steps, reuse a
+block-tridiagonal factorisation inside Newton, and (later) carry index-3 constraints, none of
+which diffrax's ODE-term interface expresses; see ``benchmarks/diffrax_vs_loop.py`` for the
+cost of the diffrax route. The loop is ``equinox.internal.while_loop``: ``adjoint="forward"``
+lowers to ``lax.while_loop`` (fastest; forward-mode differentiable, vmappable);
+``adjoint="reverse"`` lowers to a checkpointed loop that ``jax.grad`` can differentiate with
+memory O(√max_steps) checkpoints, and differentiates each step's Newton solve implicitly.
+"""
+
+import sys
+from collections.abc import Callable
+from typing import Any, Literal
+
+import equinox as eqx
+import equinox.internal as eqxi
+import jax
+import jax.numpy as jnp
+import jax.tree_util as jtu
+import numpy as np
+from jax import lax
+
+from .._types import Array, Float, Int
+from ..models.base import AbstractModel
+from .generalized_alpha import GeneralizedAlpha, hermite_interpolate
+
+RESULTS = {
+    0: "success",
+    1: "max_steps reached before t_end",
+    2: "step size fell below dt_min: Newton failed to converge or the error could not be controlled",
+    3: "the state became non-finite (NaN/Inf) and no smaller step recovered it",
+}
+
+_WINDOW = 8  # outputs that one step may cover; a step never crosses more than this many
+
+
+class SimulationError(RuntimeError):
+    """A simulation stopped before its end time; the message names the time reached."""
+
+
+class Solution(eqx.Module):
+    """Output of ``simulate``: observations at ``ts`` and the integrator's statistics."""
+
+    ts: Float[Array, " n_out"]
+    ys: Any  # pytree, each leaf with leading axis n_out
+    t_final: Float[Array, ""]
+    result: Int[Array, ""]
+    num_steps: Int[Array, ""]
+    num_rejected: Int[Array, ""]
+    num_newton: Int[Array, ""]
+
+    @property
+    def message(self) -> str:
+        return RESULTS[int(self.result)]
+
+
+class _Config(eqx.Module):
+    solver: GeneralizedAlpha
+    adaptive: bool
+    max_steps: int
+    max_newton: int
+    newton: str
+    adjoint: str
+    observe: Callable
+    progress: bool
+
+
+def _default_observe(t, q, v):
+    return q
+
+
+def simulate(
+    model: AbstractModel,
+    ts,
+    *,
+    t0: float = 0.0,
+    solver: GeneralizedAlpha = GeneralizedAlpha(0.9),
+    rtol: float = 1e-4,
+    atol: float = 1e-6,
+    dt0: float | None = None,
+    dt_min: float = 1e-10,
+    dt_max: float = np.inf,
+    adaptive: bool = True,
+    max_steps: int = 200_000,
+    newton_tol: float = 1e-3,
+    max_newton: int = 10,
+    newton: Literal["modified", "full"] = "modified",
+    observe: Callable | None = None,
+    adjoint: Literal["forward", "reverse"] = "forward",
+    progress: bool = False,
+    throw: bool = True,
+) -> Solution:
+    """Integrate ``model`` from ``t0`` and return ``observe(t, q, v)`` at the times ``ts``.
+
+    Newton solves each step for the new acceleration; ``newton="modified"`` factors the
+    iteration matrix once per step, ``"full"`` once per iteration. The step size follows the
+    local error estimate (RMS over the free coordinates, weighted by ``atol + rtol|q|``); a
+    Newton failure or a non-finite state retries the step at a quarter of the size. With
+    ``adaptive=False`` the step is ``dt0`` (shortened only to land on output times).
+
+    ``throw=True`` raises ``SimulationError`` naming the time reached if the run stops early
+    (or, inside a user's ``jit``/``vmap``, an ``eqx.error_if`` runtime error).
+    """
+    ts_np = np.asarray(ts, dtype=float) if not isinstance(ts, jax.core.Tracer) else None
+    if ts_np is not None:
+        if ts_np.ndim != 1 or ts_np.size == 0:
+            raise ValueError(f"ts must be a non-empty 1-D array of output times, got shape {ts_np.shape}")
+        if not np.all(np.isfinite(ts_np)):
+            raise ValueError("ts must be finite")
+        if np.any(np.diff(ts_np) <= 0):
+            raise ValueError("ts must be strictly increasing")
+        if ts_np[-1] <= t0:
+            raise ValueError(f"t_end = ts[-1] must be greater than t0 = {t0}, got t_end = {ts_np[-1]}")
+    for name, val in (("rtol", rtol), ("atol", atol), ("dt_min", dt_min), ("newton_tol", newton_tol)):
+        if not (float(val) > 0.0):
+            raise ValueError(f"{name} must be > 0, got {name}={val!r}")
+    if dt0 is not None and not (float(dt0) > 0.0):
+        raise ValueError(f"dt0 must be > 0, got dt0={dt0!r}")
+    if not adaptive and dt0 is None:
+        raise ValueError("adaptive=False needs a step size dt0")
+    if newton not in ("modified", "full"):
+        raise ValueError(f"newton must be 'modified' or 'full', got {newton!r}")
+    if adjoint not in ("forward", "reverse"):
+        raise ValueError(f"adjoint must be 'forward' or 'reverse', got {adjoint!r}")
+    if ts_np is not None and dt0 is None:
+        dt0 = 1e-3 * (ts_np[-1] - t0)
+    config = _Config(
+        solver=solver,
+        adaptive=bool(adaptive),
+        max_steps=int(max_steps),
+        max_newton=int(max_newton),
+        newton=newton,
+        adjoint=adjoint,
+        observe=_default_observe if observe is None else observe,
+        progress=bool(progress),
+    )
+    f = jnp.asarray
+    sol = _simulate(model, f(ts, dtype=float), f(t0, dtype=float), f(dt0, dtype=float), f(rtol), f(atol),
+                    f(dt_min), f(dt_max), f(newton_tol), config)
+    if throw:
+        if isinstance(sol.result, jax.core.Tracer):
+            sol = eqx.error_if(sol, sol.result != 0, "simulation stopped early; inspect Solution.t_final")
+        elif int(np.max(np.asarray(sol.result))) != 0:
+            res = np.asarray(sol.result).reshape(-1)
+            tf = np.asarray(sol.t_final).reshape(-1)
+            bad = int(np.flatnonzero(res)[0])
+            raise SimulationError(f"simulation stopped at t = {tf[bad]:.6g} s: {RESULTS[int(res[bad])]}")
+    return sol
+
+
+def _rms(x):
+    return jnp.sqrt(jnp.mean(x * x))
+
+
+@eqx.filter_jit
+def _simulate(model, ts, t0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config: _Config) -> Solution:
+    solver = config.solver
+    free = model.free_mask()
+    n_free = jnp.maximum(jnp.sum(free), 1)
+    t_end = ts[-1]
+    K = _WINDOW
+    ts_pad = jnp.concatenate([ts, jnp.full((K,), jnp.inf)])
+
+    def wrms(x):
+        return jnp.sqrt(jnp.sum(jnp.where(free, x * x, 0.0)) / n_free)
+
+    # Initial state and consistent acceleration: M a0 = −g(t0, q0, v0).
+    q0, v0 = model.initial_state(t0)
+    q0, v0, _ = model.constrain(t0, q0, v0, jnp.zeros_like(q0))
+    z = jnp.zeros_like(q0)
+    fac0 = model.factor_iteration_matrix(t0, q0, v0, 1.0, 0.0, 0.0)
+    a0 = -fac0.solve(model.residual(t0, q0, v0, z))
+    _, _, a0 = model.constrain(t0, q0, v0, a0)
+
+    obs0 = config.observe(t0, q0, v0)
+    n_out = ts.shape[0]
+    ys = jtu.tree_map(lambda x: jnp.zeros((n_out + K,) + jnp.shape(x), jnp.result_type(x)), obs0)
+    at_start = ts_pad <= t0
+    ys = jtu.tree_map(lambda buf, x: jnp.where(at_start.reshape((-1,) + (1,) * jnp.ndim(x)), x, buf), ys, obs0)
+    k0 = jnp.sum(at_start).astype(int)
+
+    def next_stop(k):
+        return jnp.minimum(ts_pad[k + K - 1], t_end)
+
+    def limit_step(t, h, k):
+        rem = next_stop(k) - t
+        return jnp.where(rem <= 1.1 * h, rem, jnp.where(rem < 2.0 * h, 0.5 * rem, h))
+
+    h0 = limit_step(t0, jnp.minimum(dt0, dt_max), k0)
+    init = dict(
+        t=t0, h=h0, q=q0, v=v0, a=a0, abar=a0, k=k0, ys=ys,
+        steps=jnp.array(0), rejected=jnp.array(0), newton=jnp.array(0), result=jnp.array(0),
+    )
+
+    def newton_solve(m, t1, h, q, v, a, abar):
+        """Solve r(a1) = 0 for the step's true acceleration (modified or full Newton)."""
+        c_C, c_K = solver.derivatives(h)
+
+        def stage(a1):
+            q1, v1, abar1 = solver.kinematics(h, q, v, a, abar, a1)
+            q1, v1, a1 = m.constrain(t1, q1, v1, a1)
+            return q1, v1, a1, abar1
+
+        q1, v1, a1, _ = stage(a)
+        fac = m.factor_iteration_matrix(t1, q1, v1, 1.0, c_C, c_K)
+
+        def cond(s):
+            a1, fac, i, prev, done, failed = s
+            return ~done & ~failed
+
+        def body(s):
+            a1, fac, i, prev, done, failed = s
+            q1, v1, a1, _ = stage(a1)
+            if config.newton == "full":
+                fac = m.factor_iteration_matrix(t1, q1, v1, 1.0, c_C, c_K)
+            da = fac.solve(m.residual(t1, q1, v1, a1))
+            a1 = a1 - da
+            q_new = stage(a1)[0]
+            norm = wrms(c_K * da / (atol + rtol * jnp.abs(q_new)))
+            done = norm < newton_tol
+            failed = (i + 1 >= config.max_newton) & ~done
+            failed = failed | ~jnp.isfinite(norm) | ((i >= 2) & (norm > prev))
+            return a1, fac, i + 1, norm, done, failed
+
+        a1, fac, iters, _, done, _ = lax.while_loop(
+            cond, body, (a1, fac, jnp.array(0), jnp.array(jnp.inf), jnp.array(False), jnp.array(False))
+        )
+        return a1, fac, iters, done, stage, c_C, c_K
+
+    def step(c):
+        t, h, q, v, a, abar, k = c["t"], c["h"], c["q"], c["v"], c["a"], c["abar"], c["k"]
+        h = lax.stop_gradient(h)
+        t1 = t + h
+        ns = next_stop(k)
+        t1 = jnp.where(jnp.abs(t1 - ns) <= 1e-12 * (1.0 + jnp.abs(ns)), ns, t1)
+        if config.adjoint == "reverse":
+            sg = lax.stop_gradient
+            a1, fac, iters, done, _, c_C, c_K = newton_solve(sg(model), t1, h, sg(q), sg(v), sg(a), sg(abar))
+            a1 = lax.stop_gradient(a1)
+
+            # Implicit derivative of the Newton solve: one Newton update with the gradient of
+            # the residual with respect to the parameters and the previous state, and the
+            # iteration matrix at the solution (da1/dθ = −J⁻¹ ∂r/∂θ).
+            def stage(a1):
+                q1, v1, abar1 = solver.kinematics(h, q, v, a, abar, a1)
+                q1, v1, a1 = model.constrain(t1, q1, v1, a1)
+                return q1, v1, a1, abar1
+
+            q1s, v1s, _, _ = stage(a1)
+            fac_star = sg(model).factor_iteration_matrix(t1, sg(q1s), sg(v1s), 1.0, c_C, c_K)
+            a1 = a1 - fac_star.solve(model.residual(t1, q1s, v1s, a1))
+        else:
+            a1, fac, iters, done, stage, c_C, c_K = newton_solve(model, t1, h, q, v, a, abar)
+        q1, v1, a1, abar1 = stage(a1)
+
+        scale = atol + rtol * jnp.maximum(jnp.abs(q), jnp.abs(q1))
+        err = lax.stop_gradient(wrms(solver.error_estimate(h, a, a1) / scale))
+        finite = jnp.isfinite(err) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(v1))
+        ok = done & finite
+        if config.adaptive:
+            accept = ok & (err <= 1.0)
+            grow = jnp.clip(0.9 * jnp.where(err > 0, err, 1e-10) ** (-1.0 / 3.0), 0.2, 5.0)
+            h_new = jnp.where(ok, h * grow, 0.25 * h)
+        else:
+            accept = ok
+            h_new = jnp.where(ok, jnp.minimum(2.0 * h, dt0), 0.25 * h)
+        h_new = jnp.minimum(h_new, dt_max)
+
+        # Dense output at the requested times inside (t, t1].
+        ys = c["ys"]
+        for j in range(K):
+            idx = k + j
+            tau = ts_pad[idx]
+            write = accept & (tau <= t1)
+            s = jnp.clip((tau - t) / h, 0.0, 1.0)
+            qi, vi = hermite_interpolate(s, h, q, v, q1, v1)
+            obs = config.observe(jnp.where(write, tau, t1), qi, vi)
+            ys = jtu.tree_map(lambda x, buf: buf.at[idx].set(x, pred=write), obs, ys)
+        k_new = jnp.where(accept, k + jnp.sum(ts_pad[k + jnp.arange(K)] <= t1), k)
+
+        t_new = jnp.where(accept, t1, t)
+        h_new = lax.stop_gradient(limit_step(t_new, h_new, k_new))
+        pick = lambda new, old: jnp.where(accept, new, old)  # noqa: E731
+        result = jnp.where(~accept & (h_new < dt_min), jnp.where(finite, 2, 3), 0)
+        if config.progress:
+            lax.cond(
+                accept & (c["steps"] % 200 == 0),
+                lambda: jax.debug.callback(_print_progress, t_new, t_end, c["steps"]),
+                lambda: None,
+            )
+        return dict(
+            t=t_new, h=h_new, q=pick(q1, q), v=pick(v1, v), a=pick(a1, a), abar=pick(abar1, abar), k=k_new, ys=ys,
+            steps=c["steps"] + accept, rejected=c["rejected"] + (~accept), newton=c["newton"] + iters, result=result,
+        )
+
+    def cond(c):
+        return (c["t"] < t_end) & (c["result"] == 0)
+
+    final = eqxi.while_loop(
+        cond, step, init, max_steps=config.max_steps, buffers=lambda c: c["ys"],
+        kind="checkpointed" if config.adjoint == "reverse" else "lax",
+    )
+    result = jnp.where((final["result"] == 0) & (final["t"] < t_end), 1, final["result"])
+    if config.progress:
+        jax.debug.callback(_print_progress, final["t"], t_end, final["steps"] + final["rejected"] * 0, True)
+    return Solution(
+        ts=ts, ys=jtu.tree_map(lambda y: y[:n_out], final["ys"]), t_final=final["t"], result=result,
+        num_steps=final["steps"], num_rejected=final["rejected"], num_newton=final["newton"],
+    )
+
+
+def _print_progress(t, t_end, steps, last=False):
+    t, t_end = np.asarray(t).reshape(-1), np.asarray(t_end).reshape(-1)
+    frac = float(np.min(t / t_end))
+    end = "\n" if last else ""
+    print(f"\r  t = {float(np.min(t)):8.3f} / {float(t_end[0]):.3f} s  ({100 * frac:5.1f} %)  steps {int(np.max(steps))}",
+          end=end, file=sys.stderr, flush=True)

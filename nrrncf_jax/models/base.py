@@ -1,0 +1,47 @@
+"""What the integrator needs from a model of ``M(q) a + g(t, q, v) = 0`` (second order).
+
+A model is an ``equinox.Module`` (a pytree): jit, vmap and grad pass straight through it. It
+never knows which integrator runs it.
+"""
+
+import abc
+
+import equinox as eqx
+
+from .._types import Array, Bool, Float, Scalar
+
+
+class AbstractModel(eqx.Module):
+    """Second-order model with coordinates q ∈ Rⁿ, some of them prescribed.
+
+    Prescribed coordinates (constraints eliminated as prescribed motion) have zero residual
+    rows and identity rows/columns in the iteration matrix; ``constrain`` sets their values.
+    """
+
+    @property
+    @abc.abstractmethod
+    def n_dof(self) -> int: ...
+
+    @abc.abstractmethod
+    def free_mask(self) -> Bool[Array, " n"]:
+        """True for coordinates the integrator solves for."""
+
+    @abc.abstractmethod
+    def initial_state(self, t0: Scalar) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
+        """``(q0, v0)`` at ``t0``."""
+
+    @abc.abstractmethod
+    def constrain(self, t: Scalar, q: Float[Array, " n"], v: Float[Array, " n"], a: Float[Array, " n"]):
+        """Overwrite the prescribed coordinates with their values at t; returns ``(q, v, a)``."""
+
+    @abc.abstractmethod
+    def residual(
+        self, t: Scalar, q: Float[Array, " n"], v: Float[Array, " n"], a: Float[Array, " n"]
+    ) -> Float[Array, " n"]:
+        """r = M a + g(t, q, v); zero on prescribed rows."""
+
+    @abc.abstractmethod
+    def factor_iteration_matrix(
+        self, t: Scalar, q: Float[Array, " n"], v: Float[Array, " n"], c_M, c_C, c_K
+    ):
+        """Factor ``c_M ∂r/∂a + c_C ∂r/∂v + c_K ∂r/∂q``; returns an object with ``.solve(b)``."""

@@ -1,0 +1,161 @@
+"""Full-order equations of one body under a prescribed rotation about a fixed axis.
+
+- ``RotatingFrameModel`` (RNCF, Eq. 41): coordinates in the frame attached to the clamped
+  root, ``M_αβ [q̈_β + 2θ̇ E q̇_β + θ̈ E q_β + θ̇² E E q_β] + F^α(q) = Q_α`` with E = ẽ.
+  The reference conditions (the root's position and cross-section vectors) are eliminated as
+  fixed coordinates.
+- ``InertialFrameModel`` (ANCF, THEORY §3): the same body with A = I; the root's clamped
+  vectors are driven by the rotation, ``q_root(t) = A(θ(t)) q̂_root``.
+"""
+
+import abc
+
+import equinox as eqx
+import jax.numpy as jnp
+
+from .._types import Array, Bool, Float, Int, Scalar
+from ..body import Body
+from ..linalg import assemble_and_factor
+from ..motion import SpinUp, rotation_about, skew
+from .base import AbstractModel
+
+
+class Loads(eqx.Module):
+    """External loads. ``gravity`` is an acceleration in the inertial frame; point forces act
+    on nodal vectors (e.g. the tip's position vector) and are given in the reference frame."""
+
+    gravity: Float[Array, " 3"]
+    point_vectors: Int[Array, " k"]
+    point_forces: Float[Array, "k 3"]
+
+    def __init__(self, gravity=None, point_vectors=(), point_forces=None):
+        self.gravity = jnp.zeros(3) if gravity is None else jnp.asarray(gravity, dtype=float).reshape(3)
+        self.point_vectors = jnp.asarray(point_vectors, dtype=int).reshape(-1)
+        k = self.point_vectors.shape[0]
+        pf = jnp.zeros((k, 3)) if point_forces is None else jnp.asarray(point_forces, dtype=float)
+        if pf.shape != (k, 3):
+            raise ValueError(f"point_forces must have shape ({k}, 3) to match point_vectors, got {pf.shape}")
+        self.point_forces = pf
+
+    def generalized(self, body: Body, A_T_g: Float[Array, " 3"]) -> Float[Array, "n 3"]:
+        """Q_α = ∫ S_α f dV in the reference frame, for gravity ``Aᵀg`` there (Eq. 12)."""
+        Q = body.varrho()[:, None] * A_T_g[None, :]
+        return Q.at[self.point_vectors].add(self.point_forces)
+
+
+class _FullOrderModel(AbstractModel):
+    body: Body
+    motion: SpinUp
+    axis: Float[Array, " 3"]
+    loads: Loads
+    clamped: Int[Array, " c"]  # nodal vectors fixed in the reference frame
+    M: Float[Array, "n n"]  # scalar M_αβ, assembled once
+
+    def __init__(self, body: Body, motion: SpinUp, axis=(0.0, 0.0, 1.0), loads: Loads | None = None, clamped=None):
+        self.body = body
+        self.motion = motion
+        axis = jnp.asarray(axis, dtype=float)
+        if axis.shape != (3,):
+            raise ValueError(f"axis must be a 3-vector, got shape {axis.shape}")
+        self.axis = axis / jnp.linalg.norm(axis)
+        self.loads = Loads() if loads is None else loads
+        # Default reference conditions: the root node's position and cross-section vectors
+        # (r, r_y, r_z): the root section is clamped to the hub.
+        self.clamped = jnp.asarray([0, 2, 4] if clamped is None else clamped, dtype=int)
+        self.M = body.mass_matrix()
+
+    @property
+    def n_dof(self) -> int:
+        return self.body.n_dof
+
+    def free_mask(self) -> Bool[Array, " n"]:
+        fixed = jnp.zeros((self.body.n_vectors, 3), bool).at[self.clamped].set(True)
+        return ~fixed.reshape(-1)
+
+    def rotation(self, t: Scalar) -> Float[Array, "3 3"]:
+        return rotation_about(self.axis, self.motion(t)[0])
+
+    @abc.abstractmethod
+    def displacements(self, t: Scalar, q: Float[Array, " n"]) -> Float[Array, "nv 3"]:
+        """Nodal displacements ``w = q − q̂`` in the rotating reference frame (THEORY §9)."""
+
+    def _factor(self, t, q, v, c_M, c_C, c_K, frame_C, frame_K):
+        """Iteration matrix from element blocks: c_M M + c_C (M⊗frame_C) + c_K (K + M⊗frame_K)."""
+        body = self.body
+        Kt = body.element_tangents(q.reshape(-1, 3))
+        G = c_K * Kt + jnp.einsum("eab,ij->eaibj", body.M_e, c_M * jnp.eye(3) + c_C * frame_C + c_K * frame_K)
+        n_el, ne = body.elements.shape
+        dofs = (3 * body.elements[:, :, None] + jnp.arange(3)).reshape(n_el, -1)
+        block = 3 * body.vectors_per_node if body.chain else None
+        return assemble_and_factor(G.reshape(n_el, 3 * ne, 3 * ne), dofs, self.free_mask(), block)
+
+
+class RotatingFrameModel(_FullOrderModel):
+    """Full RNCF body in the frame rotating with the clamped root (Eq. 41)."""
+
+    def initial_state(self, t0):
+        q0 = self.body.q_hat.reshape(-1)
+        return q0, jnp.zeros_like(q0)
+
+    def constrain(self, t, q, v, a):
+        free = self.free_mask()
+        q = jnp.where(free, q, self.body.q_hat.reshape(-1))
+        return q, jnp.where(free, v, 0.0), jnp.where(free, a, 0.0)
+
+    def residual(self, t, q, v, a):
+        _, dth, ddth = self.motion(t)
+        e = self.axis
+        Q, V, Acc = (x.reshape(-1, 3) for x in (q, v, a))
+        # a_α = q̈_α + 2ω×q̇_α + ω̇×q_α + ω×(ω×q_α)   (Eq. 8, ω = θ̇ e)
+        rel = Acc + 2.0 * dth * jnp.cross(e, V) + ddth * jnp.cross(e, Q) + dth**2 * jnp.cross(e, jnp.cross(e, Q))
+        A_T_g = self.rotation(t).T @ self.loads.gravity
+        r = self.M @ rel + self.body.elastic_force(Q) - self.loads.generalized(self.body, A_T_g)
+        return jnp.where(self.free_mask(), r.reshape(-1), 0.0)
+
+    def factor_iteration_matrix(self, t, q, v, c_M, c_C, c_K):
+        _, dth, ddth = self.motion(t)
+        E = skew(self.axis)
+        return self._factor(t, q, v, c_M, c_C, c_K, 2.0 * dth * E, ddth * E + dth**2 * (E @ E))
+
+    def displacements(self, t, q):
+        return q.reshape(-1, 3) - self.body.q_hat
+
+
+class InertialFrameModel(_FullOrderModel):
+    """Full ANCF body in the inertial frame; the clamped root vectors follow the rotation."""
+
+    def _root_motion(self, t):
+        _, dth, ddth = self.motion(t)
+        A = self.rotation(t)
+        E = skew(self.axis)
+        root = self.body.q_hat[self.clamped] @ A.T  # rows: A q̂
+        vel = root @ (dth * E).T
+        acc = root @ (ddth * E + dth**2 * (E @ E)).T
+        return root, vel, acc
+
+    def initial_state(self, t0):
+        _, dth, _ = self.motion(t0)
+        q0 = self.body.q_hat @ self.rotation(t0).T
+        v0 = q0 @ (dth * skew(self.axis)).T
+        return q0.reshape(-1), v0.reshape(-1)
+
+    def constrain(self, t, q, v, a):
+        root, vel, acc = self._root_motion(t)
+        put = lambda x, val: x.reshape(-1, 3).at[self.clamped].set(val).reshape(-1)  # noqa: E731
+        return put(q, root), put(v, vel), put(a, acc)
+
+    def residual(self, t, q, v, a):
+        Q, Acc = q.reshape(-1, 3), a.reshape(-1, 3)
+        A = self.rotation(t)
+        # Point forces are given in the rotating frame: rotate them with A; gravity is inertial.
+        P = jnp.zeros_like(Q).at[self.loads.point_vectors].add(self.loads.point_forces @ A.T)
+        ext = self.body.varrho()[:, None] * self.loads.gravity[None, :] + P
+        r = self.M @ Acc + self.body.elastic_force(Q) - ext
+        return jnp.where(self.free_mask(), r.reshape(-1), 0.0)
+
+    def factor_iteration_matrix(self, t, q, v, c_M, c_C, c_K):
+        z = jnp.zeros((3, 3))
+        return self._factor(t, q, v, c_M, c_C, c_K, z, z)
+
+    def displacements(self, t, q):
+        return q.reshape(-1, 3) @ self.rotation(t) - self.body.q_hat
