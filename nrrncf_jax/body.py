@@ -9,7 +9,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ._types import Array, Float, Int
+from ._types import Array, Bool, Float, Int
 from .elements.beam import NODAL_VECTORS_PER_NODE, beam_element_integrals
 from .material import Material
 from .mesh import BeamReference
@@ -29,6 +29,7 @@ class Body(eqx.Module):
     M_e: Float[Array, "n_el ne ne"]
     varrho_e: Float[Array, "n_el ne"]
     mass: Float[Array, ""]
+    is_position: Bool[Array, " n"]  # position vectors (a rigid translation moves these only)
     vectors_per_node: int = eqx.field(static=True)
     chain: bool = eqx.field(static=True)
 
@@ -83,6 +84,28 @@ class Body(eqx.Module):
         geo = jnp.einsum("eaibn,enj->eaibj", kq, qe)
         return geo + jnp.einsum("eab,ij->eaibj", theta, jnp.eye(3))
 
+    def element_dofs(self) -> Int[Array, "n_el nd"]:
+        """Flat DOF indices (3α + i) of each element."""
+        n_el, ne = self.elements.shape
+        return (3 * self.elements[:, :, None] + jnp.arange(3)).reshape(n_el, 3 * ne)
+
+    def stiffness_matrix(self, q: Float[Array, "n 3"]) -> Float[Array, "ndof ndof"]:
+        """Dense tangent stiffness ∂F/∂q (for modal analysis and checks; the integrator
+        assembles its own iteration matrix in banded form)."""
+        Kt = self.element_tangents(q)
+        n_el, ne = self.elements.shape
+        dofs = self.element_dofs()
+        n = self.n_dof
+        return jnp.zeros((n, n)).at[dofs[:, :, None], dofs[:, None, :]].add(Kt.reshape(n_el, 3 * ne, 3 * ne))
+
+    def rigid_modes(self) -> Float[Array, "ndof 6"]:
+        """Infinitesimal rigid motions of the reference: 3 translations (position vectors only)
+        and 3 rotations ω × q̂_α (all vectors). Each gives zero elastic force."""
+        e = jnp.eye(3)
+        trans = jnp.where(self.is_position[None, :, None], e[:, None, :], 0.0)
+        rot = jnp.cross(e[:, None, :], self.q_hat[None, :, :])
+        return jnp.concatenate([trans, rot]).reshape(6, -1).T
+
     # --- inertia (THEORY §1) ------------------------------------------------------------------
     def mass_matrix(self) -> Float[Array, "n n"]:
         """The scalar M_αβ (the full mass matrix is ``M ⊗ I3``)."""
@@ -110,6 +133,7 @@ def beam_body(material: Material, section: TubeSection, reference: BeamReference
         M_e=M_e,
         varrho_e=varrho_e,
         mass=jnp.sum(m_e),
+        is_position=(jnp.arange(q_nodes.shape[0] * per) % per) == 0,
         vectors_per_node=per,
         chain=True,
     )

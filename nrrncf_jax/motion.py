@@ -48,3 +48,11 @@ def rotation_about(axis: Float[Array, " 3"], theta: Float[Array, ""]) -> Float[A
 def skew(a: Float[Array, " 3"]) -> Float[Array, "3 3"]:
     """ã with ã b = a × b (Eq. 21)."""
     return jnp.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+class Stationary(eqx.Module):
+    """No reference motion: θ = θ̇ = θ̈ = 0 (static problems, free vibration)."""
+
+    def __call__(self, t: ScalarLike) -> tuple[Float[Array, ""], Float[Array, ""], Float[Array, ""]]:
+        z = jnp.zeros_like(jnp.asarray(t, dtype=float))
+        return z, z, z

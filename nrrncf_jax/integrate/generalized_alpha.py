@@ -13,16 +13,24 @@ problems it conserves energy exactly.
 """
 
 import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from .._types import Array, Float
 
 
 class GeneralizedAlpha(eqx.Module):
-    """Chung-Hulbert parameters from the spectral radius at infinity ρ∞ ∈ [0, 1]."""
+    """Chung-Hulbert parameters from the spectral radius at infinity ρ∞ ∈ [0, 1].
 
-    rho_inf: float = eqx.field(static=True, default=0.9)
+    ρ∞ is an array, so runs with different ρ∞ share one compilation (and can be vmapped).
+    """
 
-    def __check_init__(self):
-        if not (0.0 <= float(self.rho_inf) <= 1.0):
-            raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={self.rho_inf!r}")
+    rho_inf: Float[Array, ""]
+
+    def __init__(self, rho_inf=0.9):
+        if not isinstance(rho_inf, jax.core.Tracer) and not (0.0 <= float(rho_inf) <= 1.0):
+            raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={float(rho_inf)!r}")
+        self.rho_inf = jnp.asarray(rho_inf, dtype=float)
 
     @property
     def alpha_m(self) -> float:

@@ -10,6 +10,7 @@ lowers to ``lax.while_loop`` (fastest; forward-mode differentiable, vmappable);
 memory O(√max_steps) checkpoints, and differentiates each step's Newton solve implicitly.
 """
 
+import inspect
 import sys
 from collections.abc import Callable
 from typing import Any, Literal
@@ -57,7 +58,7 @@ class Solution(eqx.Module):
 
 
 class _Config(eqx.Module):
-    solver: GeneralizedAlpha
+    solver: GeneralizedAlpha  # its ρ∞ is an array: traced, not static
     adaptive: bool
     max_steps: int
     max_newton: int
@@ -76,7 +77,8 @@ def simulate(
     ts,
     *,
     t0: float = 0.0,
-    solver: GeneralizedAlpha = GeneralizedAlpha(0.9),
+    y0: tuple | None = None,
+    solver: GeneralizedAlpha | None = None,
     rtol: float = 1e-4,
     atol: float = 1e-6,
     dt0: float | None = None,
@@ -100,9 +102,42 @@ def simulate(
     Newton failure or a non-finite state retries the step at a quarter of the size. With
     ``adaptive=False`` the step is ``dt0`` (shortened only to land on output times).
 
+    ``y0 = (q0, v0)`` overrides the model's initial state (prescribed coordinates are still
+    imposed).
+
     ``throw=True`` raises ``SimulationError`` naming the time reached if the run stops early
     (or, inside a user's ``jit``/``vmap``, an ``eqx.error_if`` runtime error).
     """
+    args = _prepare(model, ts, t0, y0, solver, rtol, atol, dt0, dt_min, dt_max, adaptive, max_steps, newton_tol,
+                    max_newton, newton, observe, adjoint, progress)
+    sol = _simulate(*args)
+    return _check(sol, throw)
+
+
+def simulate_timed(model: AbstractModel, ts, **kwargs) -> tuple[Solution, float, float]:
+    """``simulate`` with compilation and execution timed apart: ``(solution, compile_s, run_s)``.
+
+    Compiles ahead of time (``lower().compile()``), then runs to ``block_until_ready``.
+    """
+    import time
+
+    throw = kwargs.pop("throw", True)
+    sig = inspect.signature(simulate)
+    bound = sig.bind(model, ts, **kwargs)
+    bound.apply_defaults()
+    a = dict(bound.arguments)
+    a.pop("throw")
+    args = _prepare(**a)
+    t0 = time.perf_counter()
+    compiled = _simulate.lower(*args).compile()
+    t1 = time.perf_counter()
+    sol = jax.block_until_ready(compiled(*args))
+    t2 = time.perf_counter()
+    return _check(sol, throw), t1 - t0, t2 - t1
+
+
+def _prepare(model, ts, t0, y0, solver, rtol, atol, dt0, dt_min, dt_max, adaptive, max_steps, newton_tol, max_newton,
+             newton, observe, adjoint, progress):
     ts_np = np.asarray(ts, dtype=float) if not isinstance(ts, jax.core.Tracer) else None
     if ts_np is not None:
         if ts_np.ndim != 1 or ts_np.size == 0:
@@ -127,7 +162,7 @@ def simulate(
     if ts_np is not None and dt0 is None:
         dt0 = 1e-3 * (ts_np[-1] - t0)
     config = _Config(
-        solver=solver,
+        solver=GeneralizedAlpha(0.9) if solver is None else solver,
         adaptive=bool(adaptive),
         max_steps=int(max_steps),
         max_newton=int(max_newton),
@@ -136,9 +171,16 @@ def simulate(
         observe=_default_observe if observe is None else observe,
         progress=bool(progress),
     )
+    if y0 is not None:
+        y0 = tuple(jnp.asarray(x, dtype=float) for x in y0)
+        if len(y0) != 2 or any(x.shape != (model.n_dof,) for x in y0):
+            raise ValueError(f"y0 must be (q0, v0), each of shape ({model.n_dof},)")
     f = jnp.asarray
-    sol = _simulate(model, f(ts, dtype=float), f(t0, dtype=float), f(dt0, dtype=float), f(rtol), f(atol),
-                    f(dt_min), f(dt_max), f(newton_tol), config)
+    return (model, f(ts, dtype=float), f(t0, dtype=float), y0, f(dt0, dtype=float), f(rtol, dtype=float),
+            f(atol, dtype=float), f(dt_min, dtype=float), f(dt_max, dtype=float), f(newton_tol, dtype=float), config)
+
+
+def _check(sol: Solution, throw: bool) -> Solution:
     if throw:
         if isinstance(sol.result, jax.core.Tracer):
             sol = eqx.error_if(sol, sol.result != 0, "simulation stopped early; inspect Solution.t_final")
@@ -150,12 +192,8 @@ def simulate(
     return sol
 
 
-def _rms(x):
-    return jnp.sqrt(jnp.mean(x * x))
-
-
 @eqx.filter_jit
-def _simulate(model, ts, t0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config: _Config) -> Solution:
+def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config: _Config) -> Solution:
     solver = config.solver
     free = model.free_mask()
     n_free = jnp.maximum(jnp.sum(free), 1)
@@ -167,7 +205,7 @@ def _simulate(model, ts, t0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config
         return jnp.sqrt(jnp.sum(jnp.where(free, x * x, 0.0)) / n_free)
 
     # Initial state and consistent acceleration: M a0 = −g(t0, q0, v0).
-    q0, v0 = model.initial_state(t0)
+    q0, v0 = model.initial_state(t0) if y0 is None else y0
     q0, v0, _ = model.constrain(t0, q0, v0, jnp.zeros_like(q0))
     z = jnp.zeros_like(q0)
     fac0 = model.factor_iteration_matrix(t0, q0, v0, 1.0, 0.0, 0.0)

@@ -16,7 +16,7 @@ import jax.numpy as jnp
 from .._types import Array, Bool, Float, Int, Scalar
 from ..body import Body
 from ..linalg import assemble_and_factor
-from ..motion import SpinUp, rotation_about, skew
+from ..motion import SpinUp, Stationary, rotation_about, skew
 from .base import AbstractModel
 
 
@@ -45,13 +45,13 @@ class Loads(eqx.Module):
 
 class _FullOrderModel(AbstractModel):
     body: Body
-    motion: SpinUp
+    motion: SpinUp | Stationary
     axis: Float[Array, " 3"]
     loads: Loads
     clamped: Int[Array, " c"]  # nodal vectors fixed in the reference frame
     M: Float[Array, "n n"]  # scalar M_αβ, assembled once
 
-    def __init__(self, body: Body, motion: SpinUp, axis=(0.0, 0.0, 1.0), loads: Loads | None = None, clamped=None):
+    def __init__(self, body: Body, motion: SpinUp | Stationary, axis=(0.0, 0.0, 1.0), loads: Loads | None = None, clamped=None):
         self.body = body
         self.motion = motion
         axis = jnp.asarray(axis, dtype=float)
@@ -85,9 +85,8 @@ class _FullOrderModel(AbstractModel):
         Kt = body.element_tangents(q.reshape(-1, 3))
         G = c_K * Kt + jnp.einsum("eab,ij->eaibj", body.M_e, c_M * jnp.eye(3) + c_C * frame_C + c_K * frame_K)
         n_el, ne = body.elements.shape
-        dofs = (3 * body.elements[:, :, None] + jnp.arange(3)).reshape(n_el, -1)
         block = 3 * body.vectors_per_node if body.chain else None
-        return assemble_and_factor(G.reshape(n_el, 3 * ne, 3 * ne), dofs, self.free_mask(), block)
+        return assemble_and_factor(G.reshape(n_el, 3 * ne, 3 * ne), body.element_dofs(), self.free_mask(), block)
 
 
 class RotatingFrameModel(_FullOrderModel):

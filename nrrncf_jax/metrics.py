@@ -1,0 +1,18 @@
+"""Accuracy measures (THEORY §9)."""
+
+import jax.numpy as jnp
+
+from ._types import Array, Float
+
+
+def chi_rel(w_ref: Float[Array, "nt ..."], w: Float[Array, "nt ..."]) -> Float[Array, ""]:
+    """Global relative error in percent (Eq. 40):
+    ``sqrt(Σ_t |w(t) − w̄(t)|²) / sqrt(Σ_t |w(t)|²) × 100``.
+
+    ``w_ref`` is the reference (e.g. the full RNCF displacements q − q̂), ``w`` the compared
+    solution on the same time instants. Use displacements, not positions.
+    """
+    w_ref, w = jnp.asarray(w_ref), jnp.asarray(w)
+    if w_ref.shape != w.shape:
+        raise ValueError(f"chi_rel needs arrays of equal shape, got {w_ref.shape} and {w.shape}")
+    return 100.0 * jnp.sqrt(jnp.sum((w_ref - w) ** 2)) / jnp.sqrt(jnp.sum(w_ref**2))

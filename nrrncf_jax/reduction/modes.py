@@ -1,0 +1,58 @@
+"""Vibration modes of a body about its rigid-reference configuration (Eqs. 26-28).
+
+``(K|eq − ω² M) φ = 0`` on the free coordinates. ``jax.scipy.linalg.eigh`` has no generalised
+form, so the problem is reduced with the Cholesky factor of M: ``L⁻¹ K L⁻ᵀ y = ω² y``,
+``φ = L⁻ᵀ y``; the modes come out mass-normalised (``ΦᵀMΦ = I``).
+"""
+
+import equinox as eqx
+import jax.numpy as jnp
+import jax.scipy.linalg as jsl
+import numpy as np
+
+from .._types import Array, Bool, Float
+from ..body import Body
+
+
+class VibrationModes(eqx.Module):
+    """Natural angular frequencies ``omega`` [rad/s] (ascending) and mass-normalised mode
+    shapes ``phi`` (n_dof × k, zero on constrained coordinates)."""
+
+    omega: Float[Array, " k"]
+    phi: Float[Array, "ndof k"]
+
+
+def vibration_modes(
+    body: Body, free: Bool[Array, " ndof"], k: int | None = None, q_eq: Float[Array, "n 3"] | None = None
+) -> VibrationModes:
+    """The ``k`` lowest modes of ``(K|eq, M ⊗ I3)`` restricted to the ``free`` coordinates.
+
+    Raises ``ValueError`` if K|eq is singular on the free coordinates (missing reference
+    conditions: a free body has six zero-frequency rigid modes).
+    """
+    q_eq = body.q_hat if q_eq is None else q_eq
+    free_np = np.asarray(free)
+    idx = np.flatnonzero(free_np)
+    # A rigid motion that leaves every constrained coordinate alone is a zero-stiffness mode.
+    R_fixed = np.asarray(body.rigid_modes())[~free_np]
+    rank = 0 if R_fixed.size == 0 else int(np.sum(np.linalg.svd(R_fixed, compute_uv=False) > 1e-8 * np.abs(R_fixed).max()))
+    if rank < 6:
+        raise ValueError(
+            f"the stiffness matrix K|eq is singular: {6 - rank} rigid-body mode(s) are not removed by the "
+            "constrained coordinates (missing reference conditions, e.g. no clamped root)"
+        )
+    K = body.stiffness_matrix(q_eq)[np.ix_(idx, idx)]
+    M = jnp.kron(body.mass_matrix(), jnp.eye(3))[np.ix_(idx, idx)]
+    L = jnp.linalg.cholesky(M)
+    A = jsl.solve_triangular(L, jsl.solve_triangular(L, K, lower=True).T, lower=True)
+    A = 0.5 * (A + A.T)
+    w2, Y = jnp.linalg.eigh(A)
+    if float(w2[0]) <= 0.0:
+        raise ValueError(
+            f"K|eq is not positive definite on the free coordinates (lowest eigenvalue {float(w2[0]):.3g}): "
+            "the configuration is not a stable equilibrium"
+        )
+    k = len(idx) if k is None else int(k)
+    phi_free = jsl.solve_triangular(L.T, Y[:, :k], lower=False)
+    phi = jnp.zeros((body.n_dof, k)).at[idx].set(phi_free)
+    return VibrationModes(omega=jnp.sqrt(w2[:k]), phi=phi)

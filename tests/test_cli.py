@@ -1,0 +1,43 @@
+"""The ``nrrncf`` command, as a script would use it, and the library's import hygiene."""
+
+import csv
+import json
+import subprocess
+import sys
+
+from nrrncf_jax.cli import main
+
+
+def test_spinup_json_csv_plot(tmp_path, capsys):
+    out, png = tmp_path / "tip.csv", tmp_path / "tip.png"
+    rc = main(["spinup", "--formulation", "rncf", "--beam", "paper", "--omega", "4", "--t-end", "2",
+               "--elements", "2", "--out", str(out), "--plot", str(png), "--json", "--no-progress"])
+    assert rc == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    d = json.loads(last)
+    for key in ("formulation", "dofs", "steps", "rejected", "newton_iters", "compile_s", "run_s", "tip_uy_min",
+                "tip_uy_max"):
+        assert key in d
+    assert d["formulation"] == "rncf" and d["dofs"] == 2 * 18 + 9 and d["steps"] > 0
+    assert d["tip_uy_min"] < 0
+    rows = list(csv.reader(open(out)))
+    assert rows[0] == ["t", "theta", "ux", "uy", "uz"]
+    assert len(rows) == 1 + 201 and float(rows[-1][0]) == 2.0
+    assert png.stat().st_size > 10_000
+
+
+def test_modes_json(capsys):
+    assert main(["modes", "--beam", "paper", "--elements", "4", "--count", "4", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert abs(d["omega_rad_s"][0] - 2.9096) < 1e-3
+
+
+def test_bad_cli_value_is_an_error_not_a_traceback(capsys):
+    assert main(["spinup", "--omega", "-3", "--t-end", "1", "--no-progress"]) == 2
+    assert "omega" in capsys.readouterr().err
+
+
+def test_library_import_leaves_jax_config_alone():
+    code = "import jax, nrrncf_jax; print(jax.config.jax_enable_x64)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
