@@ -5,11 +5,18 @@ The library never changes global JAX configuration: switch on float64 yourself,
 ``jax.config.update("jax_enable_x64", True)``, before building models.
 """
 
-from .body import Body as Body, beam_body as beam_body
+from .body import Body as Body
+from .body import beam_body as beam_body
 from .integrate import (
     GeneralizedAlpha as GeneralizedAlpha,
+)
+from .integrate import (
     SimulationError as SimulationError,
+)
+from .integrate import (
     Solution as Solution,
+)
+from .integrate import (
     simulate as simulate,
 )
 from .integrate.simulate import simulate_timed as simulate_timed
@@ -17,21 +24,46 @@ from .integrate.static import static_equilibrium as static_equilibrium
 from .material import Material as Material
 from .mesh import (
     BeamReference as BeamReference,
+)
+from .mesh import (
     arc_reference as arc_reference,
+)
+from .mesh import (
     centerline_reference as centerline_reference,
+)
+from .mesh import (
     straight_reference as straight_reference,
 )
 from .metrics import chi_rel as chi_rel
 from .models import (
     AbstractModel as AbstractModel,
+)
+from .models import (
     InertialFrameModel as InertialFrameModel,
+)
+from .models import (
     LinearModel as LinearModel,
+)
+from .models import (
     Loads as Loads,
+)
+from .models import (
     RotatingFrameModel as RotatingFrameModel,
 )
-from .motion import SpinUp as SpinUp, Stationary as Stationary
-from .reduction import VibrationModes as VibrationModes, vibration_modes as vibration_modes
-from .scenarios import BEAMS as BEAMS, beam_preset as beam_preset, run_spinup as run_spinup
+from .motion import SpinUp as SpinUp
+from .motion import Stationary as Stationary
+from .models import ReducedRotatingModel as ReducedRotatingModel
+from .models import reduce_rotating_model as reduce_rotating_model
+from .nr_rncf import Reduction as Reduction
+from .nr_rncf import nr_rncf as nr_rncf
+from .reduction import ModalDerivatives as ModalDerivatives
+from .reduction import VibrationModes as VibrationModes
+from .reduction import deflate as deflate
+from .reduction import modal_derivatives as modal_derivatives
+from .reduction import vibration_modes as vibration_modes
+from .scenarios import BEAMS as BEAMS
+from .scenarios import beam_preset as beam_preset
+from .scenarios import run_spinup as run_spinup
 from .section import TubeSection as TubeSection
 
 __version__ = "0.1.0"

@@ -3,7 +3,13 @@
 from .generalized_alpha import GeneralizedAlpha as GeneralizedAlpha
 from .simulate import (
     RESULTS as RESULTS,
+)
+from .simulate import (
     SimulationError as SimulationError,
+)
+from .simulate import (
     Solution as Solution,
+)
+from .simulate import (
     simulate as simulate,
 )

@@ -5,13 +5,17 @@ Hand-written rather than ``optimistix.root_find`` so that it reuses the model's 
 Jacobian.
 """
 
+from typing import TYPE_CHECKING
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jax import lax
 
-from ..models.base import AbstractModel
 from .simulate import SimulationError
+
+if TYPE_CHECKING:  # the models import the integrator's users; annotations only
+    from ..models.base import AbstractModel
 
 
 def _scale_loads(model, lam):
@@ -50,7 +54,7 @@ def _static(model, load_steps: int, tol, max_iter: int):
     return q, iters, norms
 
 
-def static_equilibrium(model: AbstractModel, load_steps: int = 10, tol: float = 1e-10, max_iter: int = 30):
+def static_equilibrium(model: "AbstractModel", load_steps: int = 10, tol: float = 1e-10, max_iter: int = 30):
     """Equilibrium of ``model`` under its loads (no inertia, t = 0), reached in ``load_steps``
     equal load increments. Returns the coordinates q; raises ``SimulationError`` if Newton does
     not converge at some increment."""

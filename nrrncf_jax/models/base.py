@@ -45,3 +45,10 @@ class AbstractModel(eqx.Module):
         self, t: Scalar, q: Float[Array, " n"], v: Float[Array, " n"], c_M, c_C, c_K
     ):
         """Factor ``c_M ∂r/∂a + c_C ∂r/∂v + c_K ∂r/∂q``; returns an object with ``.solve(b)``."""
+
+    def error_space(self, q: Float[Array, " n"], e: Float[Array, " n"]):
+        """Where the step's error is measured: ``(q_err, e_err, mask)``, the coordinates that
+        scale the tolerance, the error in them, and which of them count. The default is the
+        model's own coordinates; a reduced model maps back to the physical ones so that the
+        same rtol means the same accuracy for full and reduced models."""
+        return q, e, self.free_mask()

@@ -1,3 +1,16 @@
-"""Model order reduction: vibration modes (more to come: modal derivatives, selection, tensors)."""
+"""Model order reduction (THEORY §4-6): vibration modes, modal derivatives, maximum modal
+interaction, SVD deflation and the reduced tensors (``nrrncf_jax.nr_rncf`` chains them)."""
 
-from .modes import VibrationModes as VibrationModes, vibration_modes as vibration_modes
+from .deflation import deflate as deflate
+from .modal_derivatives import ModalDerivatives as ModalDerivatives
+from .modal_derivatives import modal_derivatives as modal_derivatives
+from .modes import VibrationModes as VibrationModes
+from .modes import vibration_modes as vibration_modes
+from .selection import Selection as Selection
+from .selection import align_degenerate_modes as align_degenerate_modes
+from .selection import mmi_matrix as mmi_matrix
+from .selection import select as select
+from .tensors import ElasticTensors as ElasticTensors
+from .tensors import RotationInertia as RotationInertia
+from .tensors import elastic_tensors as elastic_tensors
+from .tensors import rotation_inertia as rotation_inertia

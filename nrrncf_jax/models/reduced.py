@@ -1,0 +1,131 @@
+"""The reduced NR-RNCF equations of a body under prescribed rotation (THEORY §4):
+
+    Ī p̈ + 2θ̇ Ḡ ṗ + θ̈(Ḡ p + ḡ) + θ̇²(C̄ p + c̄) + F(p) = Ψᵀ Q,   q = q° + Ψ p.
+
+F(p) is the cubic polynomial of Eq. 24 (``force="tensor"``), or the projection of the
+element-wise full elastic force ``Ψᵀ F(q° + Ψ p)`` (``force="projected"``); the two are equal
+to round-off and differ only in cost (O(Km⁴) against O(n_el n_e⁴ + 3n Km)).
+"""
+
+import equinox as eqx
+import jax.numpy as jnp
+import jax.scipy.linalg as jsl
+
+from .._types import Array, Bool, Float
+from ..body import Body
+from ..linalg import DenseLU
+from ..motion import SpinUp, Stationary, rotation_about
+from ..reduction.tensors import ElasticTensors, RotationInertia, elastic_tensors, rotation_inertia
+from .base import AbstractModel
+from .full_order import Loads, RotatingFrameModel
+
+
+class ReducedRotatingModel(AbstractModel):
+    """NR-RNCF model: modal coordinates p of the basis Ψ about q°; an equinox Module."""
+
+    Psi: Float[Array, "ndof km"]
+    q_eq: Float[Array, "n 3"]
+    q_hat: Float[Array, "n 3"]
+    elastic: ElasticTensors
+    inertia: RotationInertia
+    gravity_map: Float[Array, "km 3"]  # Σ_α ϱ_α ψ^i_α: Ψᵀ of a uniform body-frame acceleration
+    point_load: Float[Array, " km"]  # Ψᵀ of the point forces
+    gravity: Float[Array, " 3"]
+    physical_mask: Bool[Array, " ndof"]  # the full model's free coordinates
+    motion: SpinUp | Stationary
+    axis: Float[Array, " 3"]
+    body: Body | None
+    force: str = eqx.field(static=True)
+    linear: bool = eqx.field(static=True)
+    """``linear=True``: the linear model of the MMI criterion (Eq. 39), ``Ī p̈ + (f + K p) =
+    −θ̈ ḡ − θ̇² c̄ + Ψᵀ Q``: linearised elastic force, and the rotation only as the load it exerts
+    (the parametric Coriolis/centrifugal terms would make it unstable above the first critical
+    speed, since the centrifugal stiffening is nonlinear)."""
+
+    @property
+    def n_dof(self) -> int:
+        return self.Psi.shape[1]
+
+    def free_mask(self):
+        return jnp.ones(self.n_dof, bool)
+
+    def initial_state(self, t0):
+        z = jnp.zeros(self.n_dof)
+        return z, z
+
+    def constrain(self, t, q, v, a):
+        return q, v, a
+
+    def elastic_force(self, p):
+        """``(F(p), ∂F/∂p)``."""
+        if self.linear:
+            return self.elastic.f + self.elastic.K @ p, self.elastic.K
+        if self.force == "tensor":
+            return self.elastic.force_and_jacobian(p)
+        body = self.body
+        q = (self.q_eq.reshape(-1) + self.Psi @ p).reshape(-1, 3)
+        F = self.Psi.T @ body.elastic_force(q).reshape(-1)
+        n_el, ne = body.elements.shape
+        Pe = self.Psi[body.element_dofs()]  # (n_el, 3ne, km)
+        Ke = body.element_tangents(q).reshape(n_el, 3 * ne, 3 * ne)
+        return F, jnp.einsum("eaI,eab,ebJ->IJ", Pe, Ke, Pe)
+
+    def external(self, t):
+        A = rotation_about(self.axis, self.motion(t)[0])
+        return self.gravity_map @ (A.T @ self.gravity) + self.point_load
+
+    def residual(self, t, p, v, a):
+        _, dth, ddth = self.motion(t)
+        I = self.inertia
+        F, _ = self.elastic_force(p)
+        load = ddth * I.g + dth**2 * I.c - self.external(t)
+        if self.linear:  # the rotation acts only as the load it exerts (see ``linear``)
+            return I.I @ a + F + load
+        return I.I @ a + 2.0 * dth * (I.G @ v) + ddth * (I.G @ p) + dth**2 * (I.C @ p) + F + load
+
+    def factor_iteration_matrix(self, t, p, v, c_M, c_C, c_K):
+        _, dth, ddth = self.motion(t)
+        I = self.inertia
+        _, J = self.elastic_force(p)
+        if self.linear:
+            S = c_M * I.I + c_K * J
+        else:
+            S = c_M * I.I + c_C * 2.0 * dth * I.G + c_K * (J + ddth * I.G + dth**2 * I.C)
+        lu, piv = jsl.lu_factor(S)
+        return DenseLU(lu=lu, piv=piv)
+
+    def error_space(self, p, e):
+        # Measure the step error in the physical coordinates q = q° + Ψp (only those that move).
+        return self.q_eq.reshape(-1) + self.Psi @ p, self.Psi @ e, self.physical_mask
+
+    def coordinates(self, p: Float[Array, " km"]) -> Float[Array, "n 3"]:
+        """q = q° + Ψ p (Eq. 13)."""
+        return (self.q_eq.reshape(-1) + self.Psi @ p).reshape(-1, 3)
+
+    def displacements(self, t, p):
+        """w = q − q̂ in the rotating frame (THEORY §9)."""
+        return self.coordinates(p) - self.q_hat
+
+
+def reduce_rotating_model(full: RotatingFrameModel, Psi: Float[Array, "ndof km"], q_eq=None,
+                          force: str = "tensor", linear: bool = False) -> ReducedRotatingModel:
+    """Galerkin projection of the full RNCF model onto the basis Ψ about q° (default q̂)."""
+    if force not in ("tensor", "projected"):
+        raise ValueError(f"force must be 'tensor' or 'projected', got {force!r}")
+    body = full.body
+    Psi = jnp.asarray(Psi, dtype=float)
+    if Psi.ndim != 2 or Psi.shape[0] != body.n_dof:
+        raise ValueError(f"Psi must have shape ({body.n_dof}, Km), got {Psi.shape}")
+    q_eq = body.q_hat if q_eq is None else q_eq
+    km = Psi.shape[1]
+    P = Psi.reshape(body.n_vectors, 3, km)
+    loads: Loads = full.loads
+    return ReducedRotatingModel(
+        Psi=Psi, q_eq=q_eq, q_hat=body.q_hat,
+        elastic=elastic_tensors(body, q_eq, Psi),
+        inertia=rotation_inertia(body, q_eq, Psi, full.axis),
+        gravity_map=jnp.einsum("a,akI->Ik", body.varrho(), P),
+        point_load=jnp.einsum("pkI,pk->I", P[loads.point_vectors], loads.point_forces),
+        gravity=loads.gravity, physical_mask=full.free_mask(), motion=full.motion, axis=full.axis,
+        body=body if force == "projected" else None, force=force, linear=linear,
+    )

@@ -1,0 +1,94 @@
+"""Static modal derivatives (mass terms neglected), Eqs. 33-36.
+
+``θ_ij = −K|eq⁻¹ (∂K/∂η_j) φ_i`` on the free coordinates, with K|eq factored once for all
+pairs. ``(∂K/∂η_j) φ_i`` comes either from the closed form of Eq. 35, applied element by
+element without forming the matrix, or from automatic differentiation (the second
+directional derivative of the elastic force, ``jax.jvp`` of ``jax.jvp``). The tests check
+that the two agree.
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.scipy.linalg as jsl
+import numpy as np
+
+from .._types import Array, Bool, Float
+from ..body import Body
+
+
+class ModalDerivatives(eqx.Module):
+    """``theta[:, m]`` is θ_ij for ``pairs[m] = (i, j)``, i ≤ j (θ_ij = θ_ji)."""
+
+    theta: Float[Array, "ndof npairs"]
+    pairs: tuple[tuple[int, int], ...] = eqx.field(static=True)
+
+    def get(self, i: int, j: int) -> Float[Array, " ndof"]:
+        return self.theta[:, self.pairs.index((min(i, j), max(i, j)))]
+
+
+def dK_deta_times(body: Body, q_eq: Float[Array, "n 3"], phi_j: Float[Array, "n 3"], phi_i: Float[Array, "n 3"]):
+    """``(∂K/∂η_j)|eq φ_i`` by the closed form of Eq. 35, element by element:
+
+    ``κ^{αβμν} ½(q°_μ·φ^j_ν + φ^j_μ·q°_ν) φ^i_β + κ^{αμβν}(q°_μ (φ^j_ν·φ^i_β) + φ^j_μ (q°_ν·φ^i_β))``.
+    """
+    idx = body.elements
+    q0, pj, pi = q_eq[idx], phi_j[idx], phi_i[idx]
+    X = 0.5 * (jnp.einsum("emk,enk->emn", q0, pj) + jnp.einsum("emk,enk->emn", pj, q0))
+    first = jnp.einsum("eabmn,emn,ebk->eak", body.kappa, X, pi)
+    P = jnp.einsum("enk,ebk->enb", pj, pi)  # φ^j_ν·φ^i_β
+    R = jnp.einsum("enk,ebk->enb", q0, pi)  # q°_ν·φ^i_β
+    second = jnp.einsum("eambn,emk,enb->eak", body.kappa, q0, P) + jnp.einsum("eambn,emk,enb->eak", body.kappa, pj, R)
+    return jnp.zeros_like(q_eq).at[idx].add(first + second)
+
+
+def dK_deta_times_autodiff(body: Body, q_eq, phi_j, phi_i):
+    """The same by automatic differentiation: d/dη [K(q° + η φ_j) φ_i] at η = 0."""
+
+    def K_times_phi_i(q):
+        return jax.jvp(body.elastic_force, (q,), (phi_i,))[1]
+
+    return jax.jvp(K_times_phi_i, (q_eq,), (phi_j,))[1]
+
+
+def modal_derivatives(
+    body: Body,
+    free: Bool[Array, " ndof"],
+    phi: Float[Array, "ndof k"],
+    pairs=None,
+    q_eq: Float[Array, "n 3"] | None = None,
+    method: str = "closed_form",
+) -> ModalDerivatives:
+    """Static modal derivatives θ_ij of the modes ``phi`` (columns, zero on constrained
+    coordinates) for ``pairs`` (default: all i ≤ j, k(k+1)/2 of them).
+
+    ``method`` is ``'closed_form'`` (Eq. 35) or ``'autodiff'``.
+    """
+    if method not in ("closed_form", "autodiff"):
+        raise ValueError(f"method must be 'closed_form' or 'autodiff', got {method!r}")
+    q_eq = body.q_hat if q_eq is None else q_eq
+    k = phi.shape[1]
+    if pairs is None:
+        pairs = [(i, j) for i in range(k) for j in range(i, k)]
+    pairs = tuple((min(int(i), int(j)), max(int(i), int(j))) for i, j in pairs)
+    if any(j >= k or i < 0 for i, j in pairs):
+        raise ValueError(f"mode index out of range in pairs (have {k} modes): {pairs}")
+    idx = jnp.asarray(np.flatnonzero(np.asarray(free)))
+    ii = jnp.array([p[0] for p in pairs])
+    jj = jnp.array([p[1] for p in pairs])
+    theta = _solve_modal_derivatives(body, q_eq, phi, idx, ii, jj, method)
+    return ModalDerivatives(theta=theta, pairs=pairs)
+
+
+@eqx.filter_jit
+def _solve_modal_derivatives(body, q_eq, phi, idx, ii, jj, method: str):
+    K = body.stiffness_matrix(q_eq)[idx[:, None], idx[None, :]]
+    chol = jsl.cho_factor(K)  # K|eq is symmetric positive definite on the free coordinates: factor once
+    apply = dK_deta_times if method == "closed_form" else dK_deta_times_autodiff
+    shape = q_eq.shape
+
+    def one(i, j):
+        rhs = apply(body, q_eq, phi[:, j].reshape(shape), phi[:, i].reshape(shape)).reshape(-1)[idx]
+        return jnp.zeros(body.n_dof).at[idx].set(-jsl.cho_solve(chol, rhs))
+
+    return jax.vmap(one)(ii, jj).T

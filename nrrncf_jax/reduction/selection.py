@@ -1,0 +1,94 @@
+"""Maximum modal interaction (Eq. 39): which vibration modes and modal derivatives to keep.
+
+``W_ij = ∫₀ᵀ |η_i(t) η_j(t)| dt`` from a *linear* simulation of the same load case with the
+vibration-mode basis: ``Ī η̈ + K η = −θ̈ ḡ − θ̇² c̄ + Φᵀ Q`` (the elastic force linearised, the
+rotation kept as the load it exerts; the parametric centrifugal and Coriolis terms are left
+out, so the linear model stays stable above the first critical speed).
+"""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from .._types import Array, Float
+
+
+class Selection(eqx.Module):
+    """W (k × k), the VMs kept (indices into the candidate modes) and the MD pairs kept."""
+
+    W: Float[Array, "k k"]
+    vms: tuple[int, ...] = eqx.field(static=True)
+    pairs: tuple[tuple[int, int], ...] = eqx.field(static=True)
+
+
+def mmi_matrix(ts: Float[Array, " nt"], eta: Float[Array, "nt k"]) -> Float[Array, "k k"]:
+    """W_ij = ∫|η_i η_j| dt by the trapezoidal rule on the sample times."""
+    prod = jnp.abs(eta[:, :, None] * eta[:, None, :])
+    dt = jnp.diff(ts)
+    return jnp.einsum("t,tij->ij", 0.5 * dt, prod[1:] + prod[:-1])
+
+
+def select(W, n_vms: int | str = "auto", n_mds: int | str = "auto", vm_tol: float = 1e-6,
+           md_tol: float = 0.01, max_mds: int | None = None, omega=None, omega_band: float | None = None,
+           vm_strong: float = 1e-3) -> Selection:
+    """Choose VMs and MDs from the MMI matrix.
+
+    - VMs: ``'auto'`` keeps the modes that take part, whose RMS amplitude is at least ``vm_tol``
+      times the largest (``W_ii ≥ vm_tol² max W_kk``). Given the natural frequencies ``omega``
+      and a band ``omega_band`` (e.g. a few times the spin rate: the frequencies the rotation's
+      Coriolis and centrifugal coupling reach), only modes inside the band are kept, except
+      strongly loaded ones (amplitude ratio ≥ ``vm_strong``, e.g. the axial mode under
+      centrifugal load, which responds quasi-statically far above the band). An integer keeps
+      that many of the most active modes.
+    - MDs among the kept VMs, ranked by W_ij: ``'auto'`` keeps those with
+      ``(W_ij / max W)^(1/4) ≥ md_tol`` (the fourth root as in the paper's bar plots), at most
+      ``max_mds`` of them; an integer keeps that many; a list of (i, j) pairs is taken as given.
+    """
+    W = np.asarray(W)
+    d = np.diag(W)
+    order = np.argsort(-d)
+    if n_vms == "auto":
+        amp = np.sqrt(d / d.max())
+        keep = amp >= vm_tol
+        if omega is not None and omega_band is not None:
+            keep &= (np.asarray(omega) <= omega_band) | (amp >= vm_strong)
+        vms = sorted(int(i) for i in np.flatnonzero(keep))
+    else:
+        vms = sorted(int(i) for i in order[: int(n_vms)])
+    cand = [(i, j) for a, i in enumerate(vms) for j in vms[a:]]
+    w = np.array([W[i, j] for i, j in cand])
+    rank = np.argsort(-w, kind="stable")
+    if isinstance(n_mds, str):
+        if n_mds != "auto":
+            raise ValueError(f"n_mds must be 'auto', an integer or a list of pairs, got {n_mds!r}")
+        pairs = [cand[r] for r in rank if (w[r] / w.max()) ** 0.25 >= md_tol][:max_mds]
+    elif isinstance(n_mds, (int, np.integer)):
+        pairs = [cand[r] for r in rank[: int(n_mds)]]
+    else:
+        pairs = [(min(i, j), max(i, j)) for i, j in n_mds]
+    return Selection(W=jnp.asarray(W), vms=tuple(vms), pairs=tuple(pairs))
+
+
+def align_degenerate_modes(phi: Float[Array, "ndof k"], omega, loads: Float[Array, "k m"], rtol: float = 1e-4):
+    """Rotate each cluster of equal frequencies (a tube's two bending planes) so that the load
+    acts on as few of its modes as possible.
+
+    Inside a degenerate eigenspace any orthonormal mix is an eigenvector, and an arbitrary mix
+    of in-plane and out-of-plane bending hides which motion a planar load excites. With
+    ``loads`` the modal load vectors (columns, e.g. ḡ, c̄, Φᵀϱ), the left singular vectors of a
+    cluster's rows give the rotation: the first mode takes the most load, the last the least.
+    The rotated modes stay mass-orthonormal eigenvectors.
+    """
+    omega = np.asarray(omega)
+    loads = np.asarray(loads)
+    phi = np.asarray(phi).copy()
+    i = 0
+    while i < len(omega):
+        j = i + 1
+        while j < len(omega) and omega[j] - omega[i] <= rtol * omega[j]:
+            j += 1
+        if j - i > 1:
+            U, _, _ = np.linalg.svd(loads[i:j], full_matrices=True)
+            phi[:, i:j] = phi[:, i:j] @ U
+        i = j
+    return jnp.asarray(phi)

@@ -1,0 +1,106 @@
+"""Constant coefficients of the reduced equations (THEORY §4, paper Appendix A).
+
+Elastic: ``F_i(p) = f_i + K_ij p_j + L_ijk p_j p_k + N_ijkl p_j p_k p_l`` (Eq. 24, A-5), built by
+jit-compiled einsum kernels accumulated element by element with ``lax.scan`` (memory O(Km⁴)
+for N; κ is never assembled globally). L and N are stored symmetrised over their trailing
+indices, which leaves F unchanged and makes the Jacobian ``K + 2 L p + 3 N p p``.
+
+Inertia under prescribed rotation about e (from Eq. 41, ``E = I ⊗ ẽ``):
+``Ī = ΨᵀMΨ, Ḡ = ΨᵀMEΨ, C̄ = ΨᵀMEEΨ, ḡ = ΨᵀMEq°, c̄ = ΨᵀMEEq°``.
+"""
+
+import equinox as eqx
+import jax.numpy as jnp
+from jax import lax
+
+from .._types import Array, Float
+from ..body import Body
+
+
+class ElasticTensors(eqx.Module):
+    f: Float[Array, " km"]
+    K: Float[Array, "km km"]
+    L: Float[Array, "km km km"]  # symmetric in (j, k)
+    N: Float[Array, "km km km km"]  # symmetric in (j, k, l)
+
+    def force(self, p: Float[Array, " km"]) -> Float[Array, " km"]:
+        Npp = self.N @ p @ p  # contract step by step: never an outer product of p
+        return self.f + self.K @ p + (self.L @ p) @ p + Npp @ p
+
+    def force_and_jacobian(self, p: Float[Array, " km"]):
+        """``(F(p), ∂F/∂p)`` (Eq. 25) sharing the contractions."""
+        Lp = self.L @ p
+        Npp = self.N @ p @ p
+        F = self.f + self.K @ p + Lp @ p + Npp @ p
+        return F, self.K + 2.0 * Lp + 3.0 * Npp
+
+
+class RotationInertia(eqx.Module):
+    I: Float[Array, "km km"]
+    G: Float[Array, "km km"]
+    C: Float[Array, "km km"]
+    g: Float[Array, " km"]
+    c: Float[Array, " km"]
+
+
+def _sym_jk(L):
+    return 0.5 * (L + L.transpose(0, 2, 1))
+
+
+def _sym_jkl(N):
+    perms = [(0, 1, 2, 3), (0, 1, 3, 2), (0, 2, 1, 3), (0, 2, 3, 1), (0, 3, 1, 2), (0, 3, 2, 1)]
+    return sum(N.transpose(p) for p in perms) / 6.0
+
+
+@eqx.filter_jit
+def elastic_tensors(body: Body, q_eq: Float[Array, "n 3"], Psi: Float[Array, "ndof km"]) -> ElasticTensors:
+    """f, K, L, N of Appendix A-5 for the basis Ψ about q° (element-by-element accumulation)."""
+    km = Psi.shape[1]
+    P = Psi.reshape(body.n_vectors, 3, km)
+    ne = body.elements.shape[1]
+
+    def element(acc, e):
+        idx = body.elements[e]
+        kap = body.kappa[e].reshape(ne * ne, ne * ne)
+        q0, qh, Pe = q_eq[idx], body.q_hat[idx], P[idx]  # (ne, 3), (ne, 3), (ne, 3, km)
+        Q0 = 0.5 * (q0 @ q0.T - qh @ qh.T)  # Q°_μν
+        theta = kap @ Q0.reshape(-1)  # Θ_αβ = κ^{αβμν} Q°_μν
+        Xh = jnp.einsum("mkI,nk->Imn", Pe, q0)
+        X = (0.5 * (Xh + Xh.transpose(0, 2, 1))).reshape(km, -1)  # X^i_μν
+        Yh = jnp.einsum("mkI,nkJ->IJmn", Pe, Pe)
+        Y = (0.5 * (Yh + Yh.transpose(0, 1, 3, 2))).reshape(km * km, -1)  # Y^{ij}_μν
+        KX = X @ kap  # (κ X^i)_μν (κ is symmetric under pair exchange)
+        f = X @ theta  # f_i = Θ_αβ X^i_αβ
+        K = (Y @ theta).reshape(km, km) + X @ KX.T  # K_ij = Θ:Y^{ij} + X^i:κ:X^j
+        Z = (Y @ KX.T).reshape(km, km, km)  # Z_ijk = Y^{ij}:κ:X^k
+        L = 0.5 * (Z + Z.transpose(1, 2, 0) + Z.transpose(2, 0, 1))  # A-5: Y^{ij}X^k + Y^{jk}X^i + Y^{ki}X^j
+        N = 0.5 * ((Y @ kap) @ Y.T).reshape(km, km, km, km)  # N_ijkl = ½ Y^{ij}:κ:Y^{kl}
+        return jax_tree_add(acc, (f, K, L, N)), None
+
+    zeros = (jnp.zeros(km), jnp.zeros((km, km)), jnp.zeros((km,) * 3), jnp.zeros((km,) * 4))
+    (f, K, L, N), _ = lax.scan(element, zeros, jnp.arange(body.n_elements))
+    return ElasticTensors(f=f, K=K, L=_sym_jk(L), N=_sym_jkl(N))
+
+
+def jax_tree_add(a, b):
+    return tuple(x + y for x, y in zip(a, b))
+
+
+@eqx.filter_jit
+def rotation_inertia(body: Body, q_eq: Float[Array, "n 3"], Psi: Float[Array, "ndof km"],
+                     axis: Float[Array, " 3"]) -> RotationInertia:
+    """Ī, Ḡ, C̄, ḡ, c̄ for rotation about the fixed unit ``axis`` (THEORY §4)."""
+    km = Psi.shape[1]
+    M = body.mass_matrix()
+    P = Psi.reshape(body.n_vectors, 3, km)
+    MP = jnp.einsum("ab,bkJ->akJ", M, P)  # (M ⊗ I3) Ψ
+    e = axis
+    EP = jnp.cross(e[None, :, None], P, axisa=1, axisb=1, axisc=1)  # e × ψ_β
+    EEP = jnp.cross(e[None, :, None], EP, axisa=1, axisb=1, axisc=1)
+    Eq = jnp.cross(e, q_eq)
+    EEq = jnp.cross(e, Eq)
+    inner = lambda A, B: jnp.einsum("akI,akJ->IJ", A, B)  # noqa: E731
+    return RotationInertia(
+        I=inner(MP, P), G=inner(MP, EP), C=inner(MP, EEP),
+        g=jnp.einsum("akI,ak->I", MP, Eq), c=jnp.einsum("akI,ak->I", MP, EEq),
+    )

@@ -1,0 +1,236 @@
+"""NR-RNCF reduction: modes, modal derivatives (closed form vs autodiff), the reduced-force and
+reduced-residual identities of THEORY §4, deflation, selection, and the reduced spin-up."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import paper_body
+
+from nrrncf_jax import (
+    Loads,
+    RotatingFrameModel,
+    SpinUp,
+    Stationary,
+    chi_rel,
+    deflate,
+    modal_derivatives,
+    nr_rncf,
+    reduce_rotating_model,
+    simulate,
+    vibration_modes,
+)
+from nrrncf_jax.reduction.modal_derivatives import dK_deta_times, dK_deta_times_autodiff
+from nrrncf_jax.reduction.selection import mmi_matrix, select
+
+
+@pytest.fixture(scope="module")
+def curved():
+    body = paper_body(3, "curved-out-of-plane")
+    full = RotatingFrameModel(body, SpinUp(7.0, 5.0), loads=Loads(
+        gravity=[0.0, 0.0, -9.81], point_vectors=[body.n_vectors - 6], point_forces=[[1.0, 2.0, 3.0]]))
+    modes = vibration_modes(body, full.free_mask(), 4)
+    return body, full, modes
+
+
+def test_modes_are_mass_normalised_eigenvectors(curved):
+    body, full, modes = curved
+    M = jnp.kron(body.mass_matrix(), jnp.eye(3))
+    K = body.stiffness_matrix(body.q_hat)
+    Phi = modes.phi
+    np.testing.assert_allclose(Phi.T @ M @ Phi, np.eye(4), atol=1e-10)
+    np.testing.assert_allclose(Phi.T @ K @ Phi, np.diag(modes.omega**2), atol=1e-7 * float(modes.omega[-1] ** 2))
+
+
+def test_modal_derivative_closed_form_equals_autodiff(curved):
+    body, full, modes = curved
+    free = full.free_mask()
+    a = modal_derivatives(body, free, modes.phi, method="closed_form")
+    b = modal_derivatives(body, free, modes.phi, method="autodiff")
+    assert len(a.pairs) == 4 * 5 // 2
+    scale = float(jnp.abs(a.theta).max())
+    assert scale > 0
+    assert float(jnp.abs(a.theta - b.theta).max()) < 1e-10 * scale
+    # The operator itself, on arbitrary directions (not only modes).
+    key = jax.random.PRNGKey(0)
+    u, w = (jax.random.normal(k, body.q_hat.shape) for k in jax.random.split(key))
+    x = dK_deta_times(body, body.q_hat, u, w)
+    y = dK_deta_times_autodiff(body, body.q_hat, u, w)
+    np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-10 * float(jnp.abs(x).max()))
+
+
+def test_modal_derivatives_are_symmetric(curved):
+    body, full, modes = curved
+    P = modes.phi.reshape(body.n_vectors, 3, -1)
+    for i, j in [(0, 1), (1, 3), (0, 2)]:
+        x = dK_deta_times(body, body.q_hat, P[..., j], P[..., i])
+        y = dK_deta_times(body, body.q_hat, P[..., i], P[..., j])
+        np.testing.assert_allclose(x, y, atol=1e-10 * float(jnp.abs(x).max()))
+    md = modal_derivatives(body, full.free_mask(), modes.phi, pairs=[(2, 1), (1, 2)])
+    np.testing.assert_allclose(md.theta[:, 0], md.theta[:, 1], rtol=0, atol=0)
+    with pytest.raises(ValueError, match="out of range"):
+        modal_derivatives(body, full.free_mask(), modes.phi, pairs=[(0, 7)])
+
+
+@pytest.fixture(scope="module")
+def reduced(curved):
+    body, full, modes = curved
+    md = modal_derivatives(body, full.free_mask(), modes.phi)
+    Psi = deflate(jnp.concatenate([modes.phi, md.theta], axis=1))
+    return full, Psi, reduce_rotating_model(full, Psi), reduce_rotating_model(full, Psi, force="projected")
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_reduced_force_and_residual_equal_projected_full(reduced, seed):
+    full, Psi, red, red_proj = reduced
+    km = Psi.shape[1]
+    rng = np.random.default_rng(seed)
+    p, v, a = (jnp.asarray(rng.normal(size=km)) * 0.3 for _ in range(3))
+    q = full.body.q_hat.reshape(-1) + Psi @ p
+    F_full = Psi.T @ full.body.elastic_force(q.reshape(-1, 3)).reshape(-1)
+    for model in (red, red_proj):
+        F, _ = model.elastic_force(p)
+        np.testing.assert_allclose(F, F_full, rtol=1e-10, atol=1e-11 * float(jnp.abs(F_full).max()))
+        t = 2.7  # mid spin-up: θ̇ and θ̈ both non-zero
+        r_full = Psi.T @ full.residual(t, q, Psi @ v, Psi @ a)
+        r = model.residual(t, p, v, a)
+        np.testing.assert_allclose(r, r_full, rtol=1e-10, atol=1e-11 * float(jnp.abs(r_full).max()))
+
+
+def test_reduced_jacobians_equal_autodiff(reduced):
+    full, Psi, red, red_proj = reduced
+    p = jnp.asarray(np.random.default_rng(3).normal(size=Psi.shape[1])) * 0.3
+    for model in (red, red_proj):
+        _, J = model.elastic_force(p)
+        J_ad = jax.jacfwd(lambda x: model.elastic_force(x)[0])(p)
+        np.testing.assert_allclose(J, J_ad, rtol=1e-9, atol=1e-11 * float(jnp.abs(J_ad).max()))
+    # Iteration matrix against autodiff of the residual.
+    t, v, a = 1.3, jnp.ones_like(p), jnp.zeros_like(p)
+    c_C, c_K = 0.01, 1e-4
+    S = red.factor_iteration_matrix(t, p, v, 1.0, c_C, c_K)
+    b = jnp.arange(p.size, dtype=float)
+    S_ad = (jax.jacfwd(lambda x: red.residual(t, p, v, x))(a) + c_C * jax.jacfwd(lambda x: red.residual(t, p, x, a))(v)
+            + c_K * jax.jacfwd(lambda x: red.residual(t, x, v, a))(p))
+    np.testing.assert_allclose(S_ad @ S.solve(b), b, rtol=1e-8, atol=1e-8 * float(jnp.abs(b).max()))
+
+
+def test_deflation_drops_dependent_columns():
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(30, 4))
+    Psi = jnp.asarray(np.column_stack([A, A[:, 0] + 2 * A[:, 1], 1e3 * A[:, 2]]))
+    U = deflate(Psi)
+    assert U.shape == (30, 4)
+    np.testing.assert_allclose(U.T @ U, np.eye(4), atol=1e-12)
+    np.testing.assert_allclose(U @ (U.T @ Psi), Psi, atol=1e-9 * float(jnp.abs(Psi).max()))
+    with pytest.raises(ValueError, match="zero column"):
+        deflate(jnp.zeros((5, 2)))
+
+
+def test_mmi_and_selection():
+    ts = jnp.linspace(0.0, 2 * np.pi, 2001)
+    eta = jnp.stack([jnp.sin(ts), 0.1 * jnp.sin(2 * ts), 1e-12 * ts], axis=1)
+    W = np.asarray(mmi_matrix(ts, eta))
+    np.testing.assert_allclose(W, W.T)
+    assert W[0, 0] == pytest.approx(np.pi, rel=1e-5)  # ∫|sin|² over a period
+    sel = select(W)
+    assert sel.vms == (0, 1)  # the third mode does not take part
+    assert sel.pairs[0] == (0, 0)
+    assert select(W, n_vms=1, n_mds=1).pairs == ((0, 0),)
+    assert select(W, n_mds=[(1, 0)]).pairs == ((0, 1),)
+
+
+# --- the reduced spin-up ---------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def spin4():
+    body = paper_body(6)
+    full = RotatingFrameModel(body, SpinUp(4.0, 15.0))
+    ts = jnp.arange(0.0, 20.0 + 1e-9, 0.02)
+    ref = simulate(full, ts, observe=_all_displacements(full))
+    return full, ts, np.asarray(ref.ys).reshape(ts.size, -1)
+
+
+def _all_displacements(model):
+    return lambda t, q, v: model.displacements(t, q)
+
+
+def _p(t, p, v):
+    return p
+
+
+def _displacements(red, ps):
+    return np.asarray(jax.vmap(lambda p: red.displacements(0.0, p))(ps)).reshape(ps.shape[0], -1)
+
+
+def test_nr_rncf_reproduces_full_rncf_spinup_omega_4(spin4):
+    full, ts, w_ref = spin4
+    red = nr_rncf(full, ts, n_modes=16)
+    assert red.dofs <= 25
+    # Planar load: the out-of-plane partner of each bending pair is never selected.
+    phi = np.asarray(red.model.Psi).reshape(full.body.n_vectors, 3, -1)
+    assert np.abs(phi[:, 2, :]).max() < 1e-3 * np.abs(phi).max()
+    sol = simulate(red.model, ts, observe=_p)
+    err = float(chi_rel(w_ref, _displacements(red.model, sol.ys)))
+    assert err <= 1.5, err
+    # The same number of vibration modes alone (no modal derivatives) is far worse.
+    vm_only = nr_rncf(full, ts, n_modes=16, vms=red.dofs, mds=0)
+    assert vm_only.dofs == red.dofs and vm_only.n_mds == 0
+    sol_vm = simulate(vm_only.model, ts, observe=_p)
+    err_vm = float(chi_rel(w_ref, _displacements(vm_only.model, sol_vm.ys)))
+    assert err_vm > 5 * err
+
+
+def test_reduced_spinup_vmap_and_gradient(spin4):
+    full, _, _ = spin4
+    body = full.body
+    modes = vibration_modes(body, full.free_mask(), 4)
+    md = modal_derivatives(body, full.free_mask(), modes.phi[:, [0, 2]])
+    Psi = deflate(jnp.concatenate([modes.phi[:, [0, 2]], md.theta], axis=1))
+    red0 = reduce_rotating_model(full, Psi)
+    ts = jnp.linspace(0.0, 8.0, 41)
+    tip = -6 * 3 + 1  # uy of the tip position vector in the flattened q
+
+    def tip_uy(model):
+        return lambda t, p, v: (model.Psi @ p)[tip]
+
+    def run(omega, E_scale=1.0, adjoint="forward"):
+        # κ ∝ E, so with the basis held fixed the elastic tensors scale with E.
+        m = eqx.tree_at(lambda r: r.elastic, red0, jax.tree_util.tree_map(lambda x: E_scale * x, red0.elastic))
+        m = eqx.tree_at(lambda r: r.motion, m, SpinUp(omega, 6.0))
+        return simulate(m, ts, observe=_tip(m), adjoint=adjoint, rtol=1e-8, atol=1e-10).ys
+
+    def _tip(m):
+        return _TipUy(m.Psi[tip])
+
+    omegas = jnp.array([2.0, 3.0, 4.0, 5.0])
+    batched = jax.vmap(run)(omegas)
+    for i, w in enumerate(omegas):
+        np.testing.assert_allclose(batched[i], run(w), rtol=1e-7, atol=1e-10)
+    assert float(jnp.abs(batched[-1]).max()) > float(jnp.abs(batched[0]).max())
+
+    def loss(E_scale):
+        return jnp.sum(run(4.0, E_scale, "reverse") ** 2)
+
+    g = float(jax.grad(loss)(1.0))
+    eps = 1e-5
+    fd = (float(loss(1.0 + eps)) - float(loss(1.0 - eps))) / (2 * eps)
+    assert g == pytest.approx(fd, rel=1e-4)
+    assert g < 0  # a stiffer beam deflects less
+
+
+class _TipUy(eqx.Module):
+    row: jax.Array
+
+    def __call__(self, t, p, v):
+        return self.row @ p
+
+
+def test_reduction_input_errors(spin4):
+    full, ts, _ = spin4
+    with pytest.raises(ValueError, match="Psi must have shape"):
+        reduce_rotating_model(full, jnp.zeros((5, 2)))
+    with pytest.raises(ValueError, match="force"):
+        reduce_rotating_model(full, jnp.zeros((full.n_dof, 2)), force="magic")
+    with pytest.raises(ValueError, match="RotatingFrameModel"):
+        nr_rncf(Stationary(), ts)
