@@ -2,6 +2,7 @@
 
 import csv
 import json
+import math
 import subprocess
 import sys
 
@@ -41,3 +42,40 @@ def test_library_import_leaves_jax_config_alone():
     code = "import jax, nrrncf_jax; print(jax.config.jax_enable_x64)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
+
+
+def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):
+    png = tmp_path / "tip.png"
+    rc = main(["spinup", "--formulation", "nr-rncf", "--beam", "paper", "--elements", "2", "--omega", "4",
+               "--t-end", "3", "--modes", "8", "--reference", "rncf", "--plot", str(png), "--json", "--no-progress"])
+    assert rc == 0
+    d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    for key in ("vms", "mds", "dofs", "offline_s", "chi_rel_percent", "speedup", "steps", "run_s"):
+        assert key in d
+    assert d["formulation"] == "nr-rncf"
+    assert 0 < d["dofs"] <= d["vms"] + d["mds"] and d["vms"] >= 1
+    assert len(d["selected_vms"]) == d["vms"] and len(d["selected_mds"]) == d["mds"]
+    assert isinstance(d["chi_rel_percent"], float) and math.isfinite(d["chi_rel_percent"])
+    assert 0 <= d["chi_rel_percent"] < 5
+    assert d["speedup"] > 0 and d["reference"]["dofs"] == 2 * 18 + 9
+    assert png.stat().st_size > 10_000
+
+
+def test_modes_mmi_json(tmp_path, capsys):
+    png = tmp_path / "mmi.png"
+    # The same beam, mesh, candidate count and time span as the nr-rncf test above: compiled code is reused.
+    assert main(["modes", "--beam", "paper", "--elements", "2", "--count", "8", "--mmi", "--omega", "4",
+                 "--t-end", "3", "--plot", str(png), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    mmi = d["mmi"]
+    W = mmi["W_quarter"]
+    assert len(W) == 8 and all(len(row) == 8 for row in W)
+    assert max(max(row) for row in W) == 1.0
+    assert mmi["selected_vms"] and all(1 <= i <= 8 for i in mmi["selected_vms"])
+    assert all(i <= j and i in mmi["selected_vms"] and j in mmi["selected_vms"] for i, j in mmi["selected_mds"])
+    assert png.stat().st_size > 5_000
+
+
+def test_modes_mmi_needs_omega(capsys):
+    assert main(["modes", "--elements", "2", "--mmi"]) == 2
+    assert "--omega" in capsys.readouterr().err

@@ -57,7 +57,16 @@ class ReducedRotatingModel(AbstractModel):
         return q, v, a
 
     def elastic_force(self, p):
-        """``(F(p), ∂F/∂p)``."""
+        """F(p) (Eq. 24)."""
+        if self.linear:
+            return self.elastic.f + self.elastic.K @ p
+        if self.force == "tensor":
+            return self.elastic.force(p)
+        q = (self.q_eq.reshape(-1) + self.Psi @ p).reshape(-1, 3)
+        return self.Psi.T @ self.body.elastic_force(q).reshape(-1)
+
+    def elastic_force_and_jacobian(self, p):
+        """``(F(p), ∂F/∂p)`` (Eqs. 24-25)."""
         if self.linear:
             return self.elastic.f + self.elastic.K @ p, self.elastic.K
         if self.force == "tensor":
@@ -77,7 +86,7 @@ class ReducedRotatingModel(AbstractModel):
     def residual(self, t, p, v, a):
         _, dth, ddth = self.motion(t)
         I = self.inertia
-        F, _ = self.elastic_force(p)
+        F = self.elastic_force(p)
         load = ddth * I.g + dth**2 * I.c - self.external(t)
         if self.linear:  # the rotation acts only as the load it exerts (see ``linear``)
             return I.I @ a + F + load
@@ -86,7 +95,7 @@ class ReducedRotatingModel(AbstractModel):
     def factor_iteration_matrix(self, t, p, v, c_M, c_C, c_K):
         _, dth, ddth = self.motion(t)
         I = self.inertia
-        _, J = self.elastic_force(p)
+        _, J = self.elastic_force_and_jacobian(p)
         if self.linear:
             S = c_M * I.I + c_K * J
         else:

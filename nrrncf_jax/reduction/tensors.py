@@ -11,28 +11,68 @@ Inertia under prescribed rotation about e (from Eq. 41, ``E = I ⊗ ẽ``):
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jax import lax
 
-from .._types import Array, Float
+from .._types import Array, Float, Int
 from ..body import Body
 
 
 class ElasticTensors(eqx.Module):
+    """f, K, L, N of Eq. 24, with N also kept in packed symmetric forms for evaluation.
+
+    ``N`` is symmetric in (j, k, l), so only the Km(Km+1)(Km+2)/6 distinct triples matter:
+    ``N3`` holds them (multiplicities folded in) for the force, ``N2`` the Km(Km+1)/2 distinct
+    (k, l) pairs for the Jacobian. On the 24-element beam with Km = 20 this makes the force
+    5× and the Jacobian 2× cheaper than contracting the full Km⁴ tensor.
+    """
+
     f: Float[Array, " km"]
     K: Float[Array, "km km"]
     L: Float[Array, "km km km"]  # symmetric in (j, k)
     N: Float[Array, "km km km km"]  # symmetric in (j, k, l)
+    N3: Float[Array, "km t3"]
+    N2: Float[Array, "km km t2"]
+    triples: Int[Array, "3 t3"]
+    pairs: Int[Array, "2 t2"]
+
+    def __init__(self, f, K, L, N):
+        km = f.shape[0]
+        self.f, self.K, self.L, self.N = f, K, L, N
+        t3 = np.array([(j, k, l) for j in range(km) for k in range(j, km) for l in range(k, km)]).reshape(-1, 3).T
+        mult3 = np.array([6 // (_fact(np.unique(t, return_counts=True)[1])) for t in t3.T])
+        t2 = np.array([(k, l) for k in range(km) for l in range(k, km)]).reshape(-1, 2).T
+        mult2 = np.where(t2[0] == t2[1], 1.0, 2.0)
+        self.triples = jnp.asarray(t3, dtype=int)
+        self.pairs = jnp.asarray(t2, dtype=int)
+        self.N3 = N[:, t3[0], t3[1], t3[2]] * mult3
+        self.N2 = N[:, :, t2[0], t2[1]] * mult2
+
+    def scaled(self, s) -> "ElasticTensors":
+        """The tensors times ``s``: κ is linear in Young's modulus, so with the basis held fixed
+        ``tensors(E) = (E / E0) · tensors(E0)``; differentiable in ``s``."""
+        return eqx.tree_at(lambda t: (t.f, t.K, t.L, t.N, t.N3, t.N2), self,
+                           (s * self.f, s * self.K, s * self.L, s * self.N, s * self.N3, s * self.N2))
 
     def force(self, p: Float[Array, " km"]) -> Float[Array, " km"]:
-        Npp = self.N @ p @ p  # contract step by step: never an outer product of p
-        return self.f + self.K @ p + (self.L @ p) @ p + Npp @ p
+        """F(p) = f + K p + L p p + N p p p (Eq. 24)."""
+        j, k, l = self.triples
+        return self.f + self.K @ p + (self.L @ p) @ p + self.N3 @ (p[j] * p[k] * p[l])
 
     def force_and_jacobian(self, p: Float[Array, " km"]):
         """``(F(p), ∂F/∂p)`` (Eq. 25) sharing the contractions."""
+        k, l = self.pairs
         Lp = self.L @ p
-        Npp = self.N @ p @ p
+        Npp = self.N2 @ (p[k] * p[l])
         F = self.f + self.K @ p + Lp @ p + Npp @ p
         return F, self.K + 2.0 * Lp + 3.0 * Npp
+
+
+def _fact(counts):
+    out = 1
+    for c in counts:
+        out *= int(np.prod(np.arange(1, c + 1)))
+    return out
 
 
 class RotationInertia(eqx.Module):

@@ -19,6 +19,7 @@ PAPER_ELEMENTS = {4.0: 6, 10.0: 10, 20.0: 16, 40.0: 24}
 """Elements per steady spin rate in the paper's Table 2."""
 
 FORMULATIONS = ("rncf", "ancf")
+"""Full-order formulations; ``run_nr_rncf_spinup`` runs the reduced ``'nr-rncf'``."""
 
 
 def default_elements(omega_s: float) -> int:
@@ -45,6 +46,14 @@ def build_spinup_model(formulation: str, beam: BeamPreset | str, omega_s: float,
 
 @dataclasses.dataclass
 class SpinupResult:
+    """One spin-up run: tip motion in the rotating frame, integrator statistics and timings.
+
+    For ``formulation='nr-rncf'`` (``run_nr_rncf_spinup``) the NR-RNCF fields are set too: the
+    basis (``vms``, ``mds``: kept vibration modes and modal-derivative pairs, 0-based indices
+    into the candidate modes), the offline time, and, when the full RNCF ran as ``reference``,
+    χ_rel (Eq. 40, all nodal displacements) and the run-time ratio full/reduced.
+    """
+
     formulation: str
     beam: str
     omega_s: float
@@ -60,9 +69,21 @@ class SpinupResult:
     compile_s: float
     run_s: float
     displacements: np.ndarray | None = None  # (nt, n_vectors, 3), w = q − q̂ in the rotating frame
+    # NR-RNCF only
+    vms: tuple[int, ...] | None = None
+    mds: tuple[tuple[int, int], ...] | None = None
+    offline_s: dict | None = None  # per offline stage, with 'total'
+    reference: "SpinupResult | None" = None  # the full RNCF run compared against
+    chi_rel_percent: float | None = None
+    speedup: float | None = None  # reference.run_s / run_s
+    reduction: object = dataclasses.field(default=None, repr=False)  # the ``Reduction`` (W, omega, model)
+
+    @property
+    def reduced(self) -> bool:
+        return self.vms is not None
 
     def summary(self) -> dict:
-        return {
+        s = {
             "formulation": self.formulation, "beam": self.beam, "omega_s": self.omega_s, "T_s": self.T_s,
             "t_end": float(self.ts[-1]), "elements": self.elements, "dofs": self.dofs, "steps": self.steps,
             "rejected": self.rejected, "newton_iters": self.newton_iters, "compile_s": round(self.compile_s, 3),
@@ -70,17 +91,40 @@ class SpinupResult:
             "tip_uy_min": float(self.tip[:, 1].min()), "tip_uy_max": float(self.tip[:, 1].max()),
             "tip_uz_absmax": float(np.abs(self.tip[:, 2]).max()),
         }
+        if self.reduced:
+            ref = self.reference
+            s.update({
+                "vms": len(self.vms), "mds": len(self.mds),
+                "selected_vms": [i + 1 for i in self.vms],  # mode numbers, 1-based as in ``nrrncf modes``
+                "selected_mds": [[i + 1, j + 1] for i, j in self.mds],
+                "offline_s": round(self.offline_s["total"], 3),
+                "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup,
+                "reference": None if ref is None else {k: ref.summary()[k] for k in (
+                    "formulation", "dofs", "steps", "rejected", "newton_iters", "compile_s", "run_s")},
+            })
+        return s
 
     def table(self) -> str:
         s = self.summary()
         rows = [("formulation", s["formulation"].upper()), ("beam", s["beam"]),
                 ("omega_s [rad/s] / T_s [s]", f"{s['omega_s']:g} / {s['T_s']:g}"),
-                ("time span [s]", f"0 - {s['t_end']:g}"), ("elements / DOFs", f"{s['elements']} / {s['dofs']}"),
-                ("steps accepted / rejected", f"{s['steps']} / {s['rejected']}"),
-                ("Newton iterations", f"{s['newton_iters']}"), ("compile [s]", f"{s['compile_s']:.2f}"),
-                ("run [s]", f"{s['run_s']:.3f}"),
-                ("tip uy min / max [m]", f"{s['tip_uy_min']:.5f} / {s['tip_uy_max']:.5f}"),
-                ("tip ux min [m]", f"{s['tip_ux_min']:.5f}")]
+                ("time span [s]", f"0 - {s['t_end']:g}"), ("elements / DOFs", f"{s['elements']} / {s['dofs']}")]
+        if self.reduced:
+            rows += [("VMs / MDs", f"{s['vms']} / {s['mds']}  (VMs {s['selected_vms']}; MDs "
+                      + (" ".join(f"θ{i},{j}" for i, j in s["selected_mds"]) or "none") + ")"),
+                     ("offline [s]", f"{s['offline_s']:.2f}")]
+        rows += [("steps accepted / rejected", f"{s['steps']} / {s['rejected']}"),
+                 ("Newton iterations", f"{s['newton_iters']}"), ("compile [s]", f"{s['compile_s']:.2f}"),
+                 ("run [s]", f"{s['run_s']:.3f}"),
+                 ("tip uy min / max [m]", f"{s['tip_uy_min']:.5f} / {s['tip_uy_max']:.5f}"),
+                 ("tip ux min [m]", f"{s['tip_ux_min']:.5f}")]
+        if self.reference is not None:
+            r = self.reference
+            name = f"reference {r.formulation.upper()}"
+            rows += [(f"{name}: DOFs / steps", f"{r.dofs} / {r.steps} ({r.rejected} rejected)"),
+                     (f"{name}: compile / run [s]", f"{r.compile_s:.2f} / {r.run_s:.3f}"),
+                     ("chi_rel (Eq. 40, all q - q^) [%]", f"{self.chi_rel_percent:.4f}"),
+                     ("speed-up (run time full / reduced)", f"{self.speedup:.2f}x")]
         w = max(len(r[0]) for r in rows)
         return "\n".join(f"  {a:<{w}}  {b}" for a, b in rows)
 
@@ -94,27 +138,30 @@ class SpinupResult:
             for t, th, u in zip(self.ts, self.theta, self.tip):
                 wr.writerow([f"{t:.6g}", f"{th:.10g}", f"{u[0]:.10g}", f"{u[1]:.10g}", f"{u[2]:.10g}"])
 
-    def plot(self, path: str, others: list["SpinupResult"] = ()) -> None:
-        import matplotlib
+    def plot(self, path: str, others: list["SpinupResult"] = (), dpi: int = 120) -> None:
+        """Tip displacement against time (``plotting.plot_tip``); with a ``reference``, the full
+        run (solid) and this reduced one (dashed) together, as in the paper's Figs. 6 and 9."""
+        from ..plotting import plot_tip
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        first = [self.reference, self] if self.reference is not None else [self]
+        plot_tip(path, *first, *others, dpi=dpi)
 
-        fig, axes = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
-        for r, style in zip([self, *others], ["-", "--", ":", "-."]):
-            label = f"{r.formulation.upper()} ({r.dofs} DOF)"
-            axes[0].plot(r.ts, r.tip[:, 1], style, label=label)
-            axes[1].plot(r.ts, r.tip[:, 0], style, label=label)
-        axes[0].set_ylabel("tip $u_y$ (transverse) [m]")
-        axes[1].set_ylabel("tip $u_x$ (axial) [m]")
-        axes[1].set_xlabel("t [s]")
-        axes[0].set_title(f"{self.beam} beam spin-up, $\\omega_s$ = {self.omega_s:g} rad/s, $T_s$ = {self.T_s:g} s")
-        for ax in axes:
-            ax.grid(alpha=0.3)
-            ax.legend()
-        fig.tight_layout()
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
+
+def output_times(t_end: float, dt_out: float) -> np.ndarray:
+    """The output (and MMI sampling) times 0, dt_out, ..., t_end."""
+    _validate.positive("t_end", t_end)
+    _validate.positive("dt_out (output interval)", dt_out)
+    ts = np.arange(0.0, t_end + 0.5 * dt_out, dt_out)
+    return ts[ts <= t_end + 1e-12]
+
+
+def _check_run_args(t_end, dt_out, rho_inf, rtol) -> np.ndarray:
+    """Validate the run options; return the output times."""
+    ts = output_times(t_end, dt_out)
+    if not 0.0 <= rho_inf <= 1.0:
+        raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={rho_inf!r}")
+    _validate.positive("rtol", rtol)
+    return ts
 
 
 def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omega_s: float = 4.0,
@@ -123,11 +170,7 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
                progress: bool = False, max_steps: int = 500_000) -> SpinupResult:
     """Run the spin-up of Eq. 43 with the full-order ``formulation`` and report tip motion in the
     rotating frame, step counts, and compile/run times (measured apart)."""
-    _validate.positive("t_end", t_end)
-    _validate.positive("dt_out (output interval)", dt_out)
-    if not 0.0 <= rho_inf <= 1.0:
-        raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={rho_inf!r}")
-    _validate.positive("rtol", rtol)
+    ts = _check_run_args(t_end, dt_out, rho_inf, rtol)
     model = build_spinup_model(formulation, beam, omega_s, T_s, elements)
     body = model.body
     tip = body.n_vectors - body.vectors_per_node
@@ -139,8 +182,6 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
             out["w"] = w
         return out
 
-    ts = np.arange(0.0, t_end + 0.5 * dt_out, dt_out)
-    ts = ts[ts <= t_end + 1e-12]
     sol, compile_s, run_s = simulate_timed(model, jnp.asarray(ts), solver=GeneralizedAlpha(rho_inf), rtol=rtol,
                                            atol=atol, observe=observe, progress=progress, max_steps=max_steps)
     ys = jax.tree_util.tree_map(np.asarray, sol.ys)
@@ -151,3 +192,61 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
         steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
         compile_s=compile_s, run_s=run_s, displacements=ys.get("w"),
     )
+
+
+def _observe_p(t, p, v):
+    return p
+
+
+def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T_s: float = 15.0,
+                       t_end: float = 30.0, elements: int | None = None, vms: int | str = "auto",
+                       mds: int | str | list = "auto", n_modes: int = 24, rho_inf: float = 0.9, rtol: float = 1e-4,
+                       atol: float = 1e-6, dt_out: float = 0.01, reference: "bool | SpinupResult" = False,
+                       progress: bool = False, max_steps: int = 500_000) -> SpinupResult:
+    """The spin-up of Eq. 43 with the NR-RNCF reduced model (paper Section 4.1).
+
+    The basis is built by ``nr_rncf`` from ``n_modes`` candidate vibration modes, with the MMI
+    simulation over the output times; ``vms``/``mds`` choose among them (``'auto'``, a count, or
+    for ``mds`` a list of 0-based mode pairs). Returns a ``SpinupResult`` with
+    ``formulation='nr-rncf'``, the reduced DOFs, the basis and the offline time. With
+    ``reference=True`` the full RNCF model runs too (or pass an RNCF ``SpinupResult`` from
+    ``run_spinup(..., save_displacements=True)`` on the same output times to reuse it), and
+    χ_rel (Eq. 40, over all nodal displacements q − q̂ and all output times) and the run-time
+    ratio full/reduced are filled in.
+    """
+    from ..metrics import chi_rel
+    from ..nr_rncf import nr_rncf
+
+    ts = _check_run_args(t_end, dt_out, rho_inf, rtol)
+    full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
+    red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds)
+    model = red.model
+    sol, compile_s, run_s = simulate_timed(model, jnp.asarray(ts), solver=GeneralizedAlpha(rho_inf), rtol=rtol,
+                                           atol=atol, observe=_observe_p, progress=progress, max_steps=max_steps)
+    # Observing p alone keeps the loop's carry small; displacements are rebuilt afterwards.
+    w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(sol.ys))
+    theta = np.asarray(jax.vmap(lambda t: full.motion(t)[0])(jnp.asarray(ts)))
+    body = full.body
+    name = beam if isinstance(beam, str) else beam.name
+    res = SpinupResult(
+        formulation="nr-rncf", beam=name, omega_s=float(omega_s), T_s=float(T_s), elements=body.n_elements,
+        dofs=red.dofs, ts=ts, theta=theta, tip=w[:, body.n_vectors - body.vectors_per_node],
+        steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
+        compile_s=compile_s, run_s=run_s, displacements=w, vms=red.selection.vms, mds=red.selection.pairs,
+        offline_s=dict(red.offline_s), reduction=red,
+    )
+    if reference is False or reference is None:
+        return res
+    if reference is True:
+        ref = run_spinup("rncf", beam, omega_s, T_s=T_s, t_end=t_end, elements=body.n_elements, rho_inf=rho_inf,
+                         rtol=rtol, atol=atol, dt_out=dt_out, save_displacements=True, progress=progress,
+                         max_steps=max_steps)
+    else:
+        ref = reference
+        if ref.displacements is None or ref.displacements.shape != w.shape or not np.allclose(ref.ts, ts):
+            raise ValueError("reference must be a full RNCF SpinupResult of the same beam mesh and output times, "
+                             "run with save_displacements=True")
+    res.reference = ref
+    res.chi_rel_percent = float(chi_rel(ref.displacements, w))
+    res.speedup = ref.run_s / run_s
+    return res

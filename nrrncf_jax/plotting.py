@@ -1,0 +1,125 @@
+"""Figures of the paper's spin-up examples (matplotlib, Agg backend; imported only when plotting).
+
+- ``plot_tip``: tip displacement in the rotating frame against time, several runs overlaid
+  (paper Figs. 6 and 9: full RNCF against NR-RNCF).
+- ``plot_mmi``: the maximum-modal-interaction matrix as upper-triangle 3-D bars,
+  ``(W_ij / max W)^(1/4)``, the selected modal derivatives highlighted (paper Figs. 5 and 8).
+"""
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .reduction.selection import Selection
+    from .scenarios.spinup import SpinupResult
+
+_STYLES = ["-", "--", ":", "-."]
+_SELECTED = "#800020"  # burgundy, as in the paper's bar plots
+_OTHER = "#9db4c8"
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _label(r: "SpinupResult") -> str:
+    label = f"{r.formulation.upper()} ({r.dofs} DOF)"
+    if getattr(r, "chi_rel_percent", None) is not None:
+        label += f", $\\chi_{{rel}}$ = {r.chi_rel_percent:.2f} %"
+    return label
+
+
+def plot_tip(path: str, *results: "SpinupResult", labels: list[str] | None = None, title: str | None = None,
+             dpi: int = 120) -> None:
+    """Tip displacement (rotating frame) of each result against t: u_y (transverse) and u_x
+    (axial) panels, and u_z when any run moves out of the plane. The first result names the
+    case in the title; line styles follow the order (solid, dashed, dotted, dash-dotted).
+    ``labels`` overrides the legend entries (default: formulation, DOFs and χ_rel)."""
+    if not results:
+        raise ValueError("plot_tip needs at least one result")
+    if labels is not None and len(labels) != len(results):
+        raise ValueError(f"plot_tip got {len(results)} results but {len(labels)} labels")
+    plt = _pyplot()
+    scale = max(float(np.abs(r.tip).max()) for r in results) or 1.0
+    out_of_plane = any(float(np.abs(r.tip[:, 2]).max()) > 1e-6 * scale for r in results)
+    panels = [(1, "tip $u_y$ (transverse) [m]"), (0, "tip $u_x$ (axial) [m]")]
+    if out_of_plane:
+        panels.append((2, "tip $u_z$ (out of plane) [m]"))
+    fig, axes = plt.subplots(len(panels), 1, figsize=(7, 2.2 + 1.9 * len(panels)), sharex=True)
+    for k, r in enumerate(results):
+        style = _STYLES[k % len(_STYLES)]
+        for ax, (c, _) in zip(axes, panels):
+            ax.plot(r.ts, r.tip[:, c], style, label=_label(r) if labels is None else labels[k])
+    for ax, (_, ylabel) in zip(axes, panels):
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize="small")
+    axes[-1].set_xlabel("t [s]")
+    r0 = results[0]
+    axes[0].set_title(title or f"{r0.beam} beam spin-up, $\\omega_s$ = {r0.omega_s:g} rad/s, $T_s$ = {r0.T_s:g} s")
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+
+
+def mmi_quarter(W) -> np.ndarray:
+    """``(W / max W)^(1/4)``: the normalised MMI matrix as the paper's bar plots show it."""
+    W = np.asarray(W, dtype=float)
+    m = W.max()
+    return (W / m) ** 0.25 if m > 0 else np.zeros_like(W)
+
+
+def plot_mmi(path: str, W, selection: "Selection", omega=None, n_show: int | None = None,
+             title: str | None = None, dpi: int = 120) -> None:
+    """Bar plot of the MMI matrix (Eq. 39) over the candidate vibration modes: the upper
+    triangle of ``(W_ij / max W)^(1/4)`` as 3-D bars, the selected modal derivatives θ_ij in
+    burgundy, the rest pale; selected VMs are starred on the axes.
+
+    ``n_show`` limits the plot to the first modes (default: all up to two past the highest
+    selected VM, at least 6, at most all candidates). ``omega`` (rad/s) labels the axes."""
+    plt = _pyplot()
+    Wq = mmi_quarter(W)
+    k = Wq.shape[0]
+    vms = set(selection.vms)
+    pairs = {(min(i, j), max(i, j)) for i, j in selection.pairs}
+    if n_show is None:
+        n_show = min(k, max(6, max(vms, default=0) + 3))
+    n = min(int(n_show), k)
+    fig = plt.figure(figsize=(6.4, 5.2))
+    ax = fig.add_subplot(projection="3d")
+    xs, ys, hs, cs = [], [], [], []
+    for i in range(n):
+        for j in range(i, n):
+            xs.append(i)
+            ys.append(j)
+            hs.append(Wq[i, j])
+            cs.append(_SELECTED if (i, j) in pairs else _OTHER)
+    ax.bar3d(np.array(xs) + 0.15, np.array(ys) + 0.15, np.zeros(len(xs)), 0.7, 0.7, np.array(hs), color=cs,
+             shade=True, edgecolor="k", linewidth=0.2)
+    ticks = [f"{i + 1}{'*' if i in vms else ''}" for i in range(n)]
+    for set_ticks, set_labels in ((ax.set_xticks, ax.set_xticklabels), (ax.set_yticks, ax.set_yticklabels)):
+        set_ticks(np.arange(n) + 0.5)
+        set_labels(ticks, fontsize=7)
+    ax.set_xlabel("VM i")
+    ax.set_ylabel("VM j")
+    ax.set_zlabel("$(W_{ij}/\\max W)^{1/4}$")
+    ax.set_zlim(0, 1)
+    ax.view_init(elev=28, azim=-60)
+    from matplotlib.patches import Patch
+
+    ax.legend(handles=[Patch(color=_SELECTED, label=f"selected MDs ({len(pairs)})"),
+                       Patch(color=_OTHER, label="not selected")], loc="upper left", fontsize="small")
+    sub = f"first {n} of {k} candidate modes; * = selected VM"
+    if omega is not None:
+        om = np.asarray(omega)[:n]
+        sub += "\nω [rad/s]: " + ", ".join(f"{w:.3g}" for w in om)
+    ax.set_title((title + "\n" if title else "") + sub, fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
