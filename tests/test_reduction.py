@@ -207,7 +207,9 @@ def test_reduced_spinup_vmap_and_gradient(spin4):
     omegas = jnp.array([2.0, 3.0, 4.0, 5.0])
     batched = jax.vmap(run)(omegas)
     for i, w in enumerate(omegas):
-        np.testing.assert_allclose(batched[i], run(w), rtol=1e-7, atol=1e-10)
+        # Equal to the integration tolerance: batched and single LU round differently, which can
+        # flip a borderline step acceptance and so change the step sequence.
+        np.testing.assert_allclose(batched[i], run(w), rtol=0, atol=1e-5 * float(jnp.abs(batched).max()))
     assert float(jnp.abs(batched[-1]).max()) > float(jnp.abs(batched[0]).max())
 
     def loss(E_scale):
