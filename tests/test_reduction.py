@@ -195,10 +195,12 @@ def test_reduced_spinup_vmap_and_gradient(spin4):
     def tip_uy(model):
         return lambda t, p, v: (model.Psi @ p)[tip]
 
-    def run(omega, E_scale=1.0, adjoint="forward"):
+    def run(omega, E_scale=1.0, adjoint="forward", fixed=False):
         # κ ∝ E, so with the basis held fixed the elastic tensors scale with E.
         m = eqx.tree_at(lambda r: r.elastic, red0, red0.elastic.scaled(E_scale))
         m = eqx.tree_at(lambda r: r.motion, m, SpinUp(omega, 6.0))
+        if fixed:  # fixed steps: finite differences of an adaptive solution see its step choices
+            return simulate(m, ts, observe=_tip(m), adjoint=adjoint, adaptive=False, dt0=0.05).ys
         return simulate(m, ts, observe=_tip(m), adjoint=adjoint, rtol=1e-6, atol=1e-9).ys
 
     def _tip(m):
@@ -213,12 +215,12 @@ def test_reduced_spinup_vmap_and_gradient(spin4):
     assert float(jnp.abs(batched[-1]).max()) > float(jnp.abs(batched[0]).max())
 
     def loss(E_scale):
-        return jnp.sum(run(4.0, E_scale, "reverse") ** 2)
+        return jnp.sum(run(4.0, E_scale, "reverse", fixed=True) ** 2)
 
     g = float(jax.grad(loss)(1.0))
     eps = 1e-5
     fd = (float(loss(1.0 + eps)) - float(loss(1.0 - eps))) / (2 * eps)
-    assert g == pytest.approx(fd, rel=1e-4)
+    assert g == pytest.approx(fd, rel=1e-5)
     assert g < 0  # a stiffer beam deflects less
 
 
