@@ -47,6 +47,7 @@ def _spinup(args) -> int:
                   dt_out=args.dt_out, progress=not args.no_progress)
     if reduced:
         res = run_nr_rncf_spinup(args.beam, args.omega, vms=args.vms, mds=args.mds, n_modes=args.modes,
+                                 max_dofs=args.max_dofs,
                                  reference=args.reference == "rncf", **common)
     else:
         res = run_spinup(args.formulation, args.beam, args.omega, **common)
@@ -164,6 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--mds", type=_count_or_auto("--mds"), default="auto",
                    help="nr-rncf: modal derivatives kept, 'auto' (MMI) or a count (default auto)")
     s.add_argument("--modes", type=int, default=24, help="nr-rncf: candidate vibration modes (default 24)")
+    s.add_argument("--max-dofs", type=int, default=25, help="nr-rncf: at most this many VMs + MDs (default 25)")
     s.add_argument("--reference", choices=["rncf"], default=None,
                    help="nr-rncf: also run the full RNCF model; report chi_rel (Eq. 40) and the speed-up")
     s.add_argument("--out", help="write the tip displacement CSV (t, theta, ux, uy, uz) here")

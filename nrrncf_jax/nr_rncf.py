@@ -39,14 +39,15 @@ def _eta(t, p, v):
 
 
 def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 12, vms: int | str = "auto",
-            mds="auto", band: float = 6.0, vm_tol: float = 1e-6, md_tol: float = 0.01, max_mds: int | None = None, md_method: str = "closed_form", deflation_tol: float = 1e-6,
-            force: str = "tensor") -> Reduction:
+            mds="auto", band: float = 6.0, vm_tol: float = 1e-6, md_tol: float = 0.01, max_mds: int | None = None, max_dofs: int | None = 25, md_method: str = "closed_form", deflation_tol: float = 1e-6,
+            force: str = "auto") -> Reduction:
     """Build the NR-RNCF reduced model of ``full`` for its load case.
 
     ``n_modes`` candidate vibration modes enter the linear MMI simulation over ``ts_mmi``;
     ``vms``/``mds`` choose among them (see ``selection.select``); with ``vms='auto'`` the modes
     kept lie below ``band`` times the largest spin rate θ̇ of the manoeuvre, or are strongly
-    loaded. Returns a ``Reduction``.
+    loaded; with ``mds='auto'`` the MDs of largest weight are added while VMs + MDs ≤
+    ``max_dofs``. Returns a ``Reduction``.
     """
     if not isinstance(full, RotatingFrameModel):
         raise ValueError("nr_rncf reduces a RotatingFrameModel (RNCF); got " + type(full).__name__)
@@ -67,6 +68,7 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 12, vms: int | s
     eta = simulate(linear, jnp.asarray(ts_mmi), observe=_eta, rtol=1e-5, atol=1e-9).ys
     spin = jnp.max(jnp.abs(jax.vmap(lambda t: full.motion(t)[1])(jnp.asarray(ts_mmi))))
     sel = select(mmi_matrix(jnp.asarray(ts_mmi), eta), vms, mds, vm_tol=vm_tol, md_tol=md_tol, max_mds=max_mds,
+                 max_dofs=max_dofs,
                  omega=modes.omega, omega_band=band * float(spin) if band else None)
     times["mmi"] = time.perf_counter() - t0
 

@@ -47,7 +47,8 @@ def plot_tip(path: str, *results: "SpinupResult", labels: list[str] | None = Non
         raise ValueError(f"plot_tip got {len(results)} results but {len(labels)} labels")
     plt = _pyplot()
     scale = max(float(np.abs(r.tip).max()) for r in results) or 1.0
-    out_of_plane = any(float(np.abs(r.tip[:, 2]).max()) > 1e-6 * scale for r in results)
+    # Round-off of a planar run (~1e-6 of the deflection) does not count as out-of-plane motion.
+    out_of_plane = any(float(np.abs(r.tip[:, 2]).max()) > 1e-3 * scale for r in results)
     panels = [(1, "tip $u_y$ (transverse) [m]"), (0, "tip $u_x$ (axial) [m]")]
     if out_of_plane:
         panels.append((2, "tip $u_z$ (out of plane) [m]"))
@@ -75,34 +76,37 @@ def mmi_quarter(W) -> np.ndarray:
     return (W / m) ** 0.25 if m > 0 else np.zeros_like(W)
 
 
-def plot_mmi(path: str, W, selection: "Selection", omega=None, n_show: int | None = None,
-             title: str | None = None, dpi: int = 120) -> None:
-    """Bar plot of the MMI matrix (Eq. 39) over the candidate vibration modes: the upper
-    triangle of ``(W_ij / max W)^(1/4)`` as 3-D bars, the selected modal derivatives θ_ij in
-    burgundy, the rest pale; selected VMs are starred on the axes.
+def plot_mmi(path: str, W, selection: "Selection", omega=None, n_first: int = 8, title: str | None = None,
+             dpi: int = 120) -> None:
+    """Bar plot of the MMI matrix (Eq. 39): the upper triangle of ``(W_ij / max W)^(1/4)`` as
+    3-D bars, the selected modal derivatives θ_ij in burgundy, the rest pale; selected VMs are
+    starred on the axes.
 
-    ``n_show`` limits the plot to the first modes (default: all up to two past the highest
-    selected VM, at least 6, at most all candidates). ``omega`` (rad/s) labels the axes."""
+    Shown are the first ``n_first`` candidate modes and every selected VM beyond them (e.g. an
+    axial mode far up the spectrum), labelled by mode number (1-based); ``omega`` (rad/s), if
+    given, is listed in the title for the modes shown."""
     plt = _pyplot()
+    from matplotlib.patches import Patch
+
     Wq = mmi_quarter(W)
     k = Wq.shape[0]
     vms = set(selection.vms)
     pairs = {(min(i, j), max(i, j)) for i, j in selection.pairs}
-    if n_show is None:
-        n_show = min(k, max(6, max(vms, default=0) + 3))
-    n = min(int(n_show), k)
-    fig = plt.figure(figsize=(6.4, 5.2))
+    shown = sorted(set(range(min(int(n_first), k))) | vms)
+    n = len(shown)
+    fig = plt.figure(figsize=(6.4, 5.4))
     ax = fig.add_subplot(projection="3d")
     xs, ys, hs, cs = [], [], [], []
-    for i in range(n):
-        for j in range(i, n):
-            xs.append(i)
-            ys.append(j)
+    for a, i in enumerate(shown):
+        for b in range(a, n):
+            j = shown[b]
+            xs.append(a)
+            ys.append(b)
             hs.append(Wq[i, j])
             cs.append(_SELECTED if (i, j) in pairs else _OTHER)
     ax.bar3d(np.array(xs) + 0.15, np.array(ys) + 0.15, np.zeros(len(xs)), 0.7, 0.7, np.array(hs), color=cs,
              shade=True, edgecolor="k", linewidth=0.2)
-    ticks = [f"{i + 1}{'*' if i in vms else ''}" for i in range(n)]
+    ticks = [f"{i + 1}{'*' if i in vms else ''}" for i in shown]
     for set_ticks, set_labels in ((ax.set_xticks, ax.set_xticklabels), (ax.set_yticks, ax.set_yticklabels)):
         set_ticks(np.arange(n) + 0.5)
         set_labels(ticks, fontsize=7)
@@ -111,14 +115,16 @@ def plot_mmi(path: str, W, selection: "Selection", omega=None, n_show: int | Non
     ax.set_zlabel("$(W_{ij}/\\max W)^{1/4}$")
     ax.set_zlim(0, 1)
     ax.view_init(elev=28, azim=-60)
-    from matplotlib.patches import Patch
-
-    ax.legend(handles=[Patch(color=_SELECTED, label=f"selected MDs ({len(pairs)})"),
+    n_md = len(pairs)
+    n_md_shown = sum(1 for i, j in pairs if i in shown and j in shown)
+    ax.legend(handles=[Patch(color=_SELECTED, label=f"selected MDs ({n_md})"),
                        Patch(color=_OTHER, label="not selected")], loc="upper left", fontsize="small")
-    sub = f"first {n} of {k} candidate modes; * = selected VM"
+    sub = f"modes shown: {n} of {k} candidates; * = selected VM"
+    if n_md_shown < n_md:
+        sub += f" ({n_md - n_md_shown} selected MDs off the plot)"
     if omega is not None:
-        om = np.asarray(omega)[:n]
-        sub += "\nω [rad/s]: " + ", ".join(f"{w:.3g}" for w in om)
+        om = [f"{i + 1}: {np.asarray(omega)[i]:.3g}" for i in shown]
+        sub += "\nω [rad/s]  " + "\n".join(", ".join(om[r:r + 8]) for r in range(0, len(om), 8))
     ax.set_title((title + "\n" if title else "") + sub, fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)

@@ -30,7 +30,7 @@ def mmi_matrix(ts: Float[Array, " nt"], eta: Float[Array, "nt k"]) -> Float[Arra
 
 def select(W, n_vms: int | str = "auto", n_mds: int | str = "auto", vm_tol: float = 1e-6,
            md_tol: float = 0.01, max_mds: int | None = None, omega=None, omega_band: float | None = None,
-           vm_strong: float = 1e-3) -> Selection:
+           vm_strong: float = 1e-3, max_dofs: int | None = None) -> Selection:
     """Choose VMs and MDs from the MMI matrix.
 
     - VMs: ``'auto'`` keeps the modes that take part, whose RMS amplitude is at least ``vm_tol``
@@ -39,7 +39,7 @@ def select(W, n_vms: int | str = "auto", n_mds: int | str = "auto", vm_tol: floa
       Coriolis and centrifugal coupling reach), only modes inside the band are kept, except
       strongly loaded ones (amplitude ratio ≥ ``vm_strong``, e.g. the axial mode under
       centrifugal load, which responds quasi-statically far above the band). An integer keeps
-      that many of the most active modes.
+      that many of the most active modes. ``max_dofs`` caps VMs + MDs (before deflation).
     - MDs among the kept VMs, ranked by W_ij: ``'auto'`` keeps those with
       ``(W_ij / max W)^(1/4) ≥ md_tol`` (the fourth root as in the paper's bar plots), at most
       ``max_mds`` of them; an integer keeps that many; a list of (i, j) pairs is taken as given.
@@ -62,6 +62,8 @@ def select(W, n_vms: int | str = "auto", n_mds: int | str = "auto", vm_tol: floa
         if n_mds != "auto":
             raise ValueError(f"n_mds must be 'auto', an integer or a list of pairs, got {n_mds!r}")
         pairs = [cand[r] for r in rank if (w[r] / w.max()) ** 0.25 >= md_tol][:max_mds]
+        if max_dofs is not None:
+            pairs = pairs[: max(0, int(max_dofs) - len(vms))]
     elif isinstance(n_mds, (int, np.integer)):
         pairs = [cand[r] for r in rank[: int(n_mds)]]
     else:

@@ -13,5 +13,6 @@ from .spinup import (
     build_spinup_model as build_spinup_model,
 )
 from .spinup import (
+    run_nr_rncf_spinup as run_nr_rncf_spinup,
     run_spinup as run_spinup,
 )
