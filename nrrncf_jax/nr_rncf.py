@@ -38,8 +38,9 @@ def _eta(t, p, v):
     return p
 
 
-def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 12, vms: int | str = "auto",
-            mds="auto", band: float = 6.0, vm_tol: float = 1e-6, md_tol: float = 0.01, max_mds: int | None = None, max_dofs: int | None = 25, md_method: str = "closed_form", deflation_tol: float = 1e-6,
+def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | str = "auto", mds="auto",
+            band: float = 6.0, vm_tol: float = 1e-6, md_tol: float = 0.01, max_mds: int | None = None,
+            max_dofs: int | None = 25, md_method: str = "closed_form", deflation_tol: float = 1e-6,
             force: str = "auto") -> Reduction:
     """Build the NR-RNCF reduced model of ``full`` for its load case.
 
