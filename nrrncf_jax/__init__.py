@@ -1,8 +1,9 @@
 """nrrncf_jax: JAX-accelerated, differentiable flexible multibody dynamics with the NR-RNCF
 nonlinear order reduction (Yuan, Ren et al., Mech. Mach. Theory 185, 2023).
 
-The library never changes global JAX configuration: switch on float64 yourself,
-``jax.config.update("jax_enable_x64", True)``, before building models.
+The library never changes global JAX configuration: switch float64 on yourself (JAX's x64
+option, as the README's example does) before building models. Only the ``nrrncf`` command
+line switches it on, in its own entry point.
 """
 
 from .body import Body as Body
