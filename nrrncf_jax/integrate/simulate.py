@@ -346,7 +346,7 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
     )
     result = jnp.where((final["result"] == 0) & (final["t"] < t_end), 1, final["result"])
     if config.progress:
-        jax.debug.callback(_print_progress, final["t"], t_end, final["steps"] + final["rejected"] * 0, True)
+        jax.debug.callback(_print_progress, final["t"], t_end, final["steps"], True)
     return Solution(
         ts=ts, ys=jtu.tree_map(lambda y: y[:n_out], final["ys"]), t_final=final["t"], result=result,
         num_steps=final["steps"], num_rejected=final["rejected"], num_newton=final["newton"],
