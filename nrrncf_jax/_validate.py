@@ -38,10 +38,3 @@ def positive_int(name: str, value) -> int:
     if value < 1:
         raise ValueError(f"{name} must be >= 1, got {name}={value}")
     return int(value)
-
-
-def shape(name: str, x, expected: tuple) -> None:
-    """``expected`` may hold ``None`` for a free axis."""
-    s = np.shape(x)
-    if len(s) != len(expected) or any(e is not None and e != a for e, a in zip(expected, s)):
-        raise ValueError(f"{name} must have shape {expected} (None = any), got {s}")

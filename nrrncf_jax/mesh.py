@@ -71,10 +71,8 @@ def arc_reference(length: ScalarLike, radius: ScalarLike, n_elements: int, towar
     def frame(s):
         phi = s / radius
         c = radius * jnp.sin(phi) * e[0] + sign * radius * (1.0 - jnp.cos(phi)) * e[k]
-        t = jnp.cos(phi) * e[0] + sign * jnp.sin(phi) * e[k]
         nk = -sign * jnp.sin(phi) * e[0] + jnp.cos(phi) * e[k]  # in-plane normal, = e_k at s=0
         n1, n2 = (nk, e[o]) if k == 1 else (e[o], nk)
-        del t
         return c, n1, n2
 
     return centerline_reference(frame, length, n_elements)

@@ -237,15 +237,20 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
         steps=jnp.array(0), rejected=jnp.array(0), newton=jnp.array(0), result=jnp.array(0),
     )
 
-    def newton_solve(m, t1, h, q, v, a, abar):
-        """Solve r(a1) = 0 for the step's true acceleration (modified or full Newton)."""
-        c_C, c_K = solver.derivatives(h)
+    def make_stage(m, t1, h, q, v, a, abar):
+        """(q1, v1, a1, ā1) of the step as functions of the new acceleration a1."""
 
         def stage(a1):
             q1, v1, abar1 = solver.kinematics(h, q, v, a, abar, a1)
             q1, v1, a1 = m.constrain(t1, q1, v1, a1)
             return q1, v1, a1, abar1
 
+        return stage
+
+    def newton_solve(m, t1, h, q, v, a, abar):
+        """Solve r(a1) = 0 for the step's true acceleration (modified or full Newton)."""
+        c_C, c_K = solver.derivatives(h)
+        stage = make_stage(m, t1, h, q, v, a, abar)
         q1, v1, a1, _ = stage(a)
         fac = m.factor_iteration_matrix(t1, q1, v1, 1.0, c_C, c_K)
 
@@ -286,11 +291,7 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
             # Implicit derivative of the Newton solve: one Newton update with the gradient of
             # the residual with respect to the parameters and the previous state, and the
             # iteration matrix at the solution (da1/dθ = −J⁻¹ ∂r/∂θ).
-            def stage(a1):
-                q1, v1, abar1 = solver.kinematics(h, q, v, a, abar, a1)
-                q1, v1, a1 = model.constrain(t1, q1, v1, a1)
-                return q1, v1, a1, abar1
-
+            stage = make_stage(model, t1, h, q, v, a, abar)
             q1s, v1s, _, _ = stage(a1)
             fac_star = sg(model).factor_iteration_matrix(t1, sg(q1s), sg(v1s), 1.0, c_C, c_K)
             a1 = a1 - fac_star.solve(model.residual(t1, q1s, v1s, a1))
