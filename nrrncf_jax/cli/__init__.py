@@ -1,0 +1,41 @@
+"""The ``nrrncf`` command: the paper's examples from a shell.
+
+    nrrncf spinup --formulation rncf --beam paper --omega 40 --plot tip.png
+    nrrncf spinup --formulation nr-rncf --omega 10 --reference rncf --plot tip.png
+    nrrncf modes --beam paper --elements 8 --json
+    nrrncf modes --beam curved-upwind --elements 8 --count 6 --mmi --omega 4 --plot mmi.png
+
+Each subcommand lives in its own module of this package, with a ``register(subparsers)``.
+The command switches on float64 in its own entry point; the library itself never does.
+"""
+
+import argparse
+import importlib
+import sys
+
+SUBCOMMANDS = ("spinup", "modes")
+"""Modules of this package, each with ``register(subparsers)``; their order is the help's."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="nrrncf", description="NR-RNCF flexible multibody simulation (JAX)")
+    sub = p.add_subparsers(dest="command", required=True)
+    for name in SUBCOMMANDS:
+        importlib.import_module(f"{__name__}.{name}").register(sub)
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    try:
+        return args.func(args)
+    except ValueError as e:
+        print(f"nrrncf: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
