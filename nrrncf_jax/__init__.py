@@ -8,6 +8,7 @@ line switches it on, in its own entry point.
 
 from .body import Body as Body
 from .body import beam_body as beam_body
+from .damping import RayleighDamping as RayleighDamping
 from .integrate import (
     GeneralizedAlpha as GeneralizedAlpha,
 )

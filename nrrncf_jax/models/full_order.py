@@ -3,7 +3,7 @@
 - ``RotatingFrameModel`` (RNCF, Eq. 41): coordinates in the frame attached to the clamped
   root, ``M_αβ [q̈_β + 2θ̇ E q̇_β + θ̈ E q_β + θ̇² E E q_β] + F^α(q) = Q_α`` with E = ẽ.
   The reference conditions (the root's position and cross-section vectors) are eliminated as
-  fixed coordinates.
+  fixed coordinates. Optional Rayleigh damping adds ``D q̇`` (``damping.RayleighDamping``).
 - ``InertialFrameModel`` (ANCF, THEORY §3): the same body with A = I; the root's clamped
   vectors are driven by the rotation, ``q_root(t) = A(θ(t)) q̂_root``.
 """
@@ -15,6 +15,7 @@ import jax.numpy as jnp
 
 from .._types import Array, Bool, Float, Int, Scalar
 from ..body import Body
+from ..damping import RayleighDamping
 from ..linalg import assemble_and_factor
 from ..motion import SpinUp, Stationary, rotation_about, skew
 from .base import AbstractModel
@@ -50,8 +51,11 @@ class _FullOrderModel(AbstractModel):
     loads: Loads
     clamped: Int[Array, " c"]  # nodal vectors fixed in the reference frame
     M: Float[Array, "n n"]  # scalar M_αβ, assembled once
+    damping: RayleighDamping | None
+    D_e: Float[Array, "n_el nd nd"] | None  # element blocks of D = αM + βK̂ (None: undamped)
 
-    def __init__(self, body: Body, motion: SpinUp | Stationary, axis=(0.0, 0.0, 1.0), loads: Loads | None = None, clamped=None):
+    def __init__(self, body: Body, motion: SpinUp | Stationary, axis=(0.0, 0.0, 1.0), loads: Loads | None = None,
+                 clamped=None, damping: RayleighDamping | None = None):
         self.body = body
         self.motion = motion
         axis = jnp.asarray(axis, dtype=float)
@@ -63,6 +67,16 @@ class _FullOrderModel(AbstractModel):
         # (r, r_y, r_z): the root section is clamped to the hub.
         self.clamped = jnp.asarray([0, 2, 4] if clamped is None else clamped, dtype=int)
         self.M = body.mass_matrix()
+        if damping is not None and not isinstance(damping, RayleighDamping):
+            raise ValueError(f"damping must be a RayleighDamping or None, got {type(damping).__name__}")
+        self.damping = damping
+        if damping is None:
+            self.D_e = None
+        else:
+            n_el, ne = body.elements.shape
+            K_hat = body.element_tangents(body.q_hat).reshape(n_el, 3 * ne, 3 * ne)
+            M_e = jnp.einsum("eab,ij->eaibj", body.M_e, jnp.eye(3)).reshape(n_el, 3 * ne, 3 * ne)
+            self.D_e = damping.alpha * M_e + damping.beta * K_hat
 
     @property
     def n_dof(self) -> int:
@@ -79,14 +93,24 @@ class _FullOrderModel(AbstractModel):
     def displacements(self, t: Scalar, q: Float[Array, " n"]) -> Float[Array, "nv 3"]:
         """Nodal displacements ``w = q − q̂`` in the rotating reference frame (THEORY §9)."""
 
+    def damping_force(self, v: Float[Array, " n"]) -> Float[Array, " n"]:
+        """D v with D = αM + βK̂, assembled from the element blocks (zero when undamped)."""
+        if self.D_e is None:
+            return jnp.zeros_like(v)
+        dofs = self.body.element_dofs()
+        return jnp.zeros_like(v).at[dofs].add(jnp.einsum("eab,eb->ea", self.D_e, v[dofs]))
+
     def _factor(self, t, q, v, c_M, c_C, c_K, frame_C, frame_K):
-        """Iteration matrix from element blocks: c_M M + c_C (M⊗frame_C) + c_K (K + M⊗frame_K)."""
+        """Iteration matrix from element blocks: c_M M + c_C (M⊗frame_C + D) + c_K (K + M⊗frame_K)."""
         body = self.body
+        n_el, ne = body.elements.shape
         Kt = body.element_tangents(q.reshape(-1, 3))
         G = c_K * Kt + jnp.einsum("eab,ij->eaibj", body.M_e, c_M * jnp.eye(3) + c_C * frame_C + c_K * frame_K)
-        n_el, ne = body.elements.shape
+        G = G.reshape(n_el, 3 * ne, 3 * ne)
+        if self.D_e is not None:
+            G = G + c_C * self.D_e
         block = 3 * body.vectors_per_node if body.chain else None
-        return assemble_and_factor(G.reshape(n_el, 3 * ne, 3 * ne), body.element_dofs(), self.free_mask(), block)
+        return assemble_and_factor(G, body.element_dofs(), self.free_mask(), block)
 
 
 class RotatingFrameModel(_FullOrderModel):
@@ -109,7 +133,8 @@ class RotatingFrameModel(_FullOrderModel):
         rel = Acc + 2.0 * dth * jnp.cross(e, V) + ddth * jnp.cross(e, Q) + dth**2 * jnp.cross(e, jnp.cross(e, Q))
         A_T_g = self.rotation(t).T @ self.loads.gravity
         r = self.M @ rel + self.body.elastic_force(Q) - self.loads.generalized(self.body, A_T_g)
-        return jnp.where(self.free_mask(), r.reshape(-1), 0.0)
+        r = r.reshape(-1) + self.damping_force(v)
+        return jnp.where(self.free_mask(), r, 0.0)
 
     def factor_iteration_matrix(self, t, q, v, c_M, c_C, c_K):
         _, dth, ddth = self.motion(t)
@@ -121,7 +146,18 @@ class RotatingFrameModel(_FullOrderModel):
 
 
 class InertialFrameModel(_FullOrderModel):
-    """Full ANCF body in the inertial frame; the clamped root vectors follow the rotation."""
+    """Full ANCF body in the inertial frame; the clamped root vectors follow the rotation.
+
+    Undamped only: Rayleigh damping acts on the velocity relative to the rotating frame, which
+    the inertial coordinates do not separate from the rigid spin (use ``RotatingFrameModel``).
+    """
+
+    def __init__(self, body: Body, motion: SpinUp | Stationary, axis=(0.0, 0.0, 1.0), loads: Loads | None = None,
+                 clamped=None, damping: RayleighDamping | None = None):
+        if damping is not None:
+            raise ValueError("InertialFrameModel (ANCF) is undamped: Rayleigh damping acts on the velocity "
+                             "relative to the rotating frame; use RotatingFrameModel (RNCF)")
+        super().__init__(body, motion, axis, loads, clamped)
 
     def _root_motion(self, t):
         _, dth, ddth = self.motion(t)

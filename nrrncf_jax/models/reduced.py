@@ -1,6 +1,8 @@
 """The reduced NR-RNCF equations of a body under prescribed rotation (THEORY §4):
 
-    Ī p̈ + 2θ̇ Ḡ ṗ + θ̈(Ḡ p + ḡ) + θ̇²(C̄ p + c̄) + F(p) = Ψᵀ Q,   q = q° + Ψ p.
+    Ī p̈ + (2θ̇ Ḡ + D̄) ṗ + θ̈(Ḡ p + ḡ) + θ̇²(C̄ p + c̄) + F(p) = Ψᵀ Q,   q = q° + Ψ p.
+
+D̄ = α Ī + β K̄ is the projection of the full model's Rayleigh damping (zero unless given).
 
 F(p) is the cubic polynomial of Eq. 24 (``force="tensor"``), or the projection of the
 element-wise full elastic force ``Ψᵀ F(q° + Ψ p)`` (``force="projected"``); the two are equal
@@ -13,6 +15,7 @@ import jax.scipy.linalg as jsl
 
 from .._types import Array, Bool, Float
 from ..body import Body
+from ..damping import RayleighDamping
 from ..linalg import DenseLU
 from ..motion import SpinUp, Stationary, rotation_about
 from ..reduction.tensors import ElasticTensors, RotationInertia, elastic_tensors, rotation_inertia
@@ -37,6 +40,7 @@ class ReducedRotatingModel(AbstractModel):
     body: Body | None
     force: str = eqx.field(static=True)
     linear: bool = eqx.field(static=True)
+    damping: RayleighDamping | None = None
     """``linear=True``: the linear model of the MMI criterion (Eq. 39), ``Ī p̈ + (f + K p) =
     −θ̈ ḡ − θ̇² c̄ + Ψᵀ Q``: linearised elastic force, and the rotation only as the load it exerts
     (the parametric Coriolis/centrifugal terms would make it unstable above the first critical
@@ -79,6 +83,12 @@ class ReducedRotatingModel(AbstractModel):
         Ke = body.element_tangents(q).reshape(n_el, 3 * ne, 3 * ne)
         return F, jnp.einsum("eaI,eab,ebJ->IJ", Pe, Ke, Pe)
 
+    def damping_matrix(self):
+        """D̄ = α Ī + β K̄ (K̄ = Ψᵀ K̂ Ψ, the tensors' K about q° = q̂); ``None`` when undamped."""
+        if self.damping is None:
+            return None
+        return self.damping.alpha * self.inertia.I + self.damping.beta * self.elastic.K
+
     def external(self, t):
         A = rotation_about(self.axis, self.motion(t)[0])
         return self.gravity_map @ (A.T @ self.gravity) + self.point_load
@@ -88,6 +98,9 @@ class ReducedRotatingModel(AbstractModel):
         I = self.inertia
         F = self.elastic_force(p)
         load = ddth * I.g + dth**2 * I.c - self.external(t)
+        D = self.damping_matrix()
+        if D is not None:
+            load = load + D @ v
         if self.linear:  # the rotation acts only as the load it exerts (see ``linear``)
             return I.I @ a + F + load
         return I.I @ a + 2.0 * dth * (I.G @ v) + ddth * (I.G @ p) + dth**2 * (I.C @ p) + F + load
@@ -100,6 +113,9 @@ class ReducedRotatingModel(AbstractModel):
             S = c_M * I.I + c_K * J
         else:
             S = c_M * I.I + c_C * 2.0 * dth * I.G + c_K * (J + ddth * I.G + dth**2 * I.C)
+        D = self.damping_matrix()
+        if D is not None:
+            S = S + c_C * D
         lu, piv = jsl.lu_factor(S)
         return DenseLU(lu=lu, piv=piv)
 
@@ -135,7 +151,8 @@ def reduce_rotating_model(full: RotatingFrameModel, Psi: Float[Array, "ndof km"]
     """Galerkin projection of the full RNCF model onto the basis Ψ about q° (default q̂).
 
     ``force='auto'`` evaluates the elastic force the cheaper way for this model (see
-    ``force_evaluation_costs``); ``'tensor'`` or ``'projected'`` force a choice.
+    ``force_evaluation_costs``); ``'tensor'`` or ``'projected'`` force a choice. The full
+    model's Rayleigh damping carries over as D̄ = α Ī + β Ψᵀ K̂ Ψ (which needs q° = q̂).
     """
     if force not in ("auto", "tensor", "projected"):
         raise ValueError(f"force must be 'auto', 'tensor' or 'projected', got {force!r}")
@@ -143,6 +160,8 @@ def reduce_rotating_model(full: RotatingFrameModel, Psi: Float[Array, "ndof km"]
     Psi = jnp.asarray(Psi, dtype=float)
     if Psi.ndim != 2 or Psi.shape[0] != body.n_dof:
         raise ValueError(f"Psi must have shape ({body.n_dof}, Km), got {Psi.shape}")
+    if full.damping is not None and q_eq is not None:
+        raise ValueError("a damped model reduces about the reference q° = q̂ only (D̄ uses K̂): leave q_eq unset")
     q_eq = body.q_hat if q_eq is None else q_eq
     km = Psi.shape[1]
     if force == "auto":
@@ -157,5 +176,5 @@ def reduce_rotating_model(full: RotatingFrameModel, Psi: Float[Array, "ndof km"]
         gravity_map=jnp.einsum("a,akI->Ik", body.varrho(), P),
         point_load=jnp.einsum("pkI,pk->I", P[loads.point_vectors], loads.point_forces),
         gravity=loads.gravity, physical_mask=full.free_mask(), motion=full.motion, axis=full.axis,
-        body=body if force == "projected" else None, force=force, linear=linear,
+        body=body if force == "projected" else None, force=force, linear=linear, damping=full.damping,
     )
