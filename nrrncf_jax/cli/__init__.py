@@ -13,7 +13,7 @@ import argparse
 import importlib
 import sys
 
-SUBCOMMANDS = ("spinup", "modes")
+SUBCOMMANDS = ("spinup", "modes", "sweep")
 """Modules of this package, each with ``register(subparsers)``; their order is the help's."""
 
 

@@ -1,0 +1,585 @@
+"""Batched spin-up sweeps: one jit-compiled, vmapped run over a grid of (ωs, Ts, E), optionally
+split across devices with ``shard_map``.
+
+    grid = sweep_grid(omega_s=np.linspace(2, 40, 64), T_s=15.0)
+    red = sweep_reduction("paper", grid, t_end=30.0)        # one NR-RNCF basis for the whole grid
+    res = spinup_sweep(red, grid, t_end=30.0)              # res.peak_uy, res.residual_uy, ...
+
+**One basis for the whole grid.** The reduced model is built once (``sweep_reduction``: at the
+grid's highest ωs and shortest Ts, the hardest case, and the model's own Young's modulus) and
+held fixed; only the prescribed motion (Eq. 43) and the stiffness change from case to case. A
+basis chosen for the hardest case holds the modes and derivatives the milder ones use, but it
+is not the basis ``nr_rncf`` would pick for each case on its own.
+
+**Young's modulus.** The elastic force is linear in E with the basis fixed, so a case with
+E = s·E0 obeys the reduced equations with F(p) scaled by s. Rather than scale the elastic
+tensors (Km⁴ numbers per case under ``vmap``), the sweep divides the other terms of the
+equations (inertia, rotation and external loads, Km² numbers) by s: the same solution.
+
+**Devices.** With several devices the batch is split with ``shard_map`` over a 1-D mesh, and
+every device runs its own ``vmap``-ped adaptive loop to the end: no collective inside the loop,
+so no per-step synchronisation (a ``jit`` over a sharded batch would all-reduce the loop
+condition every step). Under ``vmap`` a loop runs until its slowest member is done, so cases are
+sorted by expected cost and each device gets a contiguous block of that order (``balance=
+'blocks'``): every device's wall time is bounded by the hardest case, as when interleaving,
+and the devices holding the cheap cases finish early instead of idling through masked steps.
+``balance='interleave'`` deals the sorted cases round-robin instead (every device the same mix).
+The same call runs on a multi-GPU host, or on every device of a cluster after
+``jax.distributed.initialize()``.
+"""
+
+import csv
+import dataclasses
+import json
+import re
+import time
+from collections.abc import Sequence
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import _validate
+from ._types import Array, Float
+from .elements.beam import NODAL_VECTORS_PER_NODE
+from .integrate import GeneralizedAlpha
+from .integrate.simulate import RESULTS, SimulationError, simulate, simulate_timed
+from .models.reduced import ReducedRotatingModel
+from .motion import SpinUp
+
+_AXIS = "cases"
+BALANCES = ("blocks", "interleave")
+
+
+# --- the grid -----------------------------------------------------------------------------------
+
+_GRID_NAMES = {"omega_s": "omega_s (steady spin rate)", "T_s": "T_s (spin-up time)",
+               "E_scale": "E_scale (Young's modulus over the model's)"}
+
+
+def _positive_values(name: str, values) -> np.ndarray:
+    try:
+        v = np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be numbers, got {values!r}") from None
+    if v.size == 0:
+        raise ValueError(f"{name}: the grid is empty (no values given)")
+    bad = ~np.isfinite(v) | (v <= 0.0)
+    if np.any(bad):
+        raise ValueError(f"{name} must be finite and positive, got {name}={v[bad][0]!r}")
+    return v
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepGrid:
+    """The cases of a sweep: one (ωs, Ts, E/E0) per case, flat arrays of equal length.
+
+    ``shape`` is (n_omega, n_T, n_E) for a grid made by ``sweep_grid`` (case index
+    ``(i_omega·n_T + i_T)·n_E + i_E``), or ``(n,)`` for a list of cases.
+    """
+
+    omega_s: np.ndarray
+    T_s: np.ndarray
+    E_scale: np.ndarray
+    shape: tuple[int, ...] = ()
+
+    def __post_init__(self):
+        vals = [_positive_values(_GRID_NAMES[k], getattr(self, k)) for k in ("omega_s", "T_s", "E_scale")]
+        try:
+            vals = np.broadcast_arrays(*vals)
+        except ValueError:
+            raise ValueError("omega_s, T_s and E_scale must have one value per case (or a single value), got "
+                             f"lengths {[v.size for v in vals]}") from None
+        for k, v in zip(("omega_s", "T_s", "E_scale"), vals):
+            object.__setattr__(self, k, np.array(v, dtype=float))
+        n = self.omega_s.size
+        shape = tuple(int(s) for s in self.shape) or (n,)
+        if int(np.prod(shape)) != n:
+            raise ValueError(f"shape {shape} does not hold the grid's {n} cases")
+        object.__setattr__(self, "shape", shape)
+
+    @property
+    def cases(self) -> int:
+        return self.omega_s.size
+
+    def expected_cost(self) -> np.ndarray:
+        """A heuristic ordering key, larger for costlier cases: the step must follow frequencies
+        that rise with the spin rate (centrifugal stiffening) and with √E, and a shorter spin-up
+        excites more. Any order gives the same results; this one only balances the work."""
+        return self.omega_s * np.sqrt(self.E_scale) * (1.0 + 1.0 / self.T_s)
+
+
+def sweep_grid(omega_s, T_s=15.0, E_scale=1.0) -> SweepGrid:
+    """Every combination of the given spin rates ωs [rad/s], spin-up times Ts [s] and Young's
+    modulus ratios E/E0 (each a number or a sequence); ``shape`` = (n_omega, n_T, n_E)."""
+    w = _positive_values(_GRID_NAMES["omega_s"], omega_s)
+    T = _positive_values(_GRID_NAMES["T_s"], T_s)
+    E = _positive_values(_GRID_NAMES["E_scale"], E_scale)
+    W, TT, EE = np.meshgrid(w, T, E, indexing="ij")
+    return SweepGrid(W.reshape(-1), TT.reshape(-1), EE.reshape(-1), shape=W.shape)
+
+
+def parse_range(spec: str, name: str = "value") -> np.ndarray:
+    """``'a:b:n'`` → n values evenly spaced from a to b inclusive; ``'a,b,c'`` → those values;
+    ``'a'`` → one value. Raises ``ValueError`` naming ``name`` on anything else."""
+    form = f"{name} must be 'start:stop:count' (e.g. 2:40:64), a comma-separated list or one number, got {spec!r}"
+    s = str(spec).strip()
+    parts = s.split(":")
+    try:
+        if len(parts) == 3:
+            a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+        elif len(parts) == 1 and s:
+            values = np.array([float(x) for x in s.split(",")])
+        else:
+            raise ValueError
+    except ValueError:
+        raise ValueError(form) from None
+    if len(parts) == 1:
+        return values
+    if n < 1:
+        raise ValueError(f"{name}: the count in {spec!r} must be >= 1, got {n}")
+    if not (np.isfinite(a) and np.isfinite(b)):
+        raise ValueError(form)
+    return np.linspace(a, b, n)
+
+
+# --- the per-case model -------------------------------------------------------------------------
+
+def case_model(model: ReducedRotatingModel, omega_s, T_s, E_scale=1.0) -> ReducedRotatingModel:
+    """The reduced model of one case: the motion ``SpinUp(omega_s, T_s)`` and Young's modulus
+    ``E_scale`` times the model's, with the basis held fixed.
+
+    For ``E_scale`` ≠ 1 the inertia, rotation and external-load terms are divided by it rather
+    than the elastic tensors multiplied (see the module docstring); works under ``vmap``.
+    """
+    m = eqx.tree_at(lambda r: r.motion, model, SpinUp(omega_s, T_s))
+    if isinstance(E_scale, (int, float)) and E_scale == 1.0:
+        return m
+    inv = 1.0 / jnp.asarray(E_scale, dtype=m.Psi.dtype)
+    return eqx.tree_at(
+        lambda r: (r.inertia.I, r.inertia.G, r.inertia.C, r.inertia.g, r.inertia.c, r.gravity_map, r.point_load),
+        m,
+        tuple(inv * x for x in (m.inertia.I, m.inertia.G, m.inertia.C, m.inertia.g, m.inertia.c, m.gravity_map,
+                                m.point_load)),
+    )
+
+
+class TipObserver(eqx.Module):
+    """Tip displacement w = q − q̂ of one nodal vector (rotating frame) from the modal
+    coordinates p: the only quantity the sweep's loop stores (3 numbers per output time)."""
+
+    rows: Float[Array, "3 km"]
+    offset: Float[Array, " 3"]
+
+    def __init__(self, model: ReducedRotatingModel, tip: int):
+        self.rows = model.Psi[3 * tip: 3 * tip + 3]
+        self.offset = model.q_eq[tip] - model.q_hat[tip]
+
+    def __call__(self, t, p, v):
+        return self.offset + self.rows @ p
+
+
+def default_tip(model: ReducedRotatingModel) -> int:
+    """The tip position vector of a beam: the last node's first nodal vector."""
+    return model.q_hat.shape[0] - NODAL_VECTORS_PER_NODE
+
+
+# --- the kernel ---------------------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class _Config:
+    """Static settings of the compiled sweep (hashable: part of the jit cache key)."""
+
+    rtol: float
+    atol: float
+    dt0: float
+    rho_inf: float
+    max_steps: int
+    adaptive: bool
+    tip: int
+    scale_E: bool
+
+
+def _one_case(model, omega_s, T_s, E_scale, ts, cfg: _Config):
+    m = case_model(model, omega_s, T_s, E_scale if cfg.scale_E else 1.0)
+    sol = simulate(m, ts, solver=GeneralizedAlpha(cfg.rho_inf), rtol=cfg.rtol, atol=cfg.atol, dt0=cfg.dt0,
+                   adaptive=cfg.adaptive, max_steps=cfg.max_steps, observe=TipObserver(m, cfg.tip), throw=False)
+    return dict(tip=sol.ys, steps=sol.num_steps, rejected=sol.num_rejected, newton=sol.num_newton,
+                result=sol.result, t_final=sol.t_final)
+
+
+def _local_sweep(model, omega_s, T_s, E_scale, ts, cfg):
+    """The cases of one device, (n_loops, cases_per_loop): one vmapped loop per row, in turn."""
+
+    def one_loop(x):
+        return jax.vmap(_one_case, in_axes=(None, 0, 0, 0, None, None))(model, *x, ts, cfg)
+
+    out = jax.lax.map(one_loop, (omega_s, T_s, E_scale))
+    return jax.tree_util.tree_map(lambda y: y.reshape((-1,) + y.shape[2:]), out)
+
+
+@eqx.filter_jit
+def _sweep_kernel(model, omega_s, T_s, E_scale, ts, cfg: _Config, mesh):
+    from jax import shard_map
+    from jax.sharding import PartitionSpec as P
+
+    dyn, static = eqx.partition(model, eqx.is_array)
+
+    def local(dyn, w, T, E, ts):
+        return _local_sweep(eqx.combine(dyn, static), w, T, E, ts, cfg)
+
+    # Each device runs its own loops on its block; nothing crosses devices until the results.
+    f = shard_map(local, mesh=mesh, in_specs=(P(), P(_AXIS), P(_AXIS), P(_AXIS), P()), out_specs=P(_AXIS),
+                  check_vma=False)
+    return f(dyn, omega_s, T_s, E_scale, ts)
+
+
+_COLLECTIVES = re.compile(r"\b(all-reduce|all-gather|all-to-all|collective-permute|reduce-scatter)(-start)?\(")
+
+
+# --- scheduling ---------------------------------------------------------------------------------
+
+def schedule(cost: np.ndarray, n_devices: int, cases_per_loop: int, balance: str = "blocks") -> np.ndarray:
+    """The case order fed to the devices: indices into the grid, sorted by ``cost`` and padded
+    at the end with copies of the costliest case to a multiple of ``n_devices·cases_per_loop``.
+    Consecutive runs of ``cases_per_loop`` form one vmapped loop; device d gets the d-th of
+    ``n_devices`` equal slices.
+
+    ``'blocks'``: contiguous slices (device 0 the cheapest cases); ``'interleave'``: the sorted
+    cases dealt round-robin, every slice the same mix.
+    """
+    if balance not in BALANCES:
+        raise ValueError(f"balance must be one of {BALANCES}, got {balance!r}")
+    order = np.argsort(np.asarray(cost), kind="stable")
+    pad = (-order.size) % (n_devices * cases_per_loop)
+    order = np.concatenate([order, np.full(pad, order[-1])])
+    if balance == "interleave":
+        order = order.reshape(-1, n_devices).T.reshape(-1)
+    return order
+
+
+def _resolve_devices(devices) -> list:
+    avail = jax.devices()
+    if devices is None:
+        return list(avail)
+    if isinstance(devices, (int, np.integer)) and not isinstance(devices, bool):
+        n = int(devices)
+        if n < 1:
+            raise ValueError(f"devices must be >= 1, got devices={n}")
+        if n > len(avail):
+            raise ValueError(f"devices={n} but only {len(avail)} {avail[0].platform.upper()} device(s) are "
+                             "available (on a CPU, set XLA_FLAGS=--xla_force_host_platform_device_count=N "
+                             "before JAX starts)")
+        return list(avail[:n])
+    devs = list(devices)
+    if not devs:
+        raise ValueError("devices is an empty sequence")
+    return devs
+
+
+def _put(x, sharding):
+    x = np.asarray(x)
+    if jax.process_count() == 1:
+        return jax.device_put(x, sharding)
+    return jax.make_array_from_callback(x.shape, sharding, lambda idx: x[idx])
+
+
+def _fetch(x) -> np.ndarray:
+    if jax.process_count() > 1 and not x.is_fully_addressable:
+        from jax.experimental import multihost_utils
+
+        return np.asarray(multihost_utils.process_allgather(x, tiled=True))
+    return np.asarray(x)
+
+
+# --- the result ---------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class SweepResult:
+    """Per-case results of a sweep (in the grid's order) and its timings.
+
+    ``peak_uy``, ``peak_ux``: largest |transverse (in-plane)| and |axial| tip displacement over
+    the run; ``residual_uy``: the residual vibration amplitude after the spin-up, half the
+    peak-to-peak transverse tip displacement over the output times t ≥ Ts (NaN if there are
+    fewer than two). ``tip`` holds the series, (cases, n_out, 3): ux, uy, uz in the rotating frame.
+    ``single_s`` (with ``time_single=True``): the run time of the slowest case run alone,
+    measured in the same process, and ``single_case`` its index.
+    """
+
+    grid: SweepGrid
+    ts: np.ndarray
+    tip: np.ndarray
+    peak_uy: np.ndarray
+    peak_ux: np.ndarray
+    residual_uy: np.ndarray
+    steps: np.ndarray
+    rejected: np.ndarray
+    newton: np.ndarray
+    dofs: int
+    devices: int
+    platform: str
+    balance: str
+    cases_per_loop: int
+    loops: int  # vmapped loops over all devices (padding included)
+    collectives: int  # cross-device operations in the compiled program (0: none)
+    compile_s: float
+    run_s: float
+    single_case: int | None = None
+    single_s: float | None = None
+    single_compile_s: float | None = None
+    single_steps: int | None = None
+
+    @property
+    def cases(self) -> int:
+        return self.grid.cases
+
+    @property
+    def throughput(self) -> float:
+        """Manoeuvres per second of run time (compilation excluded)."""
+        return self.cases / self.run_s
+
+    @property
+    def cost_in_single_runs(self) -> float | None:
+        """The sweep's run time in units of a single run of its slowest case."""
+        return None if self.single_s is None else self.run_s / self.single_s
+
+    def summary(self) -> dict:
+        g = self.grid
+        s = {"cases": self.cases, "devices": self.devices, "platform": self.platform, "balance": self.balance,
+             "cases_per_loop": self.cases_per_loop, "loops": self.loops, "collectives": self.collectives,
+             "dofs": self.dofs, "t_end": float(self.ts[-1]), "compile_s": round(self.compile_s, 3),
+             "run_s": round(self.run_s, 4), "throughput_per_s": round(self.throughput, 3),
+             "single_run_s": None if self.single_s is None else round(self.single_s, 4),
+             "single_compile_s": None if self.single_compile_s is None else round(self.single_compile_s, 3),
+             "sweep_over_single": None if self.single_s is None else round(self.cost_in_single_runs, 3),
+             "max_steps_case": int(np.argmax(self.steps + self.rejected)),
+             "omega_s": g.omega_s.tolist(), "T_s": g.T_s.tolist(), "E_scale": g.E_scale.tolist(),
+             "peak_uy": self.peak_uy.tolist(), "peak_ux": self.peak_ux.tolist(),
+             "residual_uy": [None if not np.isfinite(x) else float(x) for x in self.residual_uy],
+             "steps": self.steps.tolist(), "rejected": self.rejected.tolist()}
+        if self.single_case is not None:
+            i = self.single_case
+            s["single_case"] = {"index": i, "omega_s": float(g.omega_s[i]), "T_s": float(g.T_s[i]),
+                                "E_scale": float(g.E_scale[i]), "steps": self.single_steps}
+        return s
+
+    def json(self) -> str:
+        return json.dumps(self.summary())
+
+    def table(self, max_rows: int = 12) -> str:
+        g = self.grid
+        idx = np.arange(self.cases)
+        if self.cases > max_rows:
+            idx = np.unique(np.linspace(0, self.cases - 1, max_rows).round().astype(int))
+        lines = [f"  {'case':>5s} {'omega_s':>8s} {'T_s':>6s} {'E/E0':>6s} {'peak |uy|':>10s} {'peak |ux|':>10s} "
+                 f"{'resid. uy':>10s} {'steps':>6s}"]
+        for i in idx:
+            lines.append(f"  {i:5d} {g.omega_s[i]:8.3f} {g.T_s[i]:6.2f} {g.E_scale[i]:6.3f} {self.peak_uy[i]:10.5f} "
+                         f"{self.peak_ux[i]:10.5f} {self.residual_uy[i]:10.5f} {self.steps[i]:6d}")
+        if idx.size < self.cases:
+            lines.append(f"  ({idx.size} of {self.cases} cases shown)")
+        lines.append(f"  {self.cases} cases on {self.devices} {self.platform.upper()} device(s), {self.dofs} reduced "
+                     f"DOFs: compile {self.compile_s:.2f} s, run {self.run_s:.3f} s "
+                     f"({self.throughput:.1f} manoeuvres/s)")
+        if self.single_s is not None:
+            lines.append(f"  slowest case alone (case {self.single_case}, {self.single_steps} steps): run "
+                         f"{self.single_s:.3f} s; the sweep costs {self.cost_in_single_runs:.2f} single runs")
+        return "\n".join(lines)
+
+    def to_csv(self, path: str) -> None:
+        with open(path, "w", newline="") as f:
+            wr = csv.writer(f)
+            wr.writerow(["omega_s", "T_s", "E_scale", "peak_uy", "peak_ux", "residual_uy", "steps", "rejected"])
+            g = self.grid
+            for i in range(self.cases):
+                wr.writerow([f"{g.omega_s[i]:.10g}", f"{g.T_s[i]:.10g}", f"{g.E_scale[i]:.10g}",
+                             f"{self.peak_uy[i]:.10g}", f"{self.peak_ux[i]:.10g}", f"{self.residual_uy[i]:.10g}",
+                             int(self.steps[i]), int(self.rejected[i])])
+
+    def plot(self, path: str, title: str | None = None, dpi: int = 120) -> None:
+        """Peak transverse and axial tip deflection, and the residual vibration amplitude, against
+        ωs: one line per (Ts, E) of the grid."""
+        from .plotting import _pyplot
+
+        plt = _pyplot()
+        g = self.grid
+        shape = g.shape if len(g.shape) == 3 else (g.cases, 1, 1)
+        order = np.arange(g.cases).reshape(shape)
+        if len(g.shape) != 3:  # a list of cases: sort by ωs
+            order = np.argsort(g.omega_s, kind="stable").reshape(shape)
+        panels = [(self.peak_uy, "peak |tip $u_y$| (transverse) [m]"), (self.peak_ux, "peak |tip $u_x$| (axial) [m]"),
+                  (self.residual_uy, "residual $u_y$ amplitude after $T_s$ [m]")]
+        fig, axes = plt.subplots(len(panels), 1, figsize=(7, 7.5), sharex=True)
+        for iT in range(shape[1]):
+            for iE in range(shape[2]):
+                sel = order[:, iT, iE]
+                label = f"$T_s$ = {g.T_s[sel[0]]:g} s" + (f", E/E0 = {g.E_scale[sel[0]]:g}" if shape[2] > 1 else "")
+                for ax, (y, _) in zip(axes, panels):
+                    ax.plot(g.omega_s[sel], y[sel], "o-", ms=3, label=label)
+        for ax, (_, ylabel) in zip(axes, panels):
+            ax.set_ylabel(ylabel)
+            ax.grid(alpha=0.3)
+        if shape[1] * shape[2] > 1:
+            axes[0].legend(fontsize="small")
+        axes[-1].set_xlabel(r"$\omega_s$ [rad/s]")
+        axes[0].set_title(title or f"Spin-up sweep: {g.cases} cases, {self.dofs} reduced DOFs")
+        fig.tight_layout()
+        fig.savefig(path, dpi=dpi)
+        plt.close(fig)
+
+
+def _peaks(ts, tip, T_s):
+    peak_uy = np.abs(tip[:, :, 1]).max(axis=1)
+    peak_ux = np.abs(tip[:, :, 0]).max(axis=1)
+    after = ts[None, :] >= T_s[:, None]
+    uy = tip[:, :, 1]
+    hi = np.where(after, uy, -np.inf).max(axis=1)
+    lo = np.where(after, uy, np.inf).min(axis=1)
+    residual = np.where(after.sum(axis=1) >= 2, 0.5 * (hi - lo), np.nan)
+    return peak_uy, peak_ux, residual
+
+
+# --- the public entry points --------------------------------------------------------------------
+
+def _as_model(model_or_reduction) -> ReducedRotatingModel:
+    m = getattr(model_or_reduction, "model", model_or_reduction)
+    if not isinstance(m, ReducedRotatingModel):
+        raise ValueError("spinup_sweep runs a reduced NR-RNCF model (a ReducedRotatingModel or the Reduction "
+                         f"from nr_rncf), got {type(model_or_reduction).__name__}")
+    if m.linear:
+        raise ValueError("spinup_sweep needs the nonlinear reduced model, got the linear MMI model")
+    return m
+
+
+def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: float = 0.01, rtol: float = 1e-4,
+                 atol: float = 1e-6, rho_inf: float = 0.9, dt: float | None = None, max_steps: int = 500_000,
+                 devices: int | Sequence | None = None, cases_per_loop: int | None = None, balance: str = "blocks",
+                 tip: int | None = None, time_single: bool = False, throw: bool = True) -> SweepResult:
+    """Run the spin-up of Eq. 43 for every case of ``grid`` in one compiled, vmapped loop.
+
+    ``model_or_reduction``: a ``ReducedRotatingModel`` (or the ``Reduction`` from ``nr_rncf``);
+    its basis is held fixed across the grid, only the motion and E change (``case_model``).
+    Outputs at 0, ``dt_out``, ..., ``t_end``; each case keeps its own adaptive step
+    (``rtol``/``atol``, generalized-α with ``rho_inf``). ``devices``: a count or a list of
+    devices (default: every device JAX sees); with more than one the batch is split by
+    ``shard_map`` and ``balance`` (see ``schedule``). ``cases_per_loop``: cases advanced together
+    by one vmapped loop; a device runs its loops in turn (default: all its cases in one loop).
+    ``dt``: a fixed step size instead of the adaptive step (every case then takes the same steps).
+
+    Results do not depend on the device count beyond round-off: XLA may sum a batched
+    contraction in another order for another local batch shape or partitioning, and the
+    adaptive step control carries such round-off into differences far below its tolerance
+    (with fixed steps they stay at round-off). ``tip``: the nodal vector observed
+    (default the beam's tip position vector). Compilation (ahead of time) and the run are timed
+    apart; with ``time_single=True`` the slowest case is then run alone for comparison.
+    ``throw=True`` raises ``SimulationError`` naming a case that stopped early.
+
+    Returns a ``SweepResult``. Every check on the input runs before anything is traced.
+    """
+    from .scenarios.spinup import output_times
+
+    model = _as_model(model_or_reduction)
+    if not isinstance(grid, SweepGrid):
+        raise ValueError(f"grid must be a SweepGrid (see sweep_grid), got {type(grid).__name__}")
+    ts = output_times(t_end, dt_out)
+    if ts.size < 2:
+        raise ValueError(f"t_end={t_end!r} must be at least one output interval dt_out={dt_out!r}")
+    _validate.positive("rtol", rtol)
+    _validate.positive("atol", atol)
+    if not 0.0 <= float(rho_inf) <= 1.0:
+        raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={rho_inf!r}")
+    max_steps = _validate.positive_int("max_steps", max_steps)
+    if balance not in BALANCES:
+        raise ValueError(f"balance must be one of {BALANCES}, got {balance!r}")
+    n_vec = model.q_hat.shape[0]
+    tip = default_tip(model) if tip is None else int(tip)
+    if not 0 <= tip < n_vec:
+        raise ValueError(f"tip must index one of the model's {n_vec} nodal vectors, got tip={tip}")
+    devs = _resolve_devices(devices)
+
+    if dt is not None:
+        _validate.positive("dt (fixed step size)", dt)
+    cfg = _Config(rtol=float(rtol), atol=float(atol), dt0=1e-3 * float(ts[-1]) if dt is None else float(dt),
+                  rho_inf=float(rho_inf), max_steps=max_steps, adaptive=dt is None, tip=tip,
+                  scale_E=bool(np.any(grid.E_scale != 1.0)))
+    n_dev = len(devs)
+    per_dev = -(-grid.cases // n_dev)
+    c = per_dev if cases_per_loop is None else _validate.positive_int("cases_per_loop", cases_per_loop)
+    order = schedule(grid.expected_cost(), n_dev, c, balance)
+    params = [x[order].reshape(-1, c) for x in (grid.omega_s, grid.T_s, grid.E_scale)]
+    # One device is a mesh of one: a single code path whatever the device count.
+    from jax.sharding import Mesh, NamedSharding
+    from jax.sharding import PartitionSpec as P
+
+    mesh = Mesh(np.array(devs), (_AXIS,))
+    rep, split = NamedSharding(mesh, P()), NamedSharding(mesh, P(_AXIS))
+    model_r = jax.tree_util.tree_map(lambda x: _put(x, rep) if eqx.is_array(x) else x, model)
+    args = (model_r, *(_put(x, split) for x in params), _put(ts, rep))
+
+    t0 = time.perf_counter()
+    compiled = _sweep_kernel.lower(*args, cfg, mesh).compile()
+    t1 = time.perf_counter()
+    out = jax.block_until_ready(compiled(*args, cfg, mesh))
+    t2 = time.perf_counter()
+    collectives = len(_COLLECTIVES.findall(compiled.compiled.as_text()))  # the jax.stages.Compiled inside
+    out = {k: _fetch(v) for k, v in out.items()}
+
+    # Back to the grid's order: the first slot holding each case (padding copies come later).
+    _, slot = np.unique(order, return_index=True)
+    out = {k: v[slot] for k, v in out.items()}
+    if throw and np.any(out["result"] != 0):
+        i = int(np.flatnonzero(out["result"])[0])
+        raise SimulationError(f"sweep case {i} (omega_s = {grid.omega_s[i]:g}, T_s = {grid.T_s[i]:g}, "
+                              f"E_scale = {grid.E_scale[i]:g}) stopped at t = {out['t_final'][i]:.6g} s: "
+                              f"{RESULTS[int(out['result'][i])]}")
+    tipw = out["tip"]
+    peak_uy, peak_ux, residual = _peaks(ts, tipw, grid.T_s)
+    res = SweepResult(
+        grid=grid, ts=ts, tip=tipw, peak_uy=peak_uy, peak_ux=peak_ux, residual_uy=residual,
+        steps=out["steps"].astype(int), rejected=out["rejected"].astype(int), newton=out["newton"].astype(int),
+        dofs=model.n_dof, devices=n_dev, platform=devs[0].platform, balance=balance, cases_per_loop=c,
+        loops=order.size // c, collectives=collectives, compile_s=t1 - t0, run_s=t2 - t1,
+    )
+    if time_single:
+        i = int(np.argmax(res.steps + res.rejected))
+        sol, c_s, r_s = single_run(model, grid.omega_s[i], grid.T_s[i], grid.E_scale[i], t_end=t_end, dt_out=dt_out,
+                                   rtol=rtol, atol=atol, rho_inf=rho_inf, dt=dt, max_steps=max_steps, tip=tip,
+                                   timed=True)
+        res.single_case, res.single_s, res.single_compile_s = i, r_s, c_s
+        res.single_steps = int(sol.num_steps)
+    return res
+
+
+def single_run(model_or_reduction, omega_s: float, T_s: float, E_scale: float = 1.0, *, t_end: float,
+               dt_out: float = 0.01, rtol: float = 1e-4, atol: float = 1e-6, rho_inf: float = 0.9,
+               dt: float | None = None, max_steps: int = 500_000, tip: int | None = None, timed: bool = False):
+    """One case of a sweep run alone, exactly as the sweep runs it: the ``Solution`` (``ys`` the
+    tip displacement series); with ``timed=True``, ``(solution, compile_s, run_s)``."""
+    from .scenarios.spinup import output_times
+
+    model = _as_model(model_or_reduction)
+    ts = output_times(t_end, dt_out)
+    m = case_model(model, jnp.asarray(float(omega_s)), jnp.asarray(float(T_s)),
+                   1.0 if float(E_scale) == 1.0 else jnp.asarray(float(E_scale)))
+    kw = dict(solver=GeneralizedAlpha(float(rho_inf)), rtol=float(rtol), atol=float(atol),
+              dt0=1e-3 * float(ts[-1]) if dt is None else float(dt), adaptive=dt is None, max_steps=int(max_steps),
+              observe=TipObserver(m, default_tip(model) if tip is None else int(tip)))
+    if timed:
+        return simulate_timed(m, jnp.asarray(ts), **kw)
+    return simulate(m, jnp.asarray(ts), **kw)
+
+
+def sweep_reduction(beam, grid: SweepGrid, *, t_end: float, elements: int | None = None, dt_out: float = 0.01,
+                    n_modes: int = 24, vms="auto", mds="auto", max_dofs: int | None = 25):
+    """The NR-RNCF ``Reduction`` one sweep shares: ``nr_rncf`` of the full RNCF model of ``beam``
+    at the grid's hardest case (highest ωs, shortest Ts; the beam's own E), with the MMI
+    simulation over 0..``t_end``. ``elements`` defaults to the paper's mesh for that ωs."""
+    from .nr_rncf import nr_rncf
+    from .scenarios.spinup import build_spinup_model, output_times
+
+    if not isinstance(grid, SweepGrid):
+        raise ValueError(f"grid must be a SweepGrid (see sweep_grid), got {type(grid).__name__}")
+    ts = output_times(t_end, dt_out)
+    full = build_spinup_model("rncf", beam, float(grid.omega_s.max()), float(grid.T_s.min()), elements)
+    return nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs)
