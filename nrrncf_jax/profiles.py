@@ -1,0 +1,109 @@
+"""Parameterised spin-up profiles for control design: Eq. 43 plus a smooth, trainable correction.
+
+The correction lives in the space of trigonometric polynomials on [0, Ts] that vanish at both
+ends and have zero mean, so every coefficient vector gives a continuous θ̈ that reaches the
+steady spin rate ωs exactly at Ts (the end-speed constraint is built into the basis rather than
+imposed by a penalty). θ̇ and θ are the exact integrals, in closed form.
+"""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from . import _validate
+from ._types import Array, ArrayLike, Float, ScalarLike
+
+
+class FourierSpinUp(eqx.Module):
+    """Spin-up about a fixed axis: Eq. 43's θ̈ plus a zero-mean Fourier correction.
+
+    With τ = 2πt/Ts and n terms, for 0 ≤ t ≤ Ts
+
+        θ̈(t) = (ωs/Ts)(1 − cos τ) + Σ_{k=1..n} [a_k sin kτ + b_k (cos kτ − cos (k+1)τ)],
+
+    and θ̈ = 0, θ̇ = ωs after Ts. Every basis function vanishes at t = 0 and t = Ts (θ̈ is
+    continuous, starting and ending at zero) and integrates to zero over [0, Ts] (θ̇(Ts) = ωs
+    for any coefficients). The b-functions also have zero slope at both ends; the a-functions
+    do not, so a profile with a ≠ 0 has a jump in jerk at 0 and Ts. θ̇ and θ are exact integrals;
+    θ(Ts) = ωs Ts/2 + Σ a_k Ts²/(2πk). With all coefficients zero this is ``SpinUp`` (Eq. 43).
+
+    ``coeffs`` has shape (2, n): row 0 the a_k, row 1 the b_k [rad/s²]. Every field is an array,
+    so the profile can be differentiated with respect to its coefficients (swap them with
+    ``eqx.tree_at``) or vmapped over.
+    """
+
+    omega_s: Float[Array, ""]
+    T_s: Float[Array, ""]
+    coeffs: Float[Array, "2 n"]
+
+    def __init__(self, omega_s: ScalarLike, T_s: ScalarLike = 15.0, coeffs: Float[ArrayLike, "2 n"] | None = None,
+                 n_terms: int | None = None):
+        _validate.positive("omega_s (steady spin rate)", omega_s)
+        _validate.positive("T_s (spin-up time)", T_s)
+        if coeffs is None:
+            if n_terms is None:
+                raise ValueError("give the coefficients (shape (2, n)) or n_terms for a zero correction")
+            coeffs = jnp.zeros((2, _validate.positive_int("n_terms", n_terms)))
+        elif n_terms is not None:
+            raise ValueError("give either coeffs or n_terms, not both")
+        _check_coeffs(coeffs)
+        self.omega_s = jnp.asarray(omega_s, dtype=float)
+        self.T_s = jnp.asarray(T_s, dtype=float)
+        self.coeffs = jnp.asarray(coeffs, dtype=float)
+
+    @property
+    def n_terms(self) -> int:
+        return self.coeffs.shape[1]
+
+    def __call__(self, t: ScalarLike) -> tuple[Float[Array, "..."], Float[Array, "..."], Float[Array, "..."]]:
+        """``(θ, θ̇, θ̈)`` at time t (any shape)."""
+        w, T = self.omega_s, self.T_s
+        t = jnp.asarray(t, dtype=float)
+        tc = jnp.minimum(t, T)
+        c = 2.0 * jnp.pi / T
+        # Eq. 43
+        th = (w / T) * (0.5 * tc**2 + (jnp.cos(c * tc) - 1.0) / c**2)
+        dth = (w / T) * (tc - jnp.sin(c * tc) / c)
+        ddth = (w / T) * (1.0 - jnp.cos(c * tc))
+        # The correction: sin kτ, and cos mτ with weight d_m = b_m − b_{m−1} (m = 1..n+1).
+        a, d = self.sine_coeffs, self.cosine_coeffs
+        ka = c * jnp.arange(1, a.shape[0] + 1, dtype=float)
+        kd = c * jnp.arange(1, d.shape[0] + 1, dtype=float)
+        xa = tc[..., None] * ka
+        xd = tc[..., None] * kd
+        sa, ca, sd, cd = jnp.sin(xa), jnp.cos(xa), jnp.sin(xd), jnp.cos(xd)
+        ddth = ddth + sa @ a + cd @ d
+        dth = dth + ((1.0 - ca) / ka) @ a + (sd / kd) @ d
+        th = th + ((tc[..., None] - sa / ka) / ka) @ a + ((1.0 - cd) / kd**2) @ d
+        spinning = t > T
+        return (th + w * (t - tc), jnp.where(spinning, w, dth), jnp.where(spinning, 0.0, ddth))
+
+    @property
+    def sine_coeffs(self) -> Float[Array, " n"]:
+        """a_k, the weights of sin kτ."""
+        return self.coeffs[0]
+
+    @property
+    def cosine_coeffs(self) -> Float[Array, " n+1"]:
+        """d_m = b_m − b_{m−1} (b_0 = b_{n+1} = 0), the weights of cos mτ, m = 1..n+1; Σ d_m = 0."""
+        b = self.coeffs[1]
+        z = jnp.zeros((1,), b.dtype)
+        return jnp.concatenate([b, z]) - jnp.concatenate([z, b])
+
+    def correction_mean_square(self) -> Float[Array, ""]:
+        """Mean over [0, Ts] of (θ̈ − θ̈_Eq.43)², in closed form: ½(Σ a_k² + Σ d_m²) [rad²/s⁴].
+
+        Smooth in the coefficients (its square root, the RMS, has no derivative at zero).
+        """
+        return 0.5 * (jnp.sum(self.sine_coeffs**2) + jnp.sum(self.cosine_coeffs**2))
+
+
+def _check_coeffs(coeffs) -> None:
+    if not _validate.is_concrete(coeffs):
+        return
+    c = np.asarray(coeffs)
+    if c.ndim != 2 or c.shape[0] != 2 or c.shape[1] < 1:
+        raise ValueError(f"coeffs must have shape (2, n) with n >= 1 (row 0: sine, row 1: cosine-pair "
+                         f"coefficients), got shape {c.shape}")
+    if not np.all(np.isfinite(c)):
+        raise ValueError("coeffs must be finite (got NaN or Inf)")
