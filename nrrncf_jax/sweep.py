@@ -16,16 +16,19 @@ E = s·E0 obeys the reduced equations with F(p) scaled by s. Rather than scale t
 tensors (Km⁴ numbers per case under ``vmap``), the sweep divides the other terms of the
 equations (inertia, rotation and external loads, Km² numbers) by s: the same solution.
 
-**Devices.** With several devices the batch is split with ``shard_map`` over a 1-D mesh, and
-every device runs its own ``vmap``-ped adaptive loop to the end: no collective inside the loop,
-so no per-step synchronisation (a ``jit`` over a sharded batch would all-reduce the loop
-condition every step). Under ``vmap`` a loop runs until its slowest member is done, so cases are
-sorted by expected cost and each device gets a contiguous block of that order (``balance=
-'blocks'``): every device's wall time is bounded by the hardest case, as when interleaving,
-and the devices holding the cheap cases finish early instead of idling through masked steps.
-``balance='interleave'`` deals the sorted cases round-robin instead (every device the same mix).
-The same call runs on a multi-GPU host, or on every device of a cluster after
-``jax.distributed.initialize()``.
+**Devices.** The batch is split with ``shard_map`` over a 1-D mesh of the devices (one device
+is a mesh of one), and every device runs its own ``vmap``-ped adaptive loops to the end: the
+compiled program holds no cross-device operation (``SweepResult.collectives``), so there is no
+per-step synchronisation (a ``jit`` over a sharded batch would all-reduce the loop condition
+every step). Under ``vmap`` a loop runs until its slowest member is done, so cases are sorted by
+expected cost, padded at the end with copies of the costliest to a multiple of the device count,
+and each device gets a contiguous block of that order (``balance='blocks'``): every device's
+wall time is bounded by the hardest case, as it would be with interleaving, but the devices
+holding the cheap cases finish early instead of stepping masked cases until the slowest is done
+(on a CPU whose cores the devices share, that time goes to the others). ``balance='interleave'``
+deals the sorted cases round-robin instead (every device the same mix). The same call runs on a
+multi-GPU host, or on every device of a cluster after ``jax.distributed.initialize()`` (inputs
+are placed as global arrays, results gathered from every process).
 """
 
 import csv
@@ -49,6 +52,7 @@ from .models.reduced import ReducedRotatingModel
 from .motion import SpinUp
 
 _AXIS = "cases"
+_CPU_SHARDED_LOOP = 16
 BALANCES = ("blocks", "interleave")
 
 
@@ -464,7 +468,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     (``rtol``/``atol``, generalized-α with ``rho_inf``). ``devices``: a count or a list of
     devices (default: every device JAX sees); with more than one the batch is split by
     ``shard_map`` and ``balance`` (see ``schedule``). ``cases_per_loop``: cases advanced together
-    by one vmapped loop; a device runs its loops in turn (default: all its cases in one loop).
+    by one vmapped loop; a device runs its loops in turn (default: all its cases in one loop; at
+    most 16 on several CPU host devices, which hung with wider loops).
     ``dt``: a fixed step size instead of the adaptive step (every case then takes the same steps).
 
     Results do not depend on the device count beyond round-off: XLA may sum a batched
@@ -505,7 +510,12 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
                   scale_E=bool(np.any(grid.E_scale != 1.0)))
     n_dev = len(devs)
     per_dev = -(-grid.cases // n_dev)
-    c = per_dev if cases_per_loop is None else _validate.positive_int("cases_per_loop", cases_per_loop)
+    if cases_per_loop is None:
+        # Several CPU devices share one host thread pool; with jaxlib 0.10.2 a loop 32 cases wide
+        # on 2 forced host devices never finished (16 did), so host devices get loops of <= 16.
+        c = min(per_dev, _CPU_SHARDED_LOOP) if n_dev > 1 and devs[0].platform == "cpu" else per_dev
+    else:
+        c = _validate.positive_int("cases_per_loop", cases_per_loop)
     order = schedule(grid.expected_cost(), n_dev, c, balance)
     params = [x[order].reshape(-1, c) for x in (grid.omega_s, grid.T_s, grid.E_scale)]
     # One device is a mesh of one: a single code path whatever the device count.
