@@ -4,6 +4,7 @@
     nrrncf spinup --formulation nr-rncf --omega 10 --reference rncf --plot tip.png
     nrrncf modes --beam paper --elements 8 --json
     nrrncf modes --beam curved-upwind --elements 8 --count 6 --mmi --omega 4 --plot mmi.png
+    nrrncf identify --demo --json
 
 Each subcommand lives in its own module of this package, with a ``register(subparsers)``.
 The command switches on float64 in its own entry point; the library itself never does.
@@ -13,7 +14,7 @@ import argparse
 import importlib
 import sys
 
-SUBCOMMANDS = ("spinup", "modes", "sweep")
+SUBCOMMANDS = ("spinup", "modes", "identify", "sweep")
 """Modules of this package, each with ``register(subparsers)``; their order is the help's."""
 
 

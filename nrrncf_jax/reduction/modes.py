@@ -6,11 +6,13 @@ form, so the problem is reduced with the Cholesky factor of M: ``L⁻¹ K L⁻�
 """
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import numpy as np
 
 from .._types import Array, Bool, Float
+from .._validate import is_concrete
 from ..body import Body
 
 
@@ -28,14 +30,18 @@ def vibration_modes(
     """The ``k`` lowest modes of ``(K|eq, M ⊗ I3)`` restricted to the ``free`` coordinates.
 
     Raises ``ValueError`` if K|eq is singular on the free coordinates (missing reference
-    conditions: a free body has six zero-frequency rigid modes).
+    conditions: a free body has six zero-frequency rigid modes). Differentiable (through
+    ``eigh``) when the spectrum has no repeated eigenvalues; the checks run on concrete values.
     """
     q_eq = body.q_hat if q_eq is None else q_eq
     free_np = np.asarray(free)
     idx = np.flatnonzero(free_np)
     # A rigid motion that leaves every constrained coordinate alone is a zero-stiffness mode.
     R_fixed = np.asarray(body.rigid_modes())[~free_np]
-    rank = 0 if R_fixed.size == 0 else int(np.sum(np.linalg.svd(R_fixed, compute_uv=False) > 1e-8 * np.abs(R_fixed).max()))
+    if R_fixed.size == 0:
+        rank = 0
+    else:
+        rank = int(np.sum(np.linalg.svd(R_fixed, compute_uv=False) > 1e-8 * np.abs(R_fixed).max()))
     if rank < 6:
         raise ValueError(
             f"the stiffness matrix K|eq is singular: {6 - rank} rigid-body mode(s) are not removed by the "
@@ -46,8 +52,8 @@ def vibration_modes(
     L = jnp.linalg.cholesky(M)
     A = jsl.solve_triangular(L, jsl.solve_triangular(L, K, lower=True).T, lower=True)
     A = 0.5 * (A + A.T)
-    w2, Y = jnp.linalg.eigh(A)
-    if float(w2[0]) <= 0.0:
+    w2, Y = eigh(A)
+    if is_concrete(w2) and float(w2[0]) <= 0.0:
         raise ValueError(
             f"K|eq is not positive definite on the free coordinates (lowest eigenvalue {float(w2[0]):.3g}): "
             "the configuration is not a stable equilibrium"
@@ -56,3 +62,36 @@ def vibration_modes(
     phi_free = jsl.solve_triangular(L.T, Y[:, :k], lower=False)
     phi = jnp.zeros((body.n_dof, k)).at[idx].set(phi_free)
     return VibrationModes(omega=jnp.sqrt(w2[:k]), phi=phi)
+
+
+DEGENERACY_RTOL = 1e-8
+"""Eigenvalues closer than this (relative) count as one repeated eigenvalue in ``eigh``'s
+derivative."""
+
+
+@jax.custom_jvp
+def eigh(A: Float[Array, "n n"]) -> tuple[Float[Array, " n"], Float[Array, "n n"]]:
+    """``jnp.linalg.eigh`` with a derivative that stays finite at repeated eigenvalues.
+
+    The eigenvector derivative is ``dV = V (F ∘ Vᵀ dA V)`` with ``F_ij = 1/(λ_j − λ_i)``.
+    Inside a repeated eigenvalue F is infinite — the eigenvectors there are not unique — and
+    JAX's own rule returns NaN (even for eigenvectors that are not used, through ∞ · 0). Here
+    F is set to zero for pairs closer than ``DEGENERACY_RTOL``: the derivative that does not
+    rotate a repeated eigenspace within itself. It is exact for every eigenvector that is
+    well separated from all others (F for its pairs is untouched), and it is the right
+    derivative of a repeated eigenspace when the perturbation keeps the symmetry that causes
+    the repetition (E, ρ or ν of a tube: both bending planes change alike).
+    """
+    return jnp.linalg.eigh(A)
+
+
+@eigh.defjvp
+def _eigh_jvp(primals, tangents):
+    (A,), (dA,) = primals, tangents
+    w, V = jnp.linalg.eigh(A)
+    dA = 0.5 * (dA + dA.T)
+    B = V.T @ dA @ V
+    gap = w[None, :] - w[:, None]
+    close = jnp.abs(gap) <= DEGENERACY_RTOL * jnp.maximum(jnp.abs(w[None, :]), jnp.abs(w[:, None]))
+    F = jnp.where(close, 0.0, 1.0 / jnp.where(close, 1.0, gap))
+    return (w, V), (jnp.diagonal(B), V @ (F * B))

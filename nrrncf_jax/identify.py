@@ -1,0 +1,232 @@
+"""Parameter identification: fit E, a damping ratio and the spin-up (ωs, Ts) to a measured
+response by gradient descent through the reduced simulation (optax Adam, then L-BFGS).
+
+The model is a *family* (``families.py``): a function from parameters to a reduced model,
+either with the basis held fixed or rebuilt through the offline stage. Reverse-mode gradients
+run the checkpointed integrator (``simulate(adjoint="reverse")``): memory grows with the
+number of checkpoints, not with the number of steps.
+"""
+
+import dataclasses
+import time
+from collections.abc import Callable
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+from ._types import Array, Float
+from .families import OFFLINE_PARAMETERS, PARAMETERS, OfflineSpinupFamily, check_params
+from .integrate.generalized_alpha import GeneralizedAlpha
+from .integrate.simulate import simulate
+from .models.reduced import ReducedRotatingModel
+
+
+class Measurement:
+    """A measured response: sample times ``ts`` (strictly increasing, ≥ 0) and ``values``
+    (first axis along ``ts``), checked before any tracing."""
+
+    def __init__(self, ts, values):
+        ts = np.asarray(ts, dtype=float)
+        values = np.asarray(values, dtype=float)
+        if ts.ndim != 1 or ts.size < 2:
+            raise ValueError(f"measurement times must be a 1-D array of at least 2 samples, got shape {ts.shape}")
+        if not np.all(np.isfinite(ts)):
+            raise ValueError("measurement times contain NaN or Inf")
+        if ts[0] < 0.0 or not np.all(np.diff(ts) > 0.0):
+            raise ValueError("measurement times must start at t >= 0 and be strictly increasing")
+        if values.ndim == 0 or values.shape[0] != ts.size:
+            raise ValueError(f"measurement values must have {ts.size} samples along their first axis (one per "
+                             f"time), got shape {values.shape}")
+        if not np.all(np.isfinite(values)):
+            raise ValueError("measurement values contain NaN or Inf")
+        if not np.any(values != 0.0):
+            raise ValueError("measurement values are all zero: nothing to fit")
+        self.ts = ts
+        self.values = values
+
+
+class TipDeflection(eqx.Module):
+    """One component of the tip displacement in the rotating frame (0 axial, 1 in-plane
+    transverse, 2 out of plane), from the displacements ``w = q − q̂`` (THEORY §9)."""
+
+    row: int = eqx.field(static=True)
+    component: int = eqx.field(static=True)
+
+    def __call__(self, w: Float[Array, "n 3"]) -> Float[Array, ""]:
+        return w[self.row, self.component]
+
+
+def tip_deflection(model: ReducedRotatingModel, component: int = 1) -> TipDeflection:
+    """The tip's position vector (the last node's r) of a beam model, one component."""
+    if component not in (0, 1, 2):
+        raise ValueError(f"component must be 0, 1 or 2, got {component!r}")
+    n_vectors = model.q_hat.shape[0]
+    return TipDeflection(row=n_vectors - 6, component=component)
+
+
+class Observation(eqx.Module):
+    """``observe(t, p, v)`` for ``simulate``: an observable of the displacements w = q − q̂."""
+
+    model: ReducedRotatingModel
+    observable: Callable
+
+    def __call__(self, t, p, v):
+        return self.observable(self.model.displacements(t, p))
+
+
+@dataclasses.dataclass
+class IdentificationResult:
+    """What ``identify`` found: parameters, the loss history (one entry per iteration) and cost."""
+
+    params: dict
+    initial: dict
+    loss_history: np.ndarray
+    adam_iterations: int
+    lbfgs_iterations: int
+    loss_evaluations: int
+    wall_s: float
+    compile_s: float
+    gradient: str
+
+    @property
+    def iterations(self) -> int:
+        return self.adam_iterations + self.lbfgs_iterations
+
+
+def misfit(family, params: dict, measurement: Measurement, *, observable: Callable | None = None,
+           rtol: float = 1e-6, atol: float = 1e-9, rho_inf: float = 0.9, adaptive: bool = True,
+           dt: float | None = None, max_steps: int = 100_000, newton_tol: float = 1e-3, adjoint: str = "reverse"):
+    """The relative mean-square misfit ``Σ(y(tᵢ) − yᵢ)² / Σ yᵢ²`` of the model ``family(params)``
+    against ``measurement``; differentiable in ``params`` (``jax.grad``; ``adjoint="reverse"``
+    runs the checkpointed integrator). ``observable`` maps the displacements w = q − q̂ to one
+    sample (default: the in-plane tip deflection). ``adaptive=False`` takes fixed steps ``dt``
+    (then finite differences of the misfit see no step-size changes)."""
+    ts = measurement.ts  # NumPy: stays concrete inside a trace (the integrator checks it and sizes dt0 from it)
+    data = jnp.asarray(measurement.values)
+    observable = tip_deflection(family.template) if observable is None else observable
+    model = family(params)
+    steps = {} if dt is None else {"dt0": dt}
+    y = simulate(model, ts, solver=GeneralizedAlpha(rho_inf), rtol=rtol, atol=atol, adjoint=adjoint,
+                 max_steps=max_steps, adaptive=adaptive, newton_tol=newton_tol,
+                 observe=Observation(model, observable), **steps).ys
+    return jnp.sum((y - data) ** 2) / jnp.sum(data**2)
+
+
+def identify(family, measurement: Measurement, initial: dict, *, observable: Callable | None = None,
+             adam_steps: int = 20, adam_lr: float = 0.05, lbfgs_steps: int = 30, gtol: float = 1e-10,
+             ftol: float = 1e-7, progress: bool = False, **simulation) -> IdentificationResult:
+    """Fit the parameters named in ``initial`` (a dict, e.g. ``{"E": 9e10, "zeta": 0.03}``) by
+    minimising ``misfit`` (``simulation``: its keyword arguments, e.g. ``rtol``).
+
+    Parameters are optimised as ``u = log(x / x_initial)`` (positive by construction, all of
+    order one): ``adam_steps`` of Adam, then up to ``lbfgs_steps`` of L-BFGS (optax's
+    ``scale_by_lbfgs`` direction, Armijo backtracking), stopping when ‖∇u‖ < ``gtol`` or an
+    iteration lowers the loss by less than ``ftol`` (relative). ``wall_s`` includes
+    ``compile_s``. Gradients are reverse-mode through the checkpointed integrator; the
+    step-size control is not differentiated (each step's Newton solve is, implicitly).
+    A non-finite loss or gradient stops it with ``FloatingPointError`` naming the parameters.
+    """
+    if not isinstance(measurement, Measurement):
+        raise ValueError("measurement must be a Measurement(ts, values)")
+    if not initial:
+        raise ValueError("initial must name at least one parameter to identify")
+    allowed = OFFLINE_PARAMETERS if isinstance(family, OfflineSpinupFamily) else PARAMETERS
+    check_params(initial, allowed)
+    for name, value in (("adam_steps", adam_steps), ("lbfgs_steps", lbfgs_steps)):
+        if int(value) < 0:
+            raise ValueError(f"{name} must be >= 0")
+    names = tuple(sorted(initial))
+    x0 = jnp.asarray([float(initial[k]) for k in names])
+    data = jnp.asarray(measurement.values)
+    observable = tip_deflection(family.template) if observable is None else observable
+    y_probe = jax.eval_shape(lambda: observable(jnp.zeros_like(family.template.q_hat))).shape
+    if tuple(y_probe) != data.shape[1:]:
+        raise ValueError(f"the observable gives shape {tuple(y_probe)} per sample, the measurement "
+                         f"{data.shape[1:]}")
+
+    def loss(u):
+        return misfit(family, dict(zip(names, x0 * jnp.exp(u))), measurement, observable=observable, **simulation)
+
+    # One compiled loss-and-gradient serves every Adam step and every L-BFGS line-search trial:
+    # optax.lbfgs's own zoom line search would embed the (long) reverse-mode simulation in a
+    # second and third compiled function, tripling the compile time. So the L-BFGS direction
+    # comes from optax (``scale_by_lbfgs``) and the step length from an Armijo backtracking
+    # loop here, on the host, around the shared compiled function.
+    value_and_grad = eqx.filter_jit(jax.value_and_grad(loss))
+    t0 = time.perf_counter()
+    u = jnp.zeros(len(names))
+    tc = time.perf_counter()
+    value_and_grad = value_and_grad.lower(u).compile()
+    compile_s = time.perf_counter() - tc
+
+    def evaluate(u):
+        value, grad = value_and_grad(u)
+        value = float(value)
+        _check_finite(value, grad, names, x0 * jnp.exp(u))
+        return value, grad
+
+    history, evals = [], 0
+    adam = optax.adam(adam_lr)
+    state = adam.init(u)
+    for i in range(int(adam_steps)):
+        value, grad = evaluate(u)
+        evals += 1
+        history.append(value)
+        updates, state = adam.update(grad, state, u)
+        u = optax.apply_updates(u, updates)
+        if progress:
+            print(f"  adam  {i + 1:3d}  loss {value:.4e}  " + _fmt(names, x0 * jnp.exp(u)), flush=True)
+
+    lbfgs = optax.scale_by_lbfgs()
+    state = lbfgs.init(u)
+    value, grad = evaluate(u)
+    evals += 1
+    n_lbfgs = 0
+    for i in range(int(lbfgs_steps)):
+        if float(jnp.linalg.norm(grad)) < gtol:
+            break
+        direction, state = lbfgs.update(grad, state, u)
+        step = -direction
+        slope = float(grad @ step)
+        if not slope < 0.0:  # not a descent direction: restart from steepest descent
+            state, step = lbfgs.init(u), -grad
+            slope = float(grad @ step)
+        alpha, accepted = 1.0, False
+        for _ in range(20):  # Armijo backtracking
+            u_try = u + alpha * step
+            v_try, g_try = evaluate(u_try)
+            evals += 1
+            if v_try <= value + 1e-4 * alpha * slope:
+                accepted = True
+                break
+            alpha *= 0.5
+        if not accepted:
+            break
+        n_lbfgs += 1
+        converged = value - v_try <= ftol * value
+        u, value, grad = u_try, v_try, g_try
+        history.append(value)
+        if progress:
+            print(f"  lbfgs {n_lbfgs:3d}  loss {value:.4e}  " + _fmt(names, x0 * jnp.exp(u)), flush=True)
+        if converged:
+            break
+    x = np.asarray(x0 * jnp.exp(u))
+    return IdentificationResult(
+        params={k: float(v) for k, v in zip(names, x)}, initial={k: float(initial[k]) for k in names},
+        loss_history=np.asarray(history), adam_iterations=int(adam_steps), lbfgs_iterations=n_lbfgs,
+        loss_evaluations=evals, wall_s=time.perf_counter() - t0, compile_s=compile_s,
+        gradient="offline" if isinstance(family, OfflineSpinupFamily) else "fixed_basis",
+    )
+
+
+def _fmt(names, x) -> str:
+    return "  ".join(f"{k} {float(v):.6g}" for k, v in zip(names, x))
+
+
+def _check_finite(value, grad, names, x) -> None:
+    if not np.isfinite(value) or not bool(jnp.all(jnp.isfinite(grad))):
+        raise FloatingPointError(f"non-finite loss or gradient at {_fmt(names, x)} (loss {value}, gradient "
+                                 f"{np.asarray(grad)}): the simulation or its derivative broke down")
