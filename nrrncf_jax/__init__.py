@@ -8,7 +8,16 @@ line switches it on, in its own entry point.
 
 from .body import Body as Body
 from .body import beam_body as beam_body
+from .control import OptimalSpinup as OptimalSpinup
+from .control import optimal_spinup as optimal_spinup
+from .control import tip_index as tip_index
+from .control import tip_response as tip_response
 from .damping import RayleighDamping as RayleighDamping
+from .families import SpinupFamily as SpinupFamily
+from .families import offline_family as offline_family
+from .identify import Measurement as Measurement
+from .identify import identify as identify
+from .identify import misfit as misfit
 from .integrate import (
     GeneralizedAlpha as GeneralizedAlpha,
 )
@@ -49,15 +58,16 @@ from .models import (
 from .models import (
     Loads as Loads,
 )
+from .models import ReducedRotatingModel as ReducedRotatingModel
 from .models import (
     RotatingFrameModel as RotatingFrameModel,
 )
+from .models import reduce_rotating_model as reduce_rotating_model
 from .motion import SpinUp as SpinUp
 from .motion import Stationary as Stationary
-from .models import ReducedRotatingModel as ReducedRotatingModel
-from .models import reduce_rotating_model as reduce_rotating_model
 from .nr_rncf import Reduction as Reduction
 from .nr_rncf import nr_rncf as nr_rncf
+from .profiles import FourierSpinUp as FourierSpinUp
 from .reduction import ModalDerivatives as ModalDerivatives
 from .reduction import VibrationModes as VibrationModes
 from .reduction import deflate as deflate
@@ -67,5 +77,10 @@ from .scenarios import BEAMS as BEAMS
 from .scenarios import beam_preset as beam_preset
 from .scenarios import run_spinup as run_spinup
 from .section import TubeSection as TubeSection
+from .sweep import SweepGrid as SweepGrid
+from .sweep import SweepResult as SweepResult
+from .sweep import spinup_sweep as spinup_sweep
+from .sweep import sweep_grid as sweep_grid
+from .sweep import sweep_reduction as sweep_reduction
 
 __version__ = "0.1.0"

@@ -10,8 +10,9 @@ def _identify(args) -> int:
     if not args.json:
         print(f"nrrncf identify --demo: classic beam, full RNCF measurement at omega_s = 10 rad/s with zeta = 2 %, "
               f"{100 * args.noise:g} % noise; reduced model from a start {100 * (args.start - 1):+g} % off", flush=True)
-    demo = identification_demo(elements=args.elements, t_end=args.t_end, noise=args.noise, start=args.start,
-                               seed=args.seed, adam_steps=args.adam_steps, lbfgs_steps=args.lbfgs_steps,
+    demo = identification_demo(elements=args.elements, t_end=args.t_end, dt_out=args.dt_out, noise=args.noise,
+                               start=args.start, seed=args.seed, adam_steps=args.adam_steps,
+                               lbfgs_steps=args.lbfgs_steps,
                                progress=args.progress)
     if args.plot:
         demo.plot(args.plot)
@@ -43,6 +44,7 @@ def register(sub) -> None:
                    help="the classic-beam demonstration: E and zeta from a noisy full-RNCF record (omega_s = 10)")
     s.add_argument("--elements", type=int, default=6, help="beam elements (default 6)")
     s.add_argument("--t-end", type=float, default=30.0, help="record length [s] (default 30)")
+    s.add_argument("--dt-out", type=float, default=0.05, help="sampling interval [s] (default 0.05)")
     s.add_argument("--noise", type=float, default=0.01, help="noise, fraction of the record's std (default 0.01)")
     s.add_argument("--start", type=float, default=1.3, help="starting guess / truth for E and zeta (default 1.3)")
     s.add_argument("--seed", type=int, default=0)

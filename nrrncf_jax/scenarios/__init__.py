@@ -14,5 +14,7 @@ from .spinup import (
 )
 from .spinup import (
     run_nr_rncf_spinup as run_nr_rncf_spinup,
+)
+from .spinup import (
     run_spinup as run_spinup,
 )

@@ -1,0 +1,110 @@
+"""Identification demonstration and the memory of reverse-mode gradients.
+
+    python benchmarks/identification.py [--out benchmarks/results/identification.md] [--skip-demo]
+
+1. The issue's demonstration (``nrrncf identify --demo``): classic beam, full RNCF measurement at
+   ωs = 10 rad/s with ζ = 2 % and 1 % noise; E and ζ recovered by the NR-RNCF model from 30 % off.
+2. Memory: the gradient of a tip-deflection misfit with respect to E through the reduced paper
+   beam at ωs = 40 rad/s over 0-30 s (24 elements, the automatic basis), reverse mode through the
+   checkpointed integrator, against the forward run alone. XLA's compiled memory analysis gives
+   the temporary buffers of each program; "store every step" is what a non-checkpointed reverse
+   pass would keep (the state of every accepted step).
+"""
+
+import argparse
+import os
+import sys
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _machine import machine  # noqa: E402
+
+from nrrncf_jax.families import SpinupFamily  # noqa: E402
+from nrrncf_jax.identify import Measurement, Observation, misfit, tip_deflection  # noqa: E402
+from nrrncf_jax.integrate.simulate import simulate  # noqa: E402
+from nrrncf_jax.nr_rncf import nr_rncf  # noqa: E402
+from nrrncf_jax.scenarios.identification import identification_demo  # noqa: E402
+from nrrncf_jax.scenarios.spinup import build_spinup_model, output_times  # noqa: E402
+
+
+def memory_case():
+    ts = output_times(30.0, 0.01)
+    full = build_spinup_model("rncf", "paper", 40.0, 15.0, 24)
+    red = nr_rncf(full, jnp.asarray(ts))
+    fam = SpinupFamily.from_reduction(red, 70e9)  # the paper preset's E
+    m = fam({})
+    y = np.asarray(simulate(m, ts, observe=Observation(m, tip_deflection(m)), rtol=1e-6, atol=1e-9).ys)
+    meas = Measurement(ts, y)
+    steps = simulate(m, ts, observe=Observation(m, tip_deflection(m)), rtol=1e-6, atol=1e-9).num_steps
+
+    def loss(s):
+        return misfit(fam, {"E": 70e9 * s}, meas, rtol=1e-6, atol=1e-9, max_steps=100_000)
+
+    rows = []
+    for name, fn in (("forward run (misfit only)", lambda s: misfit(fam, {"E": 70e9 * s}, meas, adjoint="forward")),
+                     ("reverse-mode gradient (checkpointed)", jax.grad(loss))):
+        t0 = time.perf_counter()
+        compiled = jax.jit(fn).lower(1.02).compile()
+        compile_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        out = jax.block_until_ready(compiled(1.02))
+        run_s = time.perf_counter() - t0
+        mem = compiled.memory_analysis()
+        temp = getattr(mem, "temp_size_in_bytes", None) if mem is not None else None
+        rows.append((name, compile_s, run_s, temp, float(out)))
+    km = m.n_dof
+    per_step = 8 * (4 * km + 4)  # q, v, a, ā and t, h, … of one step, float64
+    return red.dofs, int(steps), rows, per_step
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results", "identification.md"))
+    ap.add_argument("--skip-demo", action="store_true")
+    a = ap.parse_args()
+    lines = ["# Identification and reverse-mode memory", "", f"Machine: {machine()}", ""]
+    if not a.skip_demo:
+        demo = identification_demo(progress=True)
+        s = demo.summary()
+        lines += [
+            "## Demonstration (`nrrncf identify --demo`)", "",
+            "Classic beam, 6 elements; measurement: full RNCF, ωs = 10 rad/s, Ts = 15 s, Rayleigh ζ = 2 % in the "
+            "first two in-plane bending modes, 0-30 s sampled every 0.05 s, 1 % Gaussian noise. Model: NR-RNCF "
+            f"({s['reduced_dofs']} DOFs) built at the starting guess (E and ζ both 1.3 × truth), basis held fixed.",
+            "", "| quantity | true | start | identified | relative error |", "|---|---|---|---|---|",
+            f"| E [Pa] | {s['E_true']:.6g} | {s['E_initial']:.6g} | {s['E_identified']:.6g} | "
+            f"{100 * s['E_rel_err']:+.3f} % |",
+            f"| ζ | {s['zeta_true']:.4f} | {s['zeta_initial']:.4f} | {s['zeta_identified']:.5f} | "
+            f"{100 * s['zeta_rel_err']:+.2f} % |", "",
+            f"Iterations: {s['iterations']} ({s['adam_iterations']} Adam + {s['lbfgs_iterations']} L-BFGS), "
+            f"{s['loss_evaluations']} loss-and-gradient evaluations; final relative misfit {s['final_loss']:.3e} "
+            "(the 1 % noise floor is about 1e-4). Wall time "
+            f"{s['wall_s']:.1f} s including {s['compile_s']:.1f} s compilation; the full-RNCF measurement took "
+            f"{s['measurement_s']:.1f} s and the offline stage {s['offline_s']:.1f} s.", "",
+        ]
+        print("\n".join(lines[-12:]))
+    dofs, steps, rows, per_step = memory_case()
+    lines += ["## Memory of the reverse-mode gradient (paper beam, ωs = 40 rad/s, 0-30 s, 3001 outputs)", "",
+              f"Reduced model: {dofs} DOFs, {steps} accepted steps (rtol 1e-6).", "",
+              "| program | compile [s] | run [s] | XLA temporary buffers [MiB] |", "|---|---|---|---|"]
+    for name, c, r, temp, _ in rows:
+        lines.append(f"| {name} | {c:.1f} | {r:.2f} | {'n/a' if temp is None else f'{temp / 2**20:.2f}'} |")
+    lines += ["", f"Storing every step's state for a plain reverse pass would take at least {steps} × {per_step} B "
+              f"= {steps * per_step / 2**20:.2f} MiB plus every Newton iteration's intermediates; the checkpointed "
+              "loop (`equinox.internal.while_loop(kind='checkpointed')`, max_steps = 100000) keeps O(√max_steps) "
+              "checkpoints and recomputes between them.", ""]
+    text = "\n".join(lines)
+    os.makedirs(os.path.dirname(a.out), exist_ok=True)
+    with open(a.out, "w") as f:
+        f.write(text)
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
