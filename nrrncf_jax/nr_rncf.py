@@ -62,7 +62,8 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
 
     t0 = time.perf_counter()
     linear = reduce_rotating_model(full, modes.phi, linear=True)
-    loads = jnp.column_stack([linear.inertia.g, linear.inertia.c, linear.gravity_map @ linear.gravity, linear.point_load])
+    loads = jnp.column_stack([linear.inertia.g, linear.inertia.c, linear.gravity_map @ linear.gravity,
+                              linear.point_load])
     phi = align_degenerate_modes(modes.phi, modes.omega, loads)
     modes = eqx.tree_at(lambda m: m.phi, modes, phi)
     linear = reduce_rotating_model(full, phi, linear=True)

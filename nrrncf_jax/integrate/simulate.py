@@ -358,5 +358,5 @@ def _print_progress(t, t_end, steps, last=False):
     t, t_end = np.asarray(t).reshape(-1), np.asarray(t_end).reshape(-1)
     frac = float(np.min(t / t_end))
     end = "\n" if last else ""
-    print(f"\r  t = {float(np.min(t)):8.3f} / {float(t_end[0]):.3f} s  ({100 * frac:5.1f} %)  steps {int(np.max(steps))}",
-          end=end, file=sys.stderr, flush=True)
+    print(f"\r  t = {float(np.min(t)):8.3f} / {float(t_end[0]):.3f} s  ({100 * frac:5.1f} %)  "
+          f"steps {int(np.max(steps))}", end=end, file=sys.stderr, flush=True)

@@ -74,7 +74,8 @@ def _classic() -> BeamPreset:
     ro, ri = 0.04, 0.02
     A = np.pi * (ro**2 - ri**2)
     return BeamPreset("classic", 10.0, 2.8e7 / A, 1.2 / A, 0.3, ro, ri,
-                      description="Simo & Vu-Quoc spin-up beam: L = 10 m, EA = 2.8e7 N, EI = 1.4e4 N m², rhoA = 1.2 kg/m")
+                      description="Simo & Vu-Quoc spin-up beam: L = 10 m, EA = 2.8e7 N, EI = 1.4e4 N m², "
+                                  "rhoA = 1.2 kg/m")
 
 
 _PAPER = BeamPreset("paper", 8.0, 70e9, 2700.0, 0.3, 0.020, 0.005724,

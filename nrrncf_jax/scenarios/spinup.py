@@ -200,15 +200,16 @@ def _observe_p(t, p, v):
 
 def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T_s: float = 15.0,
                        t_end: float = 30.0, elements: int | None = None, vms: int | str = "auto",
-                       mds: int | str | list = "auto", n_modes: int = 24, max_dofs: int | None = 25, rho_inf: float = 0.9, rtol: float = 1e-4,
+                       mds: int | str | list = "auto", n_modes: int = 24, max_dofs: int | None = 25,
+                       rho_inf: float = 0.9, rtol: float = 1e-4,
                        atol: float = 1e-6, dt_out: float = 0.01, reference: "bool | SpinupResult" = False,
                        progress: bool = False, max_steps: int = 500_000) -> SpinupResult:
     """The spin-up of Eq. 43 with the NR-RNCF reduced model (paper Section 4.1).
 
     The basis is built by ``nr_rncf`` from ``n_modes`` candidate vibration modes, with the MMI
     simulation over the output times; ``vms``/``mds`` choose among them (``'auto'``, a count, or
-    for ``mds`` a list of 0-based mode pairs); automatic MDs stop at ``max_dofs`` VMs + MDs. Returns a ``SpinupResult`` with
-    ``formulation='nr-rncf'``, the reduced DOFs, the basis and the offline time. With
+    for ``mds`` a list of 0-based mode pairs); automatic MDs stop at ``max_dofs`` VMs + MDs.
+    Returns a ``SpinupResult`` with ``formulation='nr-rncf'``, the reduced DOFs, the basis and the offline time. With
     ``reference=True`` the full RNCF model runs too (or pass an RNCF ``SpinupResult`` from
     ``run_spinup(..., save_displacements=True)`` on the same output times to reuse it), and
     χ_rel (Eq. 40, over all nodal displacements q − q̂ and all output times) and the run-time
