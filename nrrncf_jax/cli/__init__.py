@@ -7,7 +7,7 @@
     nrrncf identify --demo --json
 
 Each subcommand lives in its own module of this package, with a ``register(subparsers)``.
-The command switches on float64 in its own entry point; the library itself never does.
+The command runs in float64 (a ``jax.enable_x64`` context around it); no global flag changes.
 """
 
 import argparse
@@ -27,12 +27,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
+    args.argv = argv  # for a subcommand that re-runs itself in a subprocess (sweep --devices)
     import jax
 
-    jax.config.update("jax_enable_x64", True)
     try:
-        return args.func(args)
+        with jax.enable_x64(True):  # float64 for this command only; the global flag is left alone
+            return args.func(args)
     except ValueError as e:
         print(f"nrrncf: error: {e}", file=sys.stderr)
         return 2

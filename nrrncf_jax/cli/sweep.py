@@ -1,17 +1,30 @@
 """``nrrncf sweep``: one batched, jit-compiled run of the spin-up over a grid of (ωs, Ts, E)."""
 
 import os
+import subprocess
+import sys
+
+_FORCE = "--xla_force_host_platform_device_count"
+
+
+def _rerun_with_host_devices(args) -> int | None:
+    """On a CPU with fewer devices than ``--devices``, run this command again in a subprocess
+    that forces that many host devices (XLA fixes the count when it starts, and changing JAX's
+    global device-count option here would change it for the whole process)."""
+    import jax
+
+    n = args.devices
+    if not n or n <= jax.device_count() or jax.default_backend() != "cpu" or _FORCE in os.environ.get("XLA_FLAGS", ""):
+        return None
+    env = dict(os.environ, XLA_FLAGS=f"{os.environ.get('XLA_FLAGS', '')} {_FORCE}={n}".strip())
+    code = "import sys; from nrrncf_jax.cli import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.run([sys.executable, "-c", code, *args.argv], env=env).returncode
 
 
 def _sweep(args) -> int:
-    import jax
-
-    if args.devices and args.devices > 1 and "xla_force_host_platform_device_count" not in os.environ.get(
-            "XLA_FLAGS", ""):
-        try:  # on a CPU, ask for that many host devices; harmless once a backend is up (or on a GPU host)
-            jax.config.update("jax_num_cpu_devices", args.devices)
-        except RuntimeError:
-            pass
+    rc = _rerun_with_host_devices(args)
+    if rc is not None:
+        return rc
 
     from ..scenarios import beam_preset
     from ..sweep import parse_range, spinup_sweep, sweep_grid, sweep_reduction
