@@ -10,7 +10,6 @@ from .body import Body as Body
 from .body import beam_body as beam_body
 from .control import OptimalSpinup as OptimalSpinup
 from .control import optimal_spinup as optimal_spinup
-from .control import tip_index as tip_index
 from .control import tip_response as tip_response
 from .damping import RayleighDamping as RayleighDamping
 from .families import SpinupFamily as SpinupFamily
@@ -67,6 +66,7 @@ from .motion import SpinUp as SpinUp
 from .motion import Stationary as Stationary
 from .nr_rncf import Reduction as Reduction
 from .nr_rncf import nr_rncf as nr_rncf
+from .observe import tip_index as tip_index
 from .profiles import FourierSpinUp as FourierSpinUp
 from .reduction import ModalDerivatives as ModalDerivatives
 from .reduction import VibrationModes as VibrationModes

@@ -22,6 +22,7 @@ from .families import OFFLINE_PARAMETERS, PARAMETERS, OfflineSpinupFamily, check
 from .integrate.generalized_alpha import GeneralizedAlpha
 from .integrate.simulate import simulate
 from .models.reduced import ReducedRotatingModel
+from .observe import beam_tip
 
 
 class Measurement:
@@ -63,8 +64,7 @@ def tip_deflection(model: ReducedRotatingModel, component: int = 1) -> TipDeflec
     """The tip's position vector (the last node's r) of a beam model, one component."""
     if component not in (0, 1, 2):
         raise ValueError(f"component must be 0, 1 or 2, got {component!r}")
-    n_vectors = model.q_hat.shape[0]
-    return TipDeflection(row=n_vectors - 6, component=component)
+    return TipDeflection(row=beam_tip(model), component=component)
 
 
 class Observation(eqx.Module):

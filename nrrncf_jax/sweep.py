@@ -44,12 +44,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _validate
-from ._types import Array, Float
-from .elements.beam import NODAL_VECTORS_PER_NODE
 from .integrate import GeneralizedAlpha
 from .integrate.simulate import RESULTS, SimulationError, simulate, simulate_timed
 from .models.reduced import ReducedRotatingModel
 from .motion import SpinUp
+from .observe import beam_tip, tip_observer
 
 _AXIS = "cases"
 _CPU_SHARDED_LOOP = 16
@@ -169,26 +168,6 @@ def case_model(model: ReducedRotatingModel, omega_s, T_s, E_scale=1.0) -> Reduce
     )
 
 
-class TipObserver(eqx.Module):
-    """Tip displacement w = q − q̂ of one nodal vector (rotating frame) from the modal
-    coordinates p: the only quantity the sweep's loop stores (3 numbers per output time)."""
-
-    rows: Float[Array, "3 km"]
-    offset: Float[Array, " 3"]
-
-    def __init__(self, model: ReducedRotatingModel, tip: int):
-        self.rows = model.Psi[3 * tip: 3 * tip + 3]
-        self.offset = model.q_eq[tip] - model.q_hat[tip]
-
-    def __call__(self, t, p, v):
-        return self.offset + self.rows @ p
-
-
-def default_tip(model: ReducedRotatingModel) -> int:
-    """The tip position vector of a beam: the last node's first nodal vector."""
-    return model.q_hat.shape[0] - NODAL_VECTORS_PER_NODE
-
-
 # --- the kernel ---------------------------------------------------------------------------------
 
 @dataclasses.dataclass(frozen=True)
@@ -208,7 +187,7 @@ class _Config:
 def _one_case(model, omega_s, T_s, E_scale, ts, cfg: _Config):
     m = case_model(model, omega_s, T_s, E_scale if cfg.scale_E else 1.0)
     sol = simulate(m, ts, solver=GeneralizedAlpha(cfg.rho_inf), rtol=cfg.rtol, atol=cfg.atol, dt0=cfg.dt0,
-                   adaptive=cfg.adaptive, max_steps=cfg.max_steps, observe=TipObserver(m, cfg.tip), throw=False)
+                   adaptive=cfg.adaptive, max_steps=cfg.max_steps, observe=tip_observer(m, cfg.tip), throw=False)
     return dict(tip=sol.ys, steps=sol.num_steps, rejected=sol.num_rejected, newton=sol.num_newton,
                 result=sol.result, t_final=sol.t_final)
 
@@ -498,7 +477,7 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     if balance not in BALANCES:
         raise ValueError(f"balance must be one of {BALANCES}, got {balance!r}")
     n_vec = model.q_hat.shape[0]
-    tip = default_tip(model) if tip is None else int(tip)
+    tip = beam_tip(model) if tip is None else int(tip)
     if not 0 <= tip < n_vec:
         raise ValueError(f"tip must index one of the model's {n_vec} nodal vectors, got tip={tip}")
     devs = _resolve_devices(devices)
@@ -574,7 +553,7 @@ def single_run(model_or_reduction, omega_s: float, T_s: float, E_scale: float = 
                    1.0 if float(E_scale) == 1.0 else jnp.asarray(float(E_scale)))
     kw = dict(solver=GeneralizedAlpha(float(rho_inf)), rtol=float(rtol), atol=float(atol),
               dt0=1e-3 * float(ts[-1]) if dt is None else float(dt), adaptive=dt is None, max_steps=int(max_steps),
-              observe=TipObserver(m, default_tip(model) if tip is None else int(tip)))
+              observe=tip_observer(m, beam_tip(model) if tip is None else int(tip)))
     if timed:
         return simulate_timed(m, jnp.asarray(ts), **kw)
     return simulate(m, jnp.asarray(ts), **kw)

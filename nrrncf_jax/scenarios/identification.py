@@ -25,19 +25,9 @@ from ..integrate.simulate import simulate
 from ..models.full_order import RotatingFrameModel
 from ..motion import SpinUp
 from ..nr_rncf import nr_rncf
+from ..observe import tip_observer
 from .beams import beam_preset
 from .spinup import output_times
-
-
-class _TipUy:
-    """In-plane tip deflection of a full model (the observable the reduced model reproduces)."""
-
-    def __init__(self, body):
-        self.row = body.n_vectors - body.vectors_per_node
-        self.y0 = float(body.q_hat[self.row, 1])
-
-    def __call__(self, t, q, v):
-        return q.reshape(-1, 3)[self.row, 1] - self.y0
 
 
 @dataclasses.dataclass
@@ -124,7 +114,7 @@ def identification_demo(*, elements: int = 6, omega_s: float = 10.0, T_s: float 
     w_ref = np.asarray(family.omega_ref) * np.sqrt(E_true / E0)
     body = preset.body(elements)
     truth = RotatingFrameModel(body, SpinUp(omega_s, T_s), damping=RayleighDamping.from_ratio(zeta, *w_ref))
-    clean = np.asarray(simulate(truth, jnp.asarray(ts), observe=_TipUy(body), rtol=1e-6, atol=1e-9).ys)
+    clean = np.asarray(simulate(truth, jnp.asarray(ts), observe=tip_observer(truth), rtol=1e-6, atol=1e-9).ys)[:, 1]
     measurement_s = time.perf_counter() - t0
     rng = np.random.default_rng(seed)
     measured = clean + noise * np.std(clean) * rng.standard_normal(clean.shape)
