@@ -81,14 +81,8 @@ class SpinupFamily(eqx.Module):
         defaults to the two lowest kept modes (``reference_frequencies``)."""
         return cls(reduction.model, E0, reference_frequencies(reduction) if omega_ref is None else omega_ref)
 
-    def defaults(self) -> dict:
-        m = self.template
-        zeta = 0.0 if m.damping is None else float(m.damping.ratio(self.omega_ref[0]))
-        return {"E": float(self.E0), "zeta": zeta, "omega_s": float(m.motion.omega_s), "T_s": float(m.motion.T_s)}
-
     def damping(self, zeta, E):
-        w = self.omega_ref * jnp.sqrt(E / self.E0)
-        return RayleighDamping.from_ratio(zeta, w[0], w[1])
+        return _rayleigh(zeta, E, self.E0, self.omega_ref)
 
     def __call__(self, params: dict) -> ReducedRotatingModel:
         check_params(params, PARAMETERS)
@@ -99,6 +93,12 @@ class SpinupFamily(eqx.Module):
         if "zeta" in params:
             m = eqx.tree_at(lambda r: r.damping, m, self.damping(params["zeta"], E), is_leaf=lambda x: x is None)
         return _with_motion(m, params)
+
+
+def _rayleigh(zeta, E, E0, omega_ref) -> RayleighDamping:
+    """Ratio ζ at the two reference modes, whose frequencies scale as √(E/E0)."""
+    w = omega_ref * jnp.sqrt(E / E0)
+    return RayleighDamping.from_ratio(zeta, w[0], w[1])
 
 
 def _with_motion(m: ReducedRotatingModel, params: dict) -> ReducedRotatingModel:
@@ -141,11 +141,8 @@ class OfflineSpinupFamily(eqx.Module):
     nu0: Float[Array, ""]
     omega_ref: Float[Array, " 2"]
 
-    def defaults(self) -> dict:
-        return SpinupFamily.defaults(self) | {"nu": float(self.nu0)}
-
     def damping(self, zeta, E):
-        return SpinupFamily.damping(self, zeta, E)
+        return _rayleigh(zeta, E, self.E0, self.omega_ref)
 
     def basis(self, body, free):
         """Ψ(parameters) = [Φ_vms, Θ_pairs] T0 with the nominal signs."""
@@ -185,7 +182,8 @@ def offline_family(full: RotatingFrameModel, reduction, preset, *, omega_ref=Non
     sel = reduction.selection
     used = sorted(set(sel.vms) | {i for pair in sel.pairs for i in pair})
     w = np.asarray(reduction.omega)
-    all_w = np.asarray(vibration_modes(body, full.free_mask(), len(w) + 1).omega)
+    modes = vibration_modes(body, full.free_mask(), len(w) + 1)  # one more: the gap above the last candidate
+    all_w = np.asarray(modes.omega)
     for i in used:
         others = np.delete(all_w, i)
         gap = np.min(np.abs(others - w[i])) / w[i]
@@ -196,10 +194,10 @@ def offline_family(full: RotatingFrameModel, reduction, preset, *, omega_ref=Non
                 "using the fixed-basis family (exact for E of a homogeneous body)", DegenerateModesWarning,
                 stacklevel=2)
             return SpinupFamily(reduction.model, preset.E, omega_ref)
-    modes = vibration_modes(body, full.free_mask(), len(w))
-    cols = [modes.phi[:, list(sel.vms)]]
+    phi = modes.phi[:, : len(w)]
+    cols = [phi[:, list(sel.vms)]]
     if sel.pairs:
-        cols.append(modal_derivatives(body, full.free_mask(), modes.phi, sel.pairs).theta)
+        cols.append(modal_derivatives(body, full.free_mask(), phi, sel.pairs).theta)
     X = jnp.concatenate(cols, axis=1)
     norms = jnp.linalg.norm(X, axis=0)
     _, s, Vt = jnp.linalg.svd(X / norms, full_matrices=False)
@@ -207,6 +205,6 @@ def offline_family(full: RotatingFrameModel, reduction, preset, *, omega_ref=Non
     T0 = (Vt[:km].T / s[:km]) / norms[:, None]
     return OfflineSpinupFamily(
         preset=preset, elements=n_el, n_modes=len(w), vms=tuple(sel.vms), pairs=tuple(sel.pairs),
-        template=reduction.model, loads=full.loads, phi0=modes.phi, T0=T0, E0=jnp.asarray(preset.E, dtype=float),
+        template=reduction.model, loads=full.loads, phi0=phi, T0=T0, E0=jnp.asarray(preset.E, dtype=float),
         nu0=jnp.asarray(preset.nu, dtype=float), omega_ref=jnp.asarray(omega_ref, dtype=float),
     )
