@@ -64,6 +64,7 @@ from .models import (
 from .models import reduce_rotating_model as reduce_rotating_model
 from .motion import SpinUp as SpinUp
 from .motion import Stationary as Stationary
+from .motion import SteadySpin as SteadySpin
 from .nr_rncf import Reduction as Reduction
 from .nr_rncf import nr_rncf as nr_rncf
 from .observe import tip_index as tip_index

@@ -175,10 +175,17 @@ def offline_family(full: RotatingFrameModel, reduction, preset, *, omega_ref=Non
     """The offline-stage family (path (b)) of a reduction made by ``nr_rncf(full, ...)`` of the
     ``preset`` beam; with a repeated eigenvalue among the selected modes (relative gap below
     ``gap_rtol``), warns (``DegenerateModesWarning``) and returns the fixed-basis
-    ``SpinupFamily`` instead."""
+    ``SpinupFamily`` instead. A basis with the spinning-state enrichment (``reduction.spin``)
+    also falls back to the fixed basis, with a ``UserWarning``: its spinning equilibrium comes
+    from a Newton loop this path does not differentiate."""
     body = full.body
     n_el = body.n_elements
     omega_ref = reference_frequencies(reduction) if omega_ref is None else omega_ref
+    if getattr(reduction, "n_spin", 0):
+        warnings.warn("the basis has the spinning-state enrichment, which the offline path does not "
+                      "differentiate; using the fixed-basis family (exact for E of a homogeneous body)",
+                      UserWarning, stacklevel=2)
+        return SpinupFamily(reduction.model, preset.E, omega_ref)
     sel = reduction.selection
     used = sorted(set(sel.vms) | {i for pair in sel.pairs for i in pair})
     w = np.asarray(reduction.omega)

@@ -50,6 +50,21 @@ def skew(a: Float[Array, " 3"]) -> Float[Array, "3 3"]:
     return jnp.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
 
 
+class SteadySpin(eqx.Module):
+    """Spin at the constant rate ω: θ = ωt, θ̇ = ω, θ̈ = 0 (the state after a spin-up; the
+    spinning equilibrium and its modes, ``reduction.spin_state``)."""
+
+    omega: Float[Array, ""]
+
+    def __init__(self, omega: ScalarLike):
+        _validate.positive("omega (spin rate)", omega)
+        self.omega = jnp.asarray(omega, dtype=float)
+
+    def __call__(self, t: ScalarLike) -> tuple[Float[Array, ""], Float[Array, ""], Float[Array, ""]]:
+        t = jnp.asarray(t, dtype=float)
+        return self.omega * t, self.omega + jnp.zeros_like(t), jnp.zeros_like(t)
+
+
 class Stationary(eqx.Module):
     """No reference motion: θ = θ̇ = θ̈ = 0 (static problems, free vibration)."""
 

@@ -2,6 +2,7 @@
 modal derivatives → SVD deflation → reduced tensors."""
 
 import dataclasses
+import functools
 import time
 
 import equinox as eqx
@@ -15,6 +16,7 @@ from .models.reduced import ReducedRotatingModel, reduce_rotating_model
 from .reduction.deflation import deflate
 from .reduction.modal_derivatives import modal_derivatives
 from .reduction.modes import vibration_modes
+from .reduction.spin_state import SpinCheck, match_modes, ritz_frequencies, spinning_modes
 from .reduction.selection import Selection, align_degenerate_modes, mmi_matrix, select
 
 
@@ -28,10 +30,16 @@ class Reduction:
     n_vms: int
     n_mds: int
     offline_s: dict  # wall time per offline stage (compilation included)
+    spin: SpinCheck | None = None  # the spinning-state check (None: not made)
 
     @property
     def dofs(self) -> int:
         return self.model.n_dof
+
+    @property
+    def n_spin(self) -> int:
+        """Columns added by the spinning-state enrichment (before deflation)."""
+        return 0 if self.spin is None or not self.spin.enriched else len(self.spin.vms) + len(self.spin.pairs)
 
 
 def _eta(t, p, v):
@@ -41,17 +49,31 @@ def _eta(t, p, v):
 def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | str = "auto", mds="auto",
             band: float = 6.0, vm_tol: float = 1e-6, md_tol: float = 0.01, max_mds: int | None = None,
             max_dofs: int | None = 25, md_method: str = "closed_form", deflation_tol: float = 1e-6,
-            force: str = "auto") -> Reduction:
+            force: str = "auto", spin_state: bool | str = "auto", spin_vms: int = 1, spin_mds: int = 4,
+            spin_tol: float = 2e-3) -> Reduction:
     """Build the NR-RNCF reduced model of ``full`` for its load case.
 
     ``n_modes`` candidate vibration modes enter the linear MMI simulation over ``ts_mmi``;
     ``vms``/``mds`` choose among them (see ``selection.select``); with ``vms='auto'`` the modes
     kept lie below ``band`` times the largest spin rate θ̇ of the manoeuvre, or are strongly
     loaded; with ``mds='auto'`` the MDs of largest weight are added while VMs + MDs ≤
-    ``max_dofs``. Returns a ``Reduction``.
+    ``max_dofs``.
+
+    Spinning-state enrichment (beyond the paper; ``reduction.spin_state``): at the largest spin
+    rate of the manoeuvre the spinning equilibrium and its modes are computed, and the rest
+    basis's Rayleigh-Ritz estimate of the frequency of the spinning mode that continues the
+    dominant VM (largest W_ii) is compared with the exact one. With ``spin_state='auto'`` the
+    basis is enriched when that estimate is off by more than ``spin_tol`` (relative), and only
+    for bases with modal derivatives; ``True`` always enriches, ``False`` never checks. The
+    enrichment is ``spin_vms`` spinning modes and the ``spin_mds`` modal derivatives (at rest)
+    of spinning-mode pairs, both ranked by the MMI weight of the rest modes they continue; the
+    rest MDs give way so that the total stays within ``max_dofs``. Returns a ``Reduction``
+    (``spin`` holds the check).
     """
     if not isinstance(full, RotatingFrameModel):
         raise ValueError("nr_rncf reduces a RotatingFrameModel (RNCF); got " + type(full).__name__)
+    if spin_state not in ("auto", True, False):
+        raise ValueError(f"spin_state must be 'auto', True or False, got {spin_state!r}")
     times = {}
     body, free = full.body, full.free_mask()
 
@@ -68,10 +90,11 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     modes = eqx.tree_at(lambda m: m.phi, modes, phi)
     linear = reduce_rotating_model(full, phi, linear=True)
     eta = simulate(linear, jnp.asarray(ts_mmi), observe=_eta, rtol=1e-5, atol=1e-9).ys
-    spin = jnp.max(jnp.abs(jax.vmap(lambda t: full.motion(t)[1])(jnp.asarray(ts_mmi))))
-    sel = select(mmi_matrix(jnp.asarray(ts_mmi), eta), vms, mds, vm_tol=vm_tol, md_tol=md_tol, max_mds=max_mds,
-                 max_dofs=max_dofs,
-                 omega=modes.omega, omega_band=band * float(spin) if band else None)
+    spin = float(jnp.max(jnp.abs(jax.vmap(lambda t: full.motion(t)[1])(jnp.asarray(ts_mmi)))))
+    W = mmi_matrix(jnp.asarray(ts_mmi), eta)
+    choose = functools.partial(select, W, vms, mds, vm_tol=vm_tol, md_tol=md_tol, max_mds=max_mds,
+                               omega=modes.omega, omega_band=band * spin if band else None)
+    sel = choose(max_dofs=max_dofs)
     times["mmi"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -79,12 +102,54 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     jax.block_until_ready(theta)
     times["modal_derivatives"] = time.perf_counter() - t0
 
+    rest = [modes.phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
+    extra, check = [], None
+    if spin_state is True or (spin_state == "auto" and sel.pairs):
+        if spin <= 0.0:
+            raise ValueError("spin_state=True needs a manoeuvre that spins (its largest spin rate is 0)")
+        t0 = time.perf_counter()
+        sel, extra, check = _spin_enrichment(full, modes, sel, deflate(jnp.concatenate(rest, axis=1), deflation_tol),
+                                             spin, n_modes, spin_state is True, spin_vms, spin_mds, spin_tol,
+                                             choose, max_dofs, md_method)
+        if theta is not None:
+            theta = theta[:, : len(sel.pairs)] if sel.pairs else None
+        rest = [modes.phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
+        times["spin_state"] = time.perf_counter() - t0
+
     t0 = time.perf_counter()
-    cols = [modes.phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
-    Psi = deflate(jnp.concatenate(cols, axis=1), deflation_tol)
+    Psi = deflate(jnp.concatenate(rest + extra, axis=1), deflation_tol)
     model = reduce_rotating_model(full, Psi, force=force)
     jax.block_until_ready(model.elastic.N)
     times["tensors"] = time.perf_counter() - t0
     times["total"] = sum(times.values())
     return Reduction(model=model, omega=np.asarray(modes.omega), selection=sel, n_vms=len(sel.vms),
-                     n_mds=len(sel.pairs), offline_s=times)
+                     n_mds=len(sel.pairs), offline_s=times, spin=check)
+
+
+def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n_mds, tol, choose, max_dofs,
+                     md_method):
+    """The spinning-state check and, if it fails (or ``always``), the enrichment: returns the
+    (possibly trimmed) rest selection, the extra basis columns and the ``SpinCheck``."""
+    body, free = full.body, full.free_mask()
+    q_star, smodes = spinning_modes(full, spin, n_modes)
+    match = match_modes(body, modes.phi, smodes.phi)
+    W = np.asarray(sel.W)
+    by_weight = sorted(sel.vms, key=lambda i: -W[i, i])
+    dominant = int(match[by_weight[0]])
+    exact = float(smodes.omega[dominant])
+    ritz = ritz_frequencies(full, q_star, spin, Psi_rest)
+    estimate = float(ritz[np.argmin(np.abs(ritz - exact))])
+    enrich = always or abs(estimate / exact - 1.0) > tol
+    if not enrich:
+        return sel, [], SpinCheck(spin, dominant, exact, estimate, False)
+    svms = list(dict.fromkeys(int(match[i]) for i in by_weight))[:n_vms]
+    ranked = sorted(((i, j) for a, i in enumerate(sel.vms) for j in sel.vms[a:]), key=lambda ij: -W[ij])
+    spairs = list(dict.fromkeys(tuple(sorted((int(match[i]), int(match[j])))) for i, j in ranked))[:n_mds]
+    if max_dofs is not None:
+        trimmed = choose(max_dofs=max(len(sel.vms), max_dofs - len(svms) - len(spairs)))
+        assert trimmed.pairs == sel.pairs[: len(trimmed.pairs)]  # the same ranking, cut shorter
+        sel = trimmed
+    extra = [smodes.phi[:, svms]]
+    if spairs:
+        extra.append(modal_derivatives(body, free, smodes.phi, spairs, method=md_method).theta)
+    return sel, extra, SpinCheck(spin, dominant, exact, estimate, True, tuple(svms), tuple(spairs))

@@ -26,7 +26,7 @@ FIXED = dict(adaptive=False, dt=0.02, newton_tol=1e-5)
 
 def _reduction(beam: str, n_el: int, omega_s=6.0, T_s=1.47):
     full = RotatingFrameModel(paper_body(n_el, beam), SpinUp(omega_s, T_s))
-    return full, nr_rncf(full, jnp.asarray(TS), n_modes=6, vms=2, mds=2, max_dofs=None)
+    return full, nr_rncf(full, jnp.asarray(TS), n_modes=6, vms=2, mds=2, max_dofs=None, spin_state=False)
 
 
 @pytest.fixture(scope="module")

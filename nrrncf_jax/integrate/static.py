@@ -25,8 +25,9 @@ def _scale_loads(model, lam):
 
 
 @eqx.filter_jit
-def _static(model, load_steps: int, tol, max_iter: int):
-    q0, _ = model.initial_state(0.0)
+def _static(model, load_steps: int, tol, max_iter: int, q0=None):
+    if q0 is None:
+        q0, _ = model.initial_state(0.0)
     z = jnp.zeros_like(q0)
     free = model.free_mask()
 
@@ -54,13 +55,14 @@ def _static(model, load_steps: int, tol, max_iter: int):
     return q, iters, norms
 
 
-def static_equilibrium(model: "AbstractModel", load_steps: int = 10, tol: float = 1e-10, max_iter: int = 30):
+def static_equilibrium(model: "AbstractModel", load_steps: int = 10, tol: float = 1e-10, max_iter: int = 30,
+                       q0=None):
     """Equilibrium of ``model`` under its loads (no inertia, t = 0), reached in ``load_steps``
-    equal load increments. Returns the coordinates q; raises ``SimulationError`` if Newton does
-    not converge at some increment."""
+    equal load increments from ``q0`` (default: the model's initial state). Returns the
+    coordinates q; raises ``SimulationError`` if Newton does not converge at some increment."""
     if load_steps < 1:
         raise ValueError(f"load_steps must be >= 1, got {load_steps}")
-    q, iters, norms = _static(model, int(load_steps), jnp.asarray(tol), int(max_iter))
+    q, iters, norms = _static(model, int(load_steps), jnp.asarray(tol), int(max_iter), q0)
     if not isinstance(norms, jax.core.Tracer):
         bad = ~(norms <= tol)
         if bool(jnp.any(bad)):

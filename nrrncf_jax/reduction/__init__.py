@@ -1,5 +1,5 @@
 """Model order reduction (THEORY §4-6): vibration modes, modal derivatives, maximum modal
-interaction, SVD deflation and the reduced tensors (``nrrncf_jax.nr_rncf`` chains them)."""
+interaction, SVD deflation, the spinning-state enrichment and the reduced tensors (``nrrncf_jax.nr_rncf`` chains them)."""
 
 from .deflation import deflate as deflate
 from .modal_derivatives import ModalDerivatives as ModalDerivatives
@@ -10,6 +10,11 @@ from .selection import Selection as Selection
 from .selection import align_degenerate_modes as align_degenerate_modes
 from .selection import mmi_matrix as mmi_matrix
 from .selection import select as select
+from .spin_state import SpinCheck as SpinCheck
+from .spin_state import match_modes as match_modes
+from .spin_state import ritz_frequencies as ritz_frequencies
+from .spin_state import spinning_equilibrium as spinning_equilibrium
+from .spin_state import spinning_modes as spinning_modes
 from .tensors import ElasticTensors as ElasticTensors
 from .tensors import RotationInertia as RotationInertia
 from .tensors import elastic_tensors as elastic_tensors

@@ -25,9 +25,15 @@ class VibrationModes(eqx.Module):
 
 
 def vibration_modes(
-    body: Body, free: Bool[Array, " ndof"], k: int | None = None, q_eq: Float[Array, "n 3"] | None = None
+    body: Body, free: Bool[Array, " ndof"], k: int | None = None, q_eq: Float[Array, "n 3"] | None = None,
+    frame_stiffness: Float[Array, "3 3"] | None = None,
 ) -> VibrationModes:
     """The ``k`` lowest modes of ``(K|eq, M ⊗ I3)`` restricted to the ``free`` coordinates.
+
+    ``frame_stiffness`` (3 × 3) adds ``M ⊗ frame_stiffness`` to K|eq: for a body spinning at
+    the constant rate ω about e, ``ω² ẽẽ`` is the spin softening of Eq. 8's centrifugal term,
+    and with ``q_eq`` the spinning equilibrium these are the modes of the spinning body (the
+    Coriolis coupling left out), ``reduction.spin_state``.
 
     Raises ``ValueError`` if K|eq is singular on the free coordinates (missing reference
     conditions: a free body has six zero-frequency rigid modes). Differentiable (through
@@ -49,6 +55,8 @@ def vibration_modes(
         )
     K = body.stiffness_matrix(q_eq)[np.ix_(idx, idx)]
     M = jnp.kron(body.mass_matrix(), jnp.eye(3))[np.ix_(idx, idx)]
+    if frame_stiffness is not None:
+        K = K + jnp.kron(body.mass_matrix(), jnp.asarray(frame_stiffness))[np.ix_(idx, idx)]
     L = jnp.linalg.cholesky(M)
     A = jsl.solve_triangular(L, jsl.solve_triangular(L, K, lower=True).T, lower=True)
     A = 0.5 * (A + A.T)

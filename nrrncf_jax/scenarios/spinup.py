@@ -76,6 +76,7 @@ class SpinupResult:
     reference: "SpinupResult | None" = None  # the full RNCF run compared against
     chi_rel_percent: float | None = None
     speedup: float | None = None  # reference.run_s / run_s
+    spin: object = None  # the ``SpinCheck`` of the spinning-state enrichment (None: not checked)
     reduction: object = dataclasses.field(default=None, repr=False)  # the ``Reduction`` (W, omega, model)
 
     @property
@@ -98,6 +99,11 @@ class SpinupResult:
                 "selected_vms": [i + 1 for i in self.vms],  # mode numbers, 1-based as in ``nrrncf modes``
                 "selected_mds": [[i + 1, j + 1] for i, j in self.mds],
                 "offline_s": round(self.offline_s["total"], 3),
+                "spin_enriched": bool(self.spin is not None and self.spin.enriched),
+                "spin_check": None if self.spin is None else {
+                    "omega": self.spin.omega, "mode": self.spin.mode + 1, "omega_spin": self.spin.omega_spin,
+                    "omega_ritz": self.spin.omega_ritz, "rel_err": self.spin.rel_err, "enriched": self.spin.enriched,
+                    "spin_vms": [i + 1 for i in self.spin.vms], "spin_mds": [[i + 1, j + 1] for i, j in self.spin.pairs]},
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup,
                 "reference": None if ref is None else {k: ref.summary()[k] for k in (
                     "formulation", "dofs", "steps", "rejected", "newton_iters", "compile_s", "run_s")},
@@ -113,6 +119,13 @@ class SpinupResult:
             rows += [("VMs / MDs", f"{s['vms']} / {s['mds']}  (VMs {s['selected_vms']}; MDs "
                       + (" ".join(f"θ{i},{j}" for i, j in s["selected_mds"]) or "none") + ")"),
                      ("offline [s]", f"{s['offline_s']:.2f}")]
+            c = s["spin_check"]
+            if c is not None:
+                added = (f"added spinning mode(s) {c['spin_vms']} and MDs "
+                         + " ".join(f"θ*{i},{j}" for i, j in c["spin_mds"])) if c["enriched"] else "not enriched"
+                rows.append(("spinning-state check", f"ω = {c['omega']:g} rad/s: mode {c['mode']} at "
+                             f"{c['omega_spin']:.4f} rad/s, rest basis {c['omega_ritz']:.4f} "
+                             f"({100 * c['rel_err']:+.3f} %); {added}"))
         rows += [("steps accepted / rejected", f"{s['steps']} / {s['rejected']}"),
                  ("Newton iterations", f"{s['newton_iters']}"), ("compile [s]", f"{s['compile_s']:.2f}"),
                  ("run [s]", f"{s['run_s']:.3f}"),
@@ -201,14 +214,15 @@ def _observe_p(t, p, v):
 def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T_s: float = 15.0,
                        t_end: float = 30.0, elements: int | None = None, vms: int | str = "auto",
                        mds: int | str | list = "auto", n_modes: int = 24, max_dofs: int | None = 25,
-                       rho_inf: float = 0.9, rtol: float = 1e-4,
+                       spin_state: bool | str = "auto", rho_inf: float = 0.9, rtol: float = 1e-4,
                        atol: float = 1e-6, dt_out: float = 0.01, reference: "bool | SpinupResult" = False,
                        progress: bool = False, max_steps: int = 500_000) -> SpinupResult:
     """The spin-up of Eq. 43 with the NR-RNCF reduced model (paper Section 4.1).
 
     The basis is built by ``nr_rncf`` from ``n_modes`` candidate vibration modes, with the MMI
     simulation over the output times; ``vms``/``mds`` choose among them (``'auto'``, a count, or
-    for ``mds`` a list of 0-based mode pairs); automatic MDs stop at ``max_dofs`` VMs + MDs.
+    for ``mds`` a list of 0-based mode pairs); automatic MDs stop at ``max_dofs`` VMs + MDs;
+    ``spin_state`` is ``nr_rncf``'s spinning-state enrichment (``'auto'``, ``True``, ``False``).
     Returns a ``SpinupResult`` with ``formulation='nr-rncf'``, the reduced DOFs, the basis and the offline time. With
     ``reference=True`` the full RNCF model runs too (or pass an RNCF ``SpinupResult`` from
     ``run_spinup(..., save_displacements=True)`` on the same output times to reuse it), and
@@ -220,7 +234,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
 
     ts = _check_run_args(t_end, dt_out, rho_inf, rtol)
     full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
-    red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs)
+    red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs, spin_state=spin_state)
     model = red.model
     sol, compile_s, run_s = simulate_timed(model, jnp.asarray(ts), solver=GeneralizedAlpha(rho_inf), rtol=rtol,
                                            atol=atol, observe=_observe_p, progress=progress, max_steps=max_steps)
@@ -234,7 +248,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         dofs=red.dofs, ts=ts, theta=theta, tip=w[:, body.n_vectors - body.vectors_per_node],
         steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
         compile_s=compile_s, run_s=run_s, displacements=w, vms=red.selection.vms, mds=red.selection.pairs,
-        offline_s=dict(red.offline_s), reduction=red,
+        offline_s=dict(red.offline_s), reduction=red, spin=red.spin,
     )
     if reference is False or reference is None:
         return res
