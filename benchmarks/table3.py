@@ -158,13 +158,13 @@ def main(argv=None):
              "χ_rel: Eq. 40 against the full RNCF run, on all nodal displacements q − q̂ in the rotating frame "
              "(positions and gradients), every 0.01 s. Speed-up: run time of RNCF (ANCF) over the row's run time; "
              "compile and offline times are not in it. NR-RNCF: automatic MMI selection (Eq. 39) from "
-             f"{a.modes} candidate modes, deflated by SVD, with the spinning-state check of `nr_rncf` (beyond the paper: "
-             "where the rest basis misses the spinning beam's dominant frequency by more than 0.2 %, the first "
+             f"{a.modes} candidate modes, deflated by SVD, with the spinning-state check of `nr_rncf` (beyond the "
+             "paper: where the rest basis misses the spinning beam's dominant frequency by more than 0.2 %, the first "
              "spinning mode and four modal derivatives of spinning-mode pairs, marked *, join the basis within the "
-             "same DOF budget; 'paper basis' is the same run without them); VM only: the same number of the most active vibration "
-             "modes, no modal derivatives. A compile time near 0 means JAX reused code compiled for an earlier row of "
-             "the same shapes (the VM-only run after the NR-RNCF run of the same size). The CPU is shared with other "
-             "jobs, so timings are indicative.\n")
+             "same DOF budget; 'paper basis' is the same run without them); VM only: the same number of the most "
+             "active vibration modes, no modal derivatives. A compile time near 0 means JAX reused code compiled for "
+             "an earlier row of the same shapes (the VM-only run after the NR-RNCF run of the same size). The CPU is "
+             "shared with other jobs, so timings are indicative.\n")
     print(text)
     with open(a.out, "w") as f:
         f.write(text)

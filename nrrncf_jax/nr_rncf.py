@@ -16,8 +16,8 @@ from .models.reduced import ReducedRotatingModel, reduce_rotating_model
 from .reduction.deflation import deflate
 from .reduction.modal_derivatives import modal_derivatives
 from .reduction.modes import vibration_modes
-from .reduction.spin_state import SpinCheck, match_modes, ritz_frequencies, spinning_modes
 from .reduction.selection import Selection, align_degenerate_modes, mmi_matrix, select
+from .reduction.spin_state import SpinCheck, match_modes, ritz_frequencies, spinning_modes
 
 
 @dataclasses.dataclass

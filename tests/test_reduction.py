@@ -92,7 +92,8 @@ def test_reduced_force_and_residual_equal_projected_full(reduced, seed):
     F_full = Psi.T @ full.body.elastic_force(q.reshape(-1, 3)).reshape(-1)
     for model in (red, red_proj):
         F = model.elastic_force(p)
-        np.testing.assert_allclose(model.elastic_force_and_jacobian(p)[0], F, rtol=1e-12, atol=1e-12 * float(jnp.abs(F).max()))
+        np.testing.assert_allclose(model.elastic_force_and_jacobian(p)[0], F, rtol=1e-12,
+                                   atol=1e-12 * float(jnp.abs(F).max()))
         np.testing.assert_allclose(F, F_full, rtol=1e-10, atol=1e-11 * float(jnp.abs(F_full).max()))
         t = 2.7  # mid spin-up: θ̇ and θ̈ both non-zero
         r_full = Psi.T @ full.residual(t, q, Psi @ v, Psi @ a)

@@ -37,7 +37,8 @@ def _spinup(args) -> int:
                   dt_out=args.dt_out, progress=not args.no_progress)
     if reduced:
         res = run_nr_rncf_spinup(args.beam, args.omega, vms=args.vms, mds=args.mds, n_modes=args.modes,
-                                 max_dofs=args.max_dofs, spin_state={"auto": "auto", "on": True, "off": False}[args.spin_state],
+                                 max_dofs=args.max_dofs,
+                                 spin_state={"auto": "auto", "on": True, "off": False}[args.spin_state],
                                  reference=args.reference == "rncf", **common)
     else:
         res = run_spinup(args.formulation, args.beam, args.omega, **common)

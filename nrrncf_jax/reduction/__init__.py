@@ -1,5 +1,6 @@
 """Model order reduction (THEORY §4-6): vibration modes, modal derivatives, maximum modal
-interaction, SVD deflation, the spinning-state enrichment and the reduced tensors (``nrrncf_jax.nr_rncf`` chains them)."""
+interaction, SVD deflation, the spinning-state enrichment and the reduced tensors
+(``nrrncf_jax.nr_rncf`` chains them)."""
 
 from .deflation import deflate as deflate
 from .modal_derivatives import ModalDerivatives as ModalDerivatives

@@ -103,7 +103,8 @@ class SpinupResult:
                 "spin_check": None if self.spin is None else {
                     "omega": self.spin.omega, "mode": self.spin.mode + 1, "omega_spin": self.spin.omega_spin,
                     "omega_ritz": self.spin.omega_ritz, "rel_err": self.spin.rel_err, "enriched": self.spin.enriched,
-                    "spin_vms": [i + 1 for i in self.spin.vms], "spin_mds": [[i + 1, j + 1] for i, j in self.spin.pairs]},
+                    "spin_vms": [i + 1 for i in self.spin.vms],
+                    "spin_mds": [[i + 1, j + 1] for i, j in self.spin.pairs]},
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup,
                 "reference": None if ref is None else {k: ref.summary()[k] for k in (
                     "formulation", "dofs", "steps", "rejected", "newton_iters", "compile_s", "run_s")},
