@@ -181,7 +181,7 @@ def offline_family(full: RotatingFrameModel, reduction, preset, *, omega_ref=Non
     body = full.body
     n_el = body.n_elements
     omega_ref = reference_frequencies(reduction) if omega_ref is None else omega_ref
-    if getattr(reduction, "n_spin", 0):
+    if reduction.n_spin:
         warnings.warn("the basis has the spinning-state enrichment, which the offline path does not "
                       "differentiate; using the fixed-basis family (exact for E of a homogeneous body)",
                       UserWarning, stacklevel=2)

@@ -53,10 +53,8 @@ def vibration_modes(
             f"the stiffness matrix K|eq is singular: {6 - rank} rigid-body mode(s) are not removed by the "
             "constrained coordinates (missing reference conditions, e.g. no clamped root)"
         )
-    K = body.stiffness_matrix(q_eq)[np.ix_(idx, idx)]
+    K = frame_stiffened(body, q_eq, frame_stiffness)[np.ix_(idx, idx)]
     M = jnp.kron(body.mass_matrix(), jnp.eye(3))[np.ix_(idx, idx)]
-    if frame_stiffness is not None:
-        K = K + jnp.kron(body.mass_matrix(), jnp.asarray(frame_stiffness))[np.ix_(idx, idx)]
     L = jnp.linalg.cholesky(M)
     A = jsl.solve_triangular(L, jsl.solve_triangular(L, K, lower=True).T, lower=True)
     A = 0.5 * (A + A.T)
@@ -70,6 +68,14 @@ def vibration_modes(
     phi_free = jsl.solve_triangular(L.T, Y[:, :k], lower=False)
     phi = jnp.zeros((body.n_dof, k)).at[idx].set(phi_free)
     return VibrationModes(omega=jnp.sqrt(w2[:k]), phi=phi)
+
+
+def frame_stiffened(body: Body, q_eq: Float[Array, "n 3"], frame_stiffness=None) -> Float[Array, "ndof ndof"]:
+    """``K(q_eq) + M ⊗ frame_stiffness`` on all coordinates (just K without a frame term)."""
+    K = body.stiffness_matrix(q_eq)
+    if frame_stiffness is None:
+        return K
+    return K + jnp.kron(body.mass_matrix(), jnp.asarray(frame_stiffness))
 
 
 DEGENERACY_RTOL = 1e-8

@@ -27,11 +27,12 @@ import dataclasses
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
+import scipy.linalg
 
 from .._types import Array, Float
 from ..integrate.static import static_equilibrium
 from ..motion import SteadySpin, skew
-from .modes import VibrationModes, vibration_modes
+from .modes import VibrationModes, frame_stiffened, vibration_modes
 
 
 def spinning_equilibrium(full, omega: float, steps: int = 4) -> Float[Array, "n 3"]:
@@ -39,7 +40,7 @@ def spinning_equilibrium(full, omega: float, steps: int = 4) -> Float[Array, "n 
     (its own loads included; gravity is taken at θ = 0), by continuation in ω² over ``steps``
     equal increments (a curved beam bends under its centrifugal load). Raises
     ``SimulationError`` if Newton does not converge."""
-    q = None
+    q, _ = full.initial_state(0.0)  # an array from the start: one compiled Newton for every increment
     for k in range(1, steps + 1):
         steady = eqx.tree_at(lambda m: m.motion, full, SteadySpin(omega * np.sqrt(k / steps)))
         q = static_equilibrium(steady, load_steps=1, q0=q)
@@ -67,8 +68,7 @@ def match_modes(body, phi_rest: Float[Array, "ndof k"], phi_spin: Float[Array, "
 def spinning_stiffness(full, q_star: Float[Array, "n 3"], omega: float) -> Float[Array, "ndof ndof"]:
     """``K(q*) + ω² M ⊗ ẽẽ`` (all coordinates; restrict to the free ones)."""
     E = skew(full.axis)
-    body = full.body
-    return body.stiffness_matrix(q_star) + jnp.kron(body.mass_matrix(), omega**2 * (E @ E))
+    return frame_stiffened(full.body, q_star, omega**2 * (E @ E))
 
 
 def ritz_frequencies(full, q_star: Float[Array, "n 3"], omega: float, Psi: Float[Array, "ndof km"]) -> np.ndarray:
@@ -78,10 +78,8 @@ def ritz_frequencies(full, q_star: Float[Array, "n 3"], omega: float, Psi: Float
     K = np.asarray(spinning_stiffness(full, q_star, omega))[np.ix_(free, free)]
     M = np.kron(np.asarray(full.body.mass_matrix()), np.eye(3))[np.ix_(free, free)]
     P = np.asarray(Psi)[free]
-    L = np.linalg.cholesky(P.T @ M @ P)
-    Li = np.linalg.inv(L)
-    A = Li @ (P.T @ K @ P) @ Li.T
-    return np.sqrt(np.clip(np.linalg.eigvalsh(0.5 * (A + A.T)), 0.0, None))
+    Kr = P.T @ K @ P
+    return np.sqrt(np.clip(scipy.linalg.eigh(0.5 * (Kr + Kr.T), P.T @ M @ P, eigvals_only=True), 0.0, None))
 
 
 @dataclasses.dataclass
