@@ -90,7 +90,7 @@ def simulate(
     max_steps: int = 200_000,
     newton_tol: float = 1e-3,
     max_newton: int = 10,
-    newton: Literal["modified", "full"] = "modified",
+    newton: Literal["auto", "modified", "full"] = "auto",
     observe: Callable | None = None,
     adjoint: Literal["forward", "reverse"] = "forward",
     progress: bool = False,
@@ -99,7 +99,8 @@ def simulate(
     """Integrate ``model`` from ``t0`` and return ``observe(t, q, v)`` at the times ``ts``.
 
     Newton solves each step for the new acceleration; ``newton="modified"`` factors the
-    iteration matrix once per step, ``"full"`` once per iteration. The step size follows the
+    iteration matrix once per step, ``"full"`` once per iteration (residual and factor from
+    one ``model.linearize``), ``"auto"`` takes the model's ``preferred_newton``. The step size follows the
     local error estimate (RMS over the free coordinates, weighted by ``atol + rtol|q|``); a
     Newton failure or a non-finite state retries the step at a quarter of the size. With
     ``adaptive=False`` the step is ``dt0`` (shortened only to land on output times).
@@ -157,8 +158,10 @@ def _prepare(model, ts, t0, y0, solver, rtol, atol, dt0, dt_min, dt_max, adaptiv
         raise ValueError(f"dt0 must be > 0, got dt0={dt0!r}")
     if not adaptive and dt0 is None:
         raise ValueError("adaptive=False needs a step size dt0")
-    if newton not in ("modified", "full"):
-        raise ValueError(f"newton must be 'modified' or 'full', got {newton!r}")
+    if newton not in ("auto", "modified", "full"):
+        raise ValueError(f"newton must be 'auto', 'modified' or 'full', got {newton!r}")
+    if newton == "auto":
+        newton = model.preferred_newton
     if adjoint not in ("forward", "reverse"):
         raise ValueError(f"adjoint must be 'forward' or 'reverse', got {adjoint!r}")
     if ts_np is not None and dt0 is None:
@@ -248,34 +251,41 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
         return stage
 
     def newton_solve(m, t1, h, q, v, a, abar):
-        """Solve r(a1) = 0 for the step's true acceleration (modified or full Newton)."""
+        """Solve r(a1) = 0 for the step's true acceleration (modified or full Newton).
+
+        Modified: the iteration matrix is factored once, at the predictor. Full: each
+        iteration takes residual and factor from one ``m.linearize`` call.
+        """
         c_C, c_K = solver.derivatives(h)
         stage = make_stage(m, t1, h, q, v, a, abar)
-        q1, v1, a1, _ = stage(a)
-        fac = m.factor_iteration_matrix(t1, q1, v1, 1.0, c_C, c_K)
+        if config.newton == "modified":
+            q1, v1, _, _ = stage(a)
+            fac = m.factor_iteration_matrix(t1, q1, v1, 1.0, c_C, c_K)
 
         def cond(s):
-            a1, fac, i, prev, done, failed = s
+            a1, i, prev, done, failed = s
             return ~done & ~failed
 
         def body(s):
-            a1, fac, i, prev, done, failed = s
+            a1, i, prev, done, failed = s
             q1, v1, a1, _ = stage(a1)
             if config.newton == "full":
-                fac = m.factor_iteration_matrix(t1, q1, v1, 1.0, c_C, c_K)
-            da = fac.solve(m.residual(t1, q1, v1, a1))
+                r, fac_i = m.linearize(t1, q1, v1, a1, 1.0, c_C, c_K)
+            else:
+                r, fac_i = m.residual(t1, q1, v1, a1), fac
+            da = fac_i.solve(r)
             a1 = a1 - da
             q_new = stage(a1)[0]
             norm = error_norm(q_new, q_new, c_K * da)
             done = norm < newton_tol
             failed = (i + 1 >= config.max_newton) & ~done
             failed = failed | ~jnp.isfinite(norm) | ((i >= 2) & (norm > prev))
-            return a1, fac, i + 1, norm, done, failed
+            return a1, i + 1, norm, done, failed
 
-        a1, fac, iters, _, done, _ = lax.while_loop(
-            cond, body, (a1, fac, jnp.array(0), jnp.array(jnp.inf), jnp.array(False), jnp.array(False))
+        a1, iters, _, done, _ = lax.while_loop(
+            cond, body, (a, jnp.array(0), jnp.array(jnp.inf), jnp.array(False), jnp.array(False))
         )
-        return a1, fac, iters, done, stage, c_C, c_K
+        return a1, iters, done, stage, c_C, c_K
 
     def step(c):
         t, h, q, v, a, abar, k = c["t"], c["h"], c["q"], c["v"], c["a"], c["abar"], c["k"]
@@ -285,7 +295,7 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
         t1 = jnp.where(jnp.abs(t1 - ns) <= 1e-12 * (1.0 + jnp.abs(ns)), ns, t1)
         if config.adjoint == "reverse":
             sg = lax.stop_gradient
-            a1, fac, iters, done, _, c_C, c_K = newton_solve(sg(model), t1, h, sg(q), sg(v), sg(a), sg(abar))
+            a1, iters, done, _, c_C, c_K = newton_solve(sg(model), t1, h, sg(q), sg(v), sg(a), sg(abar))
             a1 = lax.stop_gradient(a1)
 
             # Implicit derivative of the Newton solve: one Newton update with the gradient of
@@ -296,7 +306,7 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
             fac_star = sg(model).factor_iteration_matrix(t1, sg(q1s), sg(v1s), 1.0, c_C, c_K)
             a1 = a1 - fac_star.solve(model.residual(t1, q1s, v1s, a1))
         else:
-            a1, fac, iters, done, stage, c_C, c_K = newton_solve(model, t1, h, q, v, a, abar)
+            a1, iters, done, stage, c_C, c_K = newton_solve(model, t1, h, q, v, a, abar)
         q1, v1, a1, abar1 = stage(a1)
 
         err = lax.stop_gradient(error_norm(q, q1, solver.error_estimate(h, a, a1)))
@@ -311,17 +321,21 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
             h_new = jnp.where(ok, jnp.minimum(2.0 * h, dt0), 0.25 * h)
         h_new = jnp.minimum(h_new, dt_max)
 
-        # Dense output at the requested times inside (t, t1].
-        ys = c["ys"]
-        for j in range(K):
-            idx = k + j
-            tau = ts_pad[idx]
-            write = accept & (tau <= t1)
-            s = jnp.clip((tau - t) / h, 0.0, 1.0)
-            qi, vi = hermite_interpolate(s, h, q, v, q1, v1)
-            obs = config.observe(jnp.where(write, tau, t1), qi, vi)
-            ys = jtu.tree_map(lambda x, buf: buf.at[idx].set(x, pred=write), obs, ys)
-        k_new = jnp.where(accept, k + jnp.sum(ts_pad[k + jnp.arange(K)] <= t1), k)
+        # Dense output at the requested times inside (t, t1]: the whole window of K output
+        # slots in one vectorised write; slots past t1 keep what they hold.
+        idx = k + jnp.arange(K)
+        tau = ts_pad[idx]
+        write = accept & (tau <= t1)
+        s = jnp.clip((tau - t) / h, 0.0, 1.0)
+        qi, vi = hermite_interpolate(s[:, None], h, q, v, q1, v1)
+        obs = jax.vmap(config.observe)(jnp.where(write, tau, t1), qi, vi)
+
+        def write_window(x, buf):
+            x = jnp.where(write.reshape((K,) + (1,) * (jnp.ndim(x) - 1)), x, buf[idx])
+            return buf.at[idx].set(x, pred=accept)
+
+        ys = jtu.tree_map(write_window, obs, c["ys"])
+        k_new = jnp.where(accept, k + jnp.sum(tau <= t1), k)
 
         t_new = jnp.where(accept, t1, t)
         h_new = lax.stop_gradient(limit_step(t_new, h_new, k_new))

@@ -5,6 +5,7 @@ never knows which integrator runs it.
 """
 
 import abc
+from typing import ClassVar
 
 import equinox as eqx
 
@@ -17,6 +18,10 @@ class AbstractModel(eqx.Module):
     Prescribed coordinates (constraints eliminated as prescribed motion) have zero residual
     rows and identity rows/columns in the iteration matrix; ``constrain`` sets their values.
     """
+
+    preferred_newton: ClassVar[str] = "modified"
+    """The integrator's Newton variant under ``newton="auto"``: ``"modified"`` (factor once
+    per step) suits models whose factorisation costs more than a residual."""
 
     @property
     @abc.abstractmethod
@@ -45,6 +50,13 @@ class AbstractModel(eqx.Module):
         self, t: Scalar, q: Float[Array, " n"], v: Float[Array, " n"], c_M, c_C, c_K
     ):
         """Factor ``c_M ∂r/∂a + c_C ∂r/∂v + c_K ∂r/∂q``; returns an object with ``.solve(b)``."""
+
+    def linearize(self, t: Scalar, q: Float[Array, " n"], v: Float[Array, " n"], a: Float[Array, " n"], c_M, c_C,
+                  c_K):
+        """``(residual(t, q, v, a), factor_iteration_matrix(t, q, v, c_M, c_C, c_K))``: what one
+        full-Newton iteration needs. Models whose residual and tangent share their costly part
+        (the reduced model's cubic force) override it to evaluate that part once."""
+        return self.residual(t, q, v, a), self.factor_iteration_matrix(t, q, v, c_M, c_C, c_K)
 
     def error_space(self, q: Float[Array, " n"], e: Float[Array, " n"]):
         """Where the step's error is measured: ``(q_err, e_err, mask)``, the coordinates that
