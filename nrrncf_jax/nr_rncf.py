@@ -10,13 +10,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .integrate.simulate import simulate
 from .models.full_order import RotatingFrameModel
-from .models.reduced import ReducedRotatingModel, reduce_rotating_model
+from .models.reduced import ReducedRotatingModel, modal_loads, reduce_rotating_model
 from .reduction.deflation import deflate
 from .reduction.modal_derivatives import modal_derivatives
 from .reduction.modes import vibration_modes
-from .reduction.selection import Selection, align_degenerate_modes, mmi_matrix, select
+from .reduction.selection import Selection, align_degenerate_modes, mmi_matrix, modal_response, select
 from .reduction.spin_state import SpinCheck, match_modes, ritz_frequencies, spinning_modes
 
 
@@ -42,8 +41,12 @@ class Reduction:
         return 0 if self.spin is None or not self.spin.enriched else len(self.spin.vms) + len(self.spin.pairs)
 
 
-def _eta(t, p, v):
-    return p
+def _modal_damping_ratio(full, omega):
+    """ζ_i = α/(2ω_i) + βω_i/2 of the full model's Rayleigh damping (None when undamped)."""
+    if full.damping is None:
+        return None
+    omega = np.asarray(omega)
+    return float(full.damping.alpha) / (2.0 * omega) + float(full.damping.beta) * omega / 2.0
 
 
 def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | str = "auto", mds="auto",
@@ -83,15 +86,14 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     times["modes"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    linear = reduce_rotating_model(full, modes.phi, linear=True)
-    loads = jnp.column_stack([linear.inertia.g, linear.inertia.c, linear.gravity_map @ linear.gravity,
-                              linear.point_load])
-    phi = align_degenerate_modes(modes.phi, modes.omega, loads)
+    ts_mmi = jnp.asarray(ts_mmi)
+    _, vectors = modal_loads(full, modes.phi, ts_mmi)
+    phi = align_degenerate_modes(modes.phi, modes.omega, vectors)
     modes = eqx.tree_at(lambda m: m.phi, modes, phi)
-    linear = reduce_rotating_model(full, phi, linear=True)
-    eta = simulate(linear, jnp.asarray(ts_mmi), observe=_eta, rtol=1e-5, atol=1e-9).ys
-    spin = float(jnp.max(jnp.abs(jax.vmap(lambda t: full.motion(t)[1])(jnp.asarray(ts_mmi)))))
-    W = mmi_matrix(jnp.asarray(ts_mmi), eta)
+    history, _ = modal_loads(full, phi, ts_mmi)
+    eta = modal_response(ts_mmi, history, modes.omega, _modal_damping_ratio(full, modes.omega))
+    spin = float(jnp.max(jnp.abs(jax.vmap(lambda t: full.motion(t)[1])(ts_mmi))))
+    W = mmi_matrix(ts_mmi, jnp.asarray(eta))
     choose = functools.partial(select, W, vms, mds, vm_tol=vm_tol, md_tol=md_tol, max_mds=max_mds,
                                omega=modes.omega, omega_band=band * spin if band else None)
     sel = choose(max_dofs=max_dofs)

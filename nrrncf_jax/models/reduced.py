@@ -12,6 +12,7 @@ to round-off and differ only in cost (O(Km⁴) against O(n_el n_e⁴ + 3n Km)).
 from typing import ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 
@@ -22,7 +23,7 @@ from ..linalg import DenseLU
 from ..motion import SpinUp, Stationary, rotation_about
 from ..reduction.tensors import ElasticTensors, RotationInertia, elastic_tensors, rotation_inertia
 from .base import AbstractModel
-from .full_order import Loads, RotatingFrameModel
+from .full_order import RotatingFrameModel
 
 
 class ReducedRotatingModel(AbstractModel):
@@ -180,18 +181,40 @@ def reduce_rotating_model(full: RotatingFrameModel, Psi: Float[Array, "ndof km"]
     if full.damping is not None and q_eq is not None:
         raise ValueError("a damped model reduces about the reference q° = q̂ only (D̄ uses K̂): leave q_eq unset")
     q_eq = body.q_hat if q_eq is None else q_eq
-    km = Psi.shape[1]
     if force == "auto":
-        costs = force_evaluation_costs(body, km)
+        costs = force_evaluation_costs(body, Psi.shape[1])
         force = min(costs, key=costs.get)
-    P = Psi.reshape(body.n_vectors, 3, km)
-    loads: Loads = full.loads
+    gravity_map, point_load = _load_maps(full, Psi)
     return ReducedRotatingModel(
         Psi=Psi, q_eq=q_eq, q_hat=body.q_hat,
         elastic=elastic_tensors(body, q_eq, Psi),
         inertia=rotation_inertia(body, q_eq, Psi, full.axis),
-        gravity_map=jnp.einsum("a,akI->Ik", body.varrho(), P),
-        point_load=jnp.einsum("pkI,pk->I", P[loads.point_vectors], loads.point_forces),
-        gravity=loads.gravity, physical_mask=full.free_mask(), motion=full.motion, axis=full.axis,
+        gravity_map=gravity_map, point_load=point_load, gravity=full.loads.gravity, physical_mask=full.free_mask(), motion=full.motion, axis=full.axis,
         body=body if force == "projected" else None, force=force, linear=linear, damping=full.damping,
     )
+
+
+def _load_maps(full: RotatingFrameModel, Psi):
+    """``(Σ_α ϱ_α ψ^i_α, Ψᵀ Q_point)``: Ψᵀ of a uniform body-frame acceleration and of the
+    point forces."""
+    body, loads = full.body, full.loads
+    P = Psi.reshape(body.n_vectors, 3, Psi.shape[1])
+    return (jnp.einsum("a,akI->Ik", body.varrho(), P),
+            jnp.einsum("pkI,pk->I", P[loads.point_vectors], loads.point_forces))
+
+
+@eqx.filter_jit
+def modal_loads(full: RotatingFrameModel, Psi: Float[Array, "ndof km"], ts: Float[Array, " nt"]):
+    """The loads of the linear MMI model (``linear=True``) on the basis Ψ about q̂:
+    ``l(t) = −θ̈ ḡ − θ̇² c̄ + Ψᵀ Q(t)`` at the times ``ts`` (nt × Km), and the constant load
+    vectors ``[ḡ, c̄, Ψᵀ ϱ g, Ψᵀ Q_point]`` (Km × 4) they combine."""
+    inertia = rotation_inertia(full.body, full.body.q_hat, Psi, full.axis)
+    gravity_map, point_load = _load_maps(full, Psi)
+
+    def at(t):
+        th, dth, ddth = full.motion(t)
+        A = rotation_about(full.axis, th)
+        return -ddth * inertia.g - dth**2 * inertia.c + gravity_map @ (A.T @ full.loads.gravity) + point_load
+
+    vectors = jnp.column_stack([inertia.g, inertia.c, gravity_map @ full.loads.gravity, point_load])
+    return jax.vmap(at)(ts), vectors
