@@ -189,7 +189,8 @@ def reduce_rotating_model(full: RotatingFrameModel, Psi: Float[Array, "ndof km"]
         Psi=Psi, q_eq=q_eq, q_hat=body.q_hat,
         elastic=elastic_tensors(body, q_eq, Psi),
         inertia=rotation_inertia(body, q_eq, Psi, full.axis),
-        gravity_map=gravity_map, point_load=point_load, gravity=full.loads.gravity, physical_mask=full.free_mask(), motion=full.motion, axis=full.axis,
+        gravity_map=gravity_map, point_load=point_load, gravity=full.loads.gravity,
+        physical_mask=full.free_mask(), motion=full.motion, axis=full.axis,
         body=body if force == "projected" else None, force=force, linear=linear, damping=full.damping,
     )
 
