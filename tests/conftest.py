@@ -1,8 +1,12 @@
 """Tests run in float64 (switched on here, never by the library)."""
 
 import functools
+import os
 
 import jax
+
+# The CLI's persistent compilation cache stays off in the (in-process) CLI tests.
+os.environ["NRRNCF_JAX_CACHE"] = "off"
 
 jax.config.update("jax_enable_x64", True)
 

@@ -3,6 +3,7 @@
 import csv
 import json
 import math
+import os
 import subprocess
 import sys
 
@@ -39,9 +40,20 @@ def test_bad_cli_value_is_an_error_not_a_traceback(capsys):
 
 
 def test_library_import_leaves_jax_config_alone():
-    code = "import jax, nrrncf_jax; print(jax.config.jax_enable_x64)"
+    code = "import jax, nrrncf_jax; print(jax.config.jax_enable_x64, jax.config.jax_compilation_cache_dir)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "False"
+    assert out.strip() == "False None"
+
+
+def test_compilation_cache_keeps_small_kernels(tmp_path):
+    """enable_compilation_cache stores even a tiny kernel, and a new process finds it."""
+    code = ("import os, jax, nrrncf_jax; p = nrrncf_jax.enable_compilation_cache(os.environ['D']); "
+            "jax.jit(lambda x: 2.0 * x + 1.0)(1.0).block_until_ready(); print(len(os.listdir(p)))")
+    env = dict(os.environ, D=str(tmp_path / "xla"))
+    first = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+    second = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+    assert int(first.stdout) >= 1
+    assert int(second.stdout) == int(first.stdout)  # a hit: nothing new written
 
 
 def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):

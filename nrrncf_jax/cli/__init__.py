@@ -7,7 +7,9 @@
     nrrncf identify --demo --json
 
 Each subcommand lives in its own module of this package, with a ``register(subparsers)``.
-The command runs in float64 (a ``jax.enable_x64`` context around it); no global flag changes.
+The command runs in float64 (a ``jax.enable_x64`` context around it), and keeps compiled
+kernels in a persistent cache (``nrrncf_jax.compilation_cache``; ``NRRNCF_JAX_CACHE=DIR`` moves
+it, ``NRRNCF_JAX_CACHE=off`` turns it off), so that a second command skips most compilation.
 """
 
 import argparse
@@ -32,6 +34,10 @@ def main(argv=None) -> int:
     args.argv = argv  # for a subcommand that re-runs itself in a subprocess (sweep --devices)
     import jax
 
+    from ..compilation_cache import cli_cache_enabled, enable_compilation_cache
+
+    if cli_cache_enabled():
+        enable_compilation_cache()
     try:
         with jax.enable_x64(True):  # float64 for this command only; the global flag is left alone
             return args.func(args)

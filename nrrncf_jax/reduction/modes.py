@@ -53,29 +53,41 @@ def vibration_modes(
             f"the stiffness matrix K|eq is singular: {6 - rank} rigid-body mode(s) are not removed by the "
             "constrained coordinates (missing reference conditions, e.g. no clamped root)"
         )
-    K = frame_stiffened(body, q_eq, frame_stiffness)[np.ix_(idx, idx)]
-    M = jnp.kron(body.mass_matrix(), jnp.eye(3))[np.ix_(idx, idx)]
-    L = jnp.linalg.cholesky(M)
-    A = jsl.solve_triangular(L, jsl.solve_triangular(L, K, lower=True).T, lower=True)
-    A = 0.5 * (A + A.T)
-    w2, Y = eigh(A)
+    k = len(idx) if k is None else int(k)
+    F = jnp.zeros((3, 3)) if frame_stiffness is None else jnp.asarray(frame_stiffness, dtype=float)
+    w2, phi = _modes(body, jnp.asarray(idx), jnp.asarray(q_eq, dtype=float), F)
     if is_concrete(w2) and float(w2[0]) <= 0.0:
         raise ValueError(
             f"K|eq is not positive definite on the free coordinates (lowest eigenvalue {float(w2[0]):.3g}): "
             "the configuration is not a stable equilibrium"
         )
-    k = len(idx) if k is None else int(k)
-    phi_free = jsl.solve_triangular(L.T, Y[:, :k], lower=False)
-    phi = jnp.zeros((body.n_dof, k)).at[idx].set(phi_free)
-    return VibrationModes(omega=jnp.sqrt(w2[:k]), phi=phi)
+    return VibrationModes(omega=jnp.sqrt(w2[:k]), phi=phi[:, :k])
+
+
+@eqx.filter_jit
+def _modes(body: Body, idx, q_eq, frame_stiffness):
+    """All eigenvalues and mass-normalised modes on the coordinates ``idx``: one compiled
+    kernel for rest and spinning modes alike (op by op, the assembly and the reduction
+    compiled dozens of primitives on every cold start)."""
+    K = _frame_stiffened(body, q_eq, frame_stiffness)[idx[:, None], idx[None, :]]
+    M = jnp.kron(body.mass_matrix(), jnp.eye(3))[idx[:, None], idx[None, :]]
+    L = jnp.linalg.cholesky(M)
+    A = jsl.solve_triangular(L, jsl.solve_triangular(L, K, lower=True).T, lower=True)
+    A = 0.5 * (A + A.T)
+    w2, Y = eigh(A)
+    phi_free = jsl.solve_triangular(L.T, Y, lower=False)
+    return w2, jnp.zeros((body.n_dof, idx.shape[0])).at[idx].set(phi_free)
 
 
 def frame_stiffened(body: Body, q_eq: Float[Array, "n 3"], frame_stiffness=None) -> Float[Array, "ndof ndof"]:
     """``K(q_eq) + M ⊗ frame_stiffness`` on all coordinates (just K without a frame term)."""
-    K = body.stiffness_matrix(q_eq)
-    if frame_stiffness is None:
-        return K
-    return K + jnp.kron(body.mass_matrix(), jnp.asarray(frame_stiffness))
+    F = jnp.zeros((3, 3)) if frame_stiffness is None else jnp.asarray(frame_stiffness, dtype=float)
+    return _frame_stiffened(body, q_eq, F)
+
+
+@eqx.filter_jit
+def _frame_stiffened(body, q_eq, F):
+    return body.stiffness_matrix(q_eq) + jnp.kron(body.mass_matrix(), F)
 
 
 DEGENERACY_RTOL = 1e-8
@@ -96,7 +108,8 @@ def eigh(A: Float[Array, "n n"]) -> tuple[Float[Array, " n"], Float[Array, "n n"
     derivative of a repeated eigenspace when the perturbation keeps the symmetry that causes
     the repetition (E, ρ or ν of a tube: both bending planes change alike).
     """
-    return jnp.linalg.eigh(A)
+    w, V = jnp.linalg.eigh(A)
+    return w, V  # a plain tuple, as the JVP rule returns (not jnp's EighResult)
 
 
 @eigh.defjvp
