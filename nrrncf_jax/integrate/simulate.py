@@ -204,11 +204,12 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
     K = _WINDOW
     ts_pad = jnp.concatenate([ts, jnp.full((K,), jnp.inf)])
 
-    def error_norm(q_ref, q_new, e):
-        """RMS of e / (atol + rtol max(|q_ref|, |q_new|)) in the model's error space."""
-        x0, _, mask = model.error_space(q_ref, jnp.zeros_like(e))
-        x1, ex, _ = model.error_space(q_new, e)
-        scale = atol + rtol * jnp.maximum(jnp.abs(x0), jnp.abs(x1))
+    def error_coords(q):
+        """The step's start in the model's error space, and which coordinates count."""
+        x, _, mask = model.error_space(q, jnp.zeros_like(q))
+        return x, mask
+
+    def rms(ex, scale, mask):
         r = ex / scale
         return jnp.sqrt(jnp.sum(jnp.where(mask, r * r, 0.0)) / jnp.maximum(jnp.sum(mask), 1))
 
@@ -250,7 +251,7 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
 
         return stage
 
-    def newton_solve(m, t1, h, q, v, a, abar):
+    def newton_solve(m, t1, h, q, v, a, abar, scale, mask):
         """Solve r(a1) = 0 for the step's true acceleration (modified or full Newton).
 
         Modified: the iteration matrix is factored once, at the predictor. Full: each
@@ -275,8 +276,8 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
                 r, fac_i = m.residual(t1, q1, v1, a1), fac
             da = fac_i.solve(r)
             a1 = a1 - da
-            q_new = stage(a1)[0]
-            norm = error_norm(q_new, q_new, c_K * da)
+            # The update's size, weighted by the tolerances at the step's start (``scale``).
+            norm = rms(m.error_space(q, c_K * da)[1], scale, mask)
             done = norm < newton_tol
             failed = (i + 1 >= config.max_newton) & ~done
             failed = failed | ~jnp.isfinite(norm) | ((i >= 2) & (norm > prev))
@@ -293,9 +294,13 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
         t1 = t + h
         ns = next_stop(k)
         t1 = jnp.where(jnp.abs(t1 - ns) <= 1e-12 * (1.0 + jnp.abs(ns)), ns, t1)
+        x0, mask = error_coords(q)
+        x0 = lax.stop_gradient(x0)
+        newton_scale = atol + rtol * jnp.abs(x0)
         if config.adjoint == "reverse":
             sg = lax.stop_gradient
-            a1, iters, done, _, c_C, c_K = newton_solve(sg(model), t1, h, sg(q), sg(v), sg(a), sg(abar))
+            a1, iters, done, _, c_C, c_K = newton_solve(sg(model), t1, h, sg(q), sg(v), sg(a), sg(abar),
+                                                          newton_scale, mask)
             a1 = lax.stop_gradient(a1)
 
             # Implicit derivative of the Newton solve: one Newton update with the gradient of
@@ -306,10 +311,11 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
             fac_star = sg(model).factor_iteration_matrix(t1, sg(q1s), sg(v1s), 1.0, c_C, c_K)
             a1 = a1 - fac_star.solve(model.residual(t1, q1s, v1s, a1))
         else:
-            a1, iters, done, stage, c_C, c_K = newton_solve(model, t1, h, q, v, a, abar)
+            a1, iters, done, stage, c_C, c_K = newton_solve(model, t1, h, q, v, a, abar, newton_scale, mask)
         q1, v1, a1, abar1 = stage(a1)
 
-        err = lax.stop_gradient(error_norm(q, q1, solver.error_estimate(h, a, a1)))
+        x1, ex, _ = model.error_space(q1, solver.error_estimate(h, a, a1))
+        err = lax.stop_gradient(rms(ex, atol + rtol * jnp.maximum(jnp.abs(x0), jnp.abs(x1)), mask))
         finite = jnp.isfinite(err) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(v1))
         ok = done & finite
         if config.adaptive:

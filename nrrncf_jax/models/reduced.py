@@ -122,7 +122,9 @@ class ReducedRotatingModel(AbstractModel):
             load = load + D @ v
         if self.linear:  # the rotation acts only as the load it exerts (see ``linear``)
             return I.I @ a + F + load
-        return I.I @ a + 2.0 * dth * (I.G @ v) + ddth * (I.G @ p) + dth**2 * (I.C @ p) + F + load
+        # Ī a + Ḡ (2θ̇ v + θ̈ p) + C̄ θ̇² p as one product: on a small model each costs a dispatch.
+        IGC = jnp.concatenate([I.I, I.G, I.C], axis=1)
+        return IGC @ jnp.concatenate([a, 2.0 * dth * v + ddth * p, dth**2 * p]) + F + load
 
     def _factor(self, t, J, c_M, c_C, c_K):
         _, dth, ddth = self.motion(t)

@@ -64,8 +64,8 @@ class ElasticTensors(eqx.Module):
         k, l = self.pairs
         Lp = self.L @ p
         Npp = self.N2 @ (p[k] * p[l])
-        F = self.f + self.K @ p + Lp @ p + Npp @ p
-        return F, self.K + 2.0 * Lp + 3.0 * Npp
+        # F = f + (K + L p + N p p) p: one matrix-vector product (each costs a dispatch).
+        return self.f + (self.K + Lp + Npp) @ p, self.K + 2.0 * Lp + 3.0 * Npp
 
 
 def _fact(counts):
