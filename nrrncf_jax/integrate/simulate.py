@@ -256,6 +256,14 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
 
         Modified: the iteration matrix is factored once, at the predictor. Full: each
         iteration takes residual and factor from one ``m.linearize`` call.
+
+        Stopping test: the update's size ‖Δ_i‖ (in units of the step's error tolerance) below
+        ``newton_tol``, or, from the second update on, the error it leaves, estimated from the
+        observed contraction θ = ‖Δ_i‖/‖Δ_{i−1}‖ as θ/(1 − θ)·‖Δ_i‖ (Hairer & Wanner, *Solving
+        ODEs II*, §IV.8), below ``newton_tol``. The first update is never trusted by the
+        estimate: the predictor's error is of the order of the local error itself. Growth of
+        the update from the third on, a non-finite update or ``max_newton`` updates fail the
+        step (it is retried smaller).
         """
         c_C, c_K = solver.derivatives(h)
         stage = make_stage(m, t1, h, q, v, a, abar)
@@ -278,9 +286,11 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
             a1 = a1 - da
             # The update's size, weighted by the tolerances at the step's start (``scale``).
             norm = rms(m.error_space(q, c_K * da)[1], scale, mask)
-            done = norm < newton_tol
+            theta = norm / prev
+            left = theta / jnp.maximum(1.0 - theta, 1e-16) * norm  # the error this update leaves
+            done = (norm < newton_tol) | ((i >= 1) & (theta < 1.0) & (left < newton_tol))
             failed = (i + 1 >= config.max_newton) & ~done
-            failed = failed | ~jnp.isfinite(norm) | ((i >= 2) & (norm > prev))
+            failed = failed | ~jnp.isfinite(norm) | ((i >= 2) & (theta > 1.0))
             return a1, i + 1, norm, done, failed
 
         a1, iters, _, done, _ = lax.while_loop(
@@ -328,7 +338,7 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
         h_new = jnp.minimum(h_new, dt_max)
 
         # Dense output at the requested times inside (t, t1]: the whole window of K output
-        # slots in one vectorised write; slots past t1 keep what they hold.
+        # slots in one vectorised write.
         idx = k + jnp.arange(K)
         tau = ts_pad[idx]
         write = accept & (tau <= t1)
@@ -336,9 +346,20 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
         qi, vi = hermite_interpolate(s[:, None], h, q, v, q1, v1)
         obs = jax.vmap(config.observe)(jnp.where(write, tau, t1), qi, vi)
 
-        def write_window(x, buf):
-            x = jnp.where(write.reshape((K,) + (1,) * (jnp.ndim(x) - 1)), x, buf[idx])
-            return buf.at[idx].set(x, pred=accept)
+        if config.adjoint == "reverse":
+            # The checkpointed loop's buffers are written once per slot: slots past t1 (or
+            # of a rejected step) keep what they hold.
+            def write_window(x, buf):
+                x = jnp.where(write.reshape((K,) + (1,) * (jnp.ndim(x) - 1)), x, buf[idx])
+                return buf.at[idx].set(x, pred=accept)
+        else:
+            # Every slot of the window is written, without reading the buffer back: a slot
+            # past t1, or any slot of a rejected step, is rewritten by the accepted step that
+            # covers its time (the window starts at the first uncovered slot, which only
+            # accepted steps advance). Reading the old values back made this a fusion over the
+            # whole buffer, which XLA splits across threads: a thread hand-off every step.
+            def write_window(x, buf):
+                return buf.at[idx].set(x)
 
         ys = jtu.tree_map(write_window, obs, c["ys"])
         k_new = jnp.where(accept, k + jnp.sum(tau <= t1), k)
