@@ -122,9 +122,10 @@ class ReducedRotatingModel(AbstractModel):
             load = load + D @ v
         if self.linear:  # the rotation acts only as the load it exerts (see ``linear``)
             return I.I @ a + F + load
-        # Ī a + Ḡ (2θ̇ v + θ̈ p) + C̄ θ̇² p as one product: on a small model each costs a dispatch.
-        IGC = jnp.concatenate([I.I, I.G, I.C], axis=1)
-        return IGC @ jnp.concatenate([a, 2.0 * dth * v + ddth * p, dth**2 * p]) + F + load
+        # Ī a + Ḡ (2θ̇ v + θ̈ p) + C̄ θ̇² p as elementwise products and one sum, which XLA fuses
+        # with the rest of the residual: on a small model each separate kernel costs a dispatch.
+        inertial = I.I * a + I.G * (2.0 * dth * v + ddth * p) + I.C * (dth**2 * p)
+        return jnp.sum(inertial, axis=1) + F + load
 
     def _factor(self, t, J, c_M, c_C, c_K):
         _, dth, ddth = self.motion(t)

@@ -69,10 +69,13 @@ class ElasticTensors(eqx.Module):
     def force_and_jacobian(self, p: Float[Array, " km"]):
         """``(F(p), ∂F/∂p)`` (Eq. 25) sharing the contractions."""
         k, l = self.pairs
-        Lp = self.L @ p
         Npp = (self.N2u @ (p[k] * p[l]))[self.unpack]  # N p p, symmetric
-        # F = f + (K + L p + N p p) p: one matrix-vector product (each costs a dispatch).
-        return self.f + (self.K + Lp + Npp) @ p, self.K + 2.0 * Lp + 3.0 * Npp
+        # The small contractions as elementwise products and sums rather than dots: XLA fuses
+        # them with the additions around them (on a CPU each separate kernel costs a dispatch,
+        # more than these few hundred multiply-adds).
+        Lp = jnp.sum(self.L * p, axis=2)
+        F = self.f + jnp.sum((self.K + Lp + Npp) * p, axis=1)  # f + (K + L p + N p p) p
+        return F, self.K + 2.0 * Lp + 3.0 * Npp
 
 
 def _fact(counts):
