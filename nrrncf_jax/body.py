@@ -8,6 +8,7 @@ through the element index map; no dense global κ is ever formed.
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ._types import Array, Bool, Float, Int
 from .elements.beam import NODAL_VECTORS_PER_NODE, beam_element_integrals
@@ -98,13 +99,16 @@ class Body(eqx.Module):
         n = self.n_dof
         return jnp.zeros((n, n)).at[dofs[:, :, None], dofs[:, None, :]].add(Kt.reshape(n_el, 3 * ne, 3 * ne))
 
-    def rigid_modes(self) -> Float[Array, "ndof 6"]:
+    def rigid_modes(self) -> np.ndarray:
         """Infinitesimal rigid motions of the reference: 3 translations (position vectors only)
-        and 3 rotations ω × q̂_α (all vectors). Each gives zero elastic force."""
-        e = jnp.eye(3)
-        trans = jnp.where(self.is_position[None, :, None], e[:, None, :], 0.0)
-        rot = jnp.cross(e[:, None, :], self.q_hat[None, :, :])
-        return jnp.concatenate([trans, rot]).reshape(6, -1).T
+        and 3 rotations ω × q̂_α (all vectors). Each gives zero elastic force.
+
+        NumPy, on the concrete reference (not traceable): it feeds a one-off check outside any
+        trace (``vibration_modes``), where jnp compiled a dozen small kernels op by op."""
+        e = np.eye(3)
+        trans = np.where(np.asarray(self.is_position)[None, :, None], e[:, None, :], 0.0)
+        rot = np.cross(e[:, None, :], np.asarray(self.q_hat)[None, :, :])
+        return np.concatenate([trans, rot]).reshape(6, -1).T
 
     # --- inertia (THEORY §1) ------------------------------------------------------------------
     def mass_matrix(self) -> Float[Array, "n n"]:

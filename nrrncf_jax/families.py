@@ -33,6 +33,7 @@ from .damping import RayleighDamping
 from .material import Material
 from .models.full_order import Loads, RotatingFrameModel
 from .models.reduced import ReducedRotatingModel, reduce_rotating_model
+from .reduction.deflation import deflation_map
 from .reduction.modal_derivatives import modal_derivatives
 from .reduction.modes import vibration_modes
 
@@ -205,11 +206,8 @@ def offline_family(full: RotatingFrameModel, reduction, preset, *, omega_ref=Non
     cols = [phi[:, list(sel.vms)]]
     if sel.pairs:
         cols.append(modal_derivatives(body, full.free_mask(), phi, sel.pairs).theta)
-    X = jnp.concatenate(cols, axis=1)
-    norms = jnp.linalg.norm(X, axis=0)
-    _, s, Vt = jnp.linalg.svd(X / norms, full_matrices=False)
-    km = reduction.model.n_dof
-    T0 = (Vt[:km].T / s[:km]) / norms[:, None]
+    # The SVD of ``deflate`` itself, so that X T0 reproduces the reduction's Ψ, column signs included.
+    T0 = jnp.asarray(deflation_map(jnp.concatenate(cols, axis=1), reduction.model.n_dof), dtype=float)
     return OfflineSpinupFamily(
         preset=preset, elements=n_el, n_modes=len(w), vms=tuple(sel.vms), pairs=tuple(sel.pairs),
         template=reduction.model, loads=full.loads, phi0=phi, T0=T0, E0=jnp.asarray(preset.E, dtype=float),

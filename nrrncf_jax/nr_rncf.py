@@ -86,14 +86,14 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     times["modes"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    ts_mmi = jnp.asarray(ts_mmi)
-    _, vectors = modal_loads(full, modes.phi, ts_mmi)
+    ts_mmi = jnp.asarray(ts_mmi, dtype=float)
+    _, vectors, _ = _mmi_loads(full, modes.phi, ts_mmi)
     phi = align_degenerate_modes(modes.phi, modes.omega, vectors)
     modes = eqx.tree_at(lambda m: m.phi, modes, phi)
-    history, _ = modal_loads(full, phi, ts_mmi)
+    history, _, spin = _mmi_loads(full, phi, ts_mmi)
     eta = modal_response(ts_mmi, history, modes.omega, _modal_damping_ratio(full, modes.omega))
-    spin = float(jnp.max(jnp.abs(jax.vmap(lambda t: full.motion(t)[1])(ts_mmi))))
-    W = mmi_matrix(ts_mmi, jnp.asarray(eta))
+    spin = float(spin)
+    W = mmi_matrix(ts_mmi, eta)
     choose = functools.partial(select, W, vms, mds, vm_tol=vm_tol, md_tol=md_tol, max_mds=max_mds,
                                omega=modes.omega, omega_band=band * spin if band else None)
     sel = choose(max_dofs=max_dofs)
@@ -104,23 +104,26 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     jax.block_until_ready(theta)
     times["modal_derivatives"] = time.perf_counter() - t0
 
-    rest = [modes.phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
+    # From here the basis columns are glued together in NumPy: slicing and concatenating jax
+    # arrays outside a jit compiles a kernel per operation and shape on a cold start.
+    phi, theta = np.asarray(modes.phi), None if theta is None else np.asarray(theta)
+    rest = [phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
     extra, check = [], None
     if spin_state is True or (spin_state == "auto" and sel.pairs):
         if spin <= 0.0:
             raise ValueError("spin_state=True needs a manoeuvre that spins (its largest spin rate is 0)")
         t0 = time.perf_counter()
-        sel, extra, check = _spin_enrichment(full, modes, sel, deflate(jnp.concatenate(rest, axis=1), deflation_tol),
+        sel, extra, check = _spin_enrichment(full, modes, sel, deflate(np.concatenate(rest, axis=1), deflation_tol),
                                              spin, n_modes, spin_state is True, spin_vms, spin_mds, spin_tol,
                                              choose, max_dofs, md_method)
         if theta is not None:
             theta = theta[:, : len(sel.pairs)] if sel.pairs else None
-        rest = [modes.phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
+        rest = [phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
         times["spin_state"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    Psi = deflate(jnp.concatenate(rest + extra, axis=1), deflation_tol)
-    model = reduce_rotating_model(full, Psi, force=force)
+    Psi = deflate(np.concatenate(rest + extra, axis=1), deflation_tol)
+    model = _reduce(full, Psi, force=force)
     jax.block_until_ready(model.elastic.N)
     times["tensors"] = time.perf_counter() - t0
     times["total"] = sum(times.values())
@@ -134,11 +137,12 @@ def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n
     (possibly trimmed) rest selection, the extra basis columns and the ``SpinCheck``."""
     body, free = full.body, full.free_mask()
     q_star, smodes = spinning_modes(full, spin, n_modes)
-    match = match_modes(body, modes.phi, smodes.phi)
+    sphi = np.asarray(smodes.phi)
+    match = match_modes(body, modes.phi, sphi)
     W = np.asarray(sel.W)
     by_weight = sorted(sel.vms, key=lambda i: -W[i, i])
     dominant = int(match[by_weight[0]])
-    exact = float(smodes.omega[dominant])
+    exact = float(np.asarray(smodes.omega)[dominant])
     ritz = ritz_frequencies(full, q_star, spin, Psi_rest)
     estimate = float(ritz[np.argmin(np.abs(ritz - exact))])
     enrich = always or abs(estimate / exact - 1.0) > tol
@@ -147,11 +151,30 @@ def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n
     svms = list(dict.fromkeys(int(match[i]) for i in by_weight))[:n_vms]
     ranked = sorted(((i, j) for a, i in enumerate(sel.vms) for j in sel.vms[a:]), key=lambda ij: -W[ij])
     spairs = list(dict.fromkeys(tuple(sorted((int(match[i]), int(match[j])))) for i, j in ranked))[:n_mds]
+    n_rest_pairs = len(sel.pairs)
     if max_dofs is not None:
         trimmed = choose(max_dofs=max(len(sel.vms), max_dofs - len(svms) - len(spairs)))
         assert trimmed.pairs == sel.pairs[: len(trimmed.pairs)]  # the same ranking, cut shorter
         sel = trimmed
-    extra = [smodes.phi[:, svms]]
+    extra = [sphi[:, svms]]
     if spairs:
-        extra.append(modal_derivatives(body, free, smodes.phi, spairs, method=md_method).theta)
+        # Padded to the rest MDs' count: the kernel compiled for those serves these too.
+        theta = modal_derivatives(body, free, smodes.phi, spairs, method=md_method, pad_to=n_rest_pairs).theta
+        extra.append(np.asarray(theta))
     return sel, extra, SpinCheck(spin, dominant, exact, estimate, True, tuple(svms), tuple(spairs))
+
+
+@eqx.filter_jit
+def _mmi_loads(full, phi, ts):
+    """``modal_loads`` (the loads of the linear MMI model and their load vectors) and the
+    largest spin rate max|θ̇| over ``ts``: one compiled kernel (op by op, evaluating the
+    motion on the time grid compiled a score of kernels on every cold start)."""
+    history, vectors = modal_loads(full, phi, ts)
+    return history, vectors, jnp.max(jnp.abs(jax.vmap(lambda t: full.motion(t)[1])(ts)))
+
+
+@eqx.filter_jit
+def _reduce(full, Psi, force):
+    """``reduce_rotating_model`` as one compiled kernel: the tensors are compiled kernels
+    already, and the load maps around them compiled op by op on every cold start."""
+    return reduce_rotating_model(full, Psi, force=force)

@@ -12,8 +12,10 @@ import abc
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
 from .._types import Array, Bool, Float, Int, Scalar
+from .._validate import is_concrete
 from ..body import Body
 from ..damping import RayleighDamping
 from ..linalg import assemble_and_factor
@@ -83,6 +85,12 @@ class _FullOrderModel(AbstractModel):
         return self.body.n_dof
 
     def free_mask(self) -> Bool[Array, " n"]:
+        if is_concrete(self.clamped):
+            # Outside a trace (the offline stage, input checks): NumPy, since the jnp scatter
+            # compiles a dozen small kernels op by op on every cold start.
+            fixed = np.zeros((self.body.n_vectors, 3), bool)
+            fixed[np.asarray(self.clamped)] = True
+            return jnp.asarray(~fixed.reshape(-1), dtype=bool)
         fixed = jnp.zeros((self.body.n_vectors, 3), bool).at[self.clamped].set(True)
         return ~fixed.reshape(-1)
 

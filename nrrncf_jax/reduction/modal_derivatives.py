@@ -14,6 +14,7 @@ import jax.scipy.linalg as jsl
 import numpy as np
 
 from .._types import Array, Bool, Float
+from .._validate import is_concrete
 from ..body import Body
 
 
@@ -58,11 +59,15 @@ def modal_derivatives(
     pairs=None,
     q_eq: Float[Array, "n 3"] | None = None,
     method: str = "closed_form",
+    pad_to: int | None = None,
 ) -> ModalDerivatives:
     """Static modal derivatives θ_ij of the modes ``phi`` (columns, zero on constrained
     coordinates) for ``pairs`` (default: all i ≤ j, k(k+1)/2 of them).
 
-    ``method`` is ``'closed_form'`` (Eq. 35) or ``'autodiff'``.
+    ``method`` is ``'closed_form'`` (Eq. 35) or ``'autodiff'``. ``pad_to`` solves for at least
+    that many pairs (the last one repeated, the surplus dropped): the compiled kernel depends
+    on the number of pairs, so calls with different counts can share one compilation (each
+    costs about half a second).
     """
     if method not in ("closed_form", "autodiff"):
         raise ValueError(f"method must be 'closed_form' or 'autodiff', got {method!r}")
@@ -73,10 +78,16 @@ def modal_derivatives(
     pairs = tuple((min(int(i), int(j)), max(int(i), int(j))) for i, j in pairs)
     if any(j >= k or i < 0 for i, j in pairs):
         raise ValueError(f"mode index out of range in pairs (have {k} modes): {pairs}")
-    idx = jnp.asarray(np.flatnonzero(np.asarray(free)))
-    ii = jnp.array([p[0] for p in pairs])
-    jj = jnp.array([p[1] for p in pairs])
+    # NumPy index arrays: jnp.array of a list outside a jit compiles a conversion kernel.
+    idx = np.flatnonzero(np.asarray(free))
+    padded = pairs + pairs[-1:] * max(0, (pad_to or 0) - len(pairs))
+    ii = np.array([p[0] for p in padded], dtype=int)
+    jj = np.array([p[1] for p in padded], dtype=int)
     theta = _solve_modal_derivatives(body, q_eq, phi, idx, ii, jj, method)
+    if len(padded) > len(pairs):
+        # Dropped in NumPy when concrete (an eager jnp slice compiles a kernel of its own).
+        n = len(pairs)
+        theta = jnp.asarray(np.asarray(theta)[:, :n], dtype=theta.dtype) if is_concrete(theta) else theta[:, :n]
     return ModalDerivatives(theta=theta, pairs=pairs)
 
 

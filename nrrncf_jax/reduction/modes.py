@@ -43,7 +43,7 @@ def vibration_modes(
     free_np = np.asarray(free)
     idx = np.flatnonzero(free_np)
     # A rigid motion that leaves every constrained coordinate alone is a zero-stiffness mode.
-    R_fixed = np.asarray(body.rigid_modes())[~free_np]
+    R_fixed = body.rigid_modes()[~free_np]
     if R_fixed.size == 0:
         rank = 0
     else:
@@ -53,30 +53,32 @@ def vibration_modes(
             f"the stiffness matrix K|eq is singular: {6 - rank} rigid-body mode(s) are not removed by the "
             "constrained coordinates (missing reference conditions, e.g. no clamped root)"
         )
-    k = len(idx) if k is None else int(k)
-    F = jnp.zeros((3, 3)) if frame_stiffness is None else jnp.asarray(frame_stiffness, dtype=float)
-    w2, phi = _modes(body, jnp.asarray(idx), jnp.asarray(q_eq, dtype=float), F)
-    if is_concrete(w2) and float(w2[0]) <= 0.0:
+    k = len(idx) if k is None else min(int(k), len(idx))
+    # NumPy constants and index arrays: jnp.zeros or jnp.asarray of an integer array outside a
+    # jit each compile a small kernel.
+    F = np.zeros((3, 3)) if frame_stiffness is None else jnp.asarray(frame_stiffness, dtype=float)
+    w2_min, omega, phi = _modes(body, idx, jnp.asarray(q_eq, dtype=float), F, k)
+    if is_concrete(w2_min) and float(w2_min) <= 0.0:
         raise ValueError(
-            f"K|eq is not positive definite on the free coordinates (lowest eigenvalue {float(w2[0]):.3g}): "
+            f"K|eq is not positive definite on the free coordinates (lowest eigenvalue {float(w2_min):.3g}): "
             "the configuration is not a stable equilibrium"
         )
-    return VibrationModes(omega=jnp.sqrt(w2[:k]), phi=phi[:, :k])
+    return VibrationModes(omega=omega, phi=phi)
 
 
 @eqx.filter_jit
-def _modes(body: Body, idx, q_eq, frame_stiffness):
-    """All eigenvalues and mass-normalised modes on the coordinates ``idx``: one compiled
-    kernel for rest and spinning modes alike (op by op, the assembly and the reduction
-    compiled dozens of primitives on every cold start)."""
+def _modes(body: Body, idx, q_eq, frame_stiffness, k: int):
+    """The lowest eigenvalue, and the ``k`` lowest frequencies and mass-normalised modes on the
+    coordinates ``idx``: one compiled kernel for rest and spinning modes alike (op by op, the
+    assembly, the reduction and the slicing compiled dozens of primitives on every cold start)."""
     K = _frame_stiffened(body, q_eq, frame_stiffness)[idx[:, None], idx[None, :]]
     M = jnp.kron(body.mass_matrix(), jnp.eye(3))[idx[:, None], idx[None, :]]
     L = jnp.linalg.cholesky(M)
     A = jsl.solve_triangular(L, jsl.solve_triangular(L, K, lower=True).T, lower=True)
     A = 0.5 * (A + A.T)
     w2, Y = eigh(A)
-    phi_free = jsl.solve_triangular(L.T, Y, lower=False)
-    return w2, jnp.zeros((body.n_dof, idx.shape[0])).at[idx].set(phi_free)
+    phi_free = jsl.solve_triangular(L.T, Y[:, :k], lower=False)
+    return w2[0], jnp.sqrt(w2[:k]), jnp.zeros((body.n_dof, k)).at[idx].set(phi_free)
 
 
 def frame_stiffened(body: Body, q_eq: Float[Array, "n 3"], frame_stiffness=None) -> Float[Array, "ndof ndof"]:

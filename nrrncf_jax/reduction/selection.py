@@ -68,11 +68,17 @@ def modal_response(ts, loads, omega, zeta=None) -> np.ndarray:
     return eta
 
 
-def mmi_matrix(ts: Float[Array, " nt"], eta: Float[Array, "nt k"]) -> Float[Array, "k k"]:
-    """W_ij = ∫|η_i η_j| dt by the trapezoidal rule on the sample times."""
-    prod = jnp.abs(eta[:, :, None] * eta[:, None, :])
-    dt = jnp.diff(ts)
-    return jnp.einsum("t,tij->ij", 0.5 * dt, prod[1:] + prod[:-1])
+def mmi_matrix(ts: Float[Array, " nt"], eta: Float[Array, "nt k"]) -> np.ndarray:
+    """W_ij = ∫|η_i η_j| dt by the trapezoidal rule on the sample times: with the rule's
+    weights w_t, ``W = |η|ᵀ diag(w) |η|`` (``|η_i η_j| = |η_i| |η_j|``).
+
+    NumPy, like ``modal_response``: a one-off product on concrete data (op by op, jnp compiled
+    a kernel for each of its steps on every cold start)."""
+    ts = np.asarray(ts, dtype=float)
+    A = np.abs(np.asarray(eta, dtype=float))
+    dt = np.diff(ts)
+    w = 0.5 * (np.concatenate([dt, [0.0]]) + np.concatenate([[0.0], dt]))
+    return (A * w[:, None]).T @ A
 
 
 def select(W, n_vms: int | str = "auto", n_mds: int | str = "auto", vm_tol: float = 1e-6,
@@ -115,7 +121,7 @@ def select(W, n_vms: int | str = "auto", n_mds: int | str = "auto", vm_tol: floa
         pairs = [cand[r] for r in rank[: int(n_mds)]]
     else:
         pairs = [(min(i, j), max(i, j)) for i, j in n_mds]
-    return Selection(W=jnp.asarray(W), vms=tuple(vms), pairs=tuple(pairs))
+    return Selection(W=jnp.asarray(W, dtype=float), vms=tuple(vms), pairs=tuple(pairs))
 
 
 def align_degenerate_modes(phi: Float[Array, "ndof k"], omega, loads: Float[Array, "k m"], rtol: float = 1e-4):
@@ -140,4 +146,4 @@ def align_degenerate_modes(phi: Float[Array, "ndof k"], omega, loads: Float[Arra
             U, _, _ = np.linalg.svd(loads[i:j], full_matrices=True)
             phi[:, i:j] = phi[:, i:j] @ U
         i = j
-    return jnp.asarray(phi)
+    return jnp.asarray(phi, dtype=float)
