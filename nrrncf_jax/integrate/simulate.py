@@ -258,12 +258,16 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
         iteration takes residual and factor from one ``m.linearize`` call.
 
         Stopping test: the update's size ‖Δ_i‖ (in units of the step's error tolerance) below
-        ``newton_tol``, or, from the second update on, the error it leaves, estimated from the
-        observed contraction θ = ‖Δ_i‖/‖Δ_{i−1}‖ as θ/(1 − θ)·‖Δ_i‖ (Hairer & Wanner, *Solving
-        ODEs II*, §IV.8), below ``newton_tol``. The first update is never trusted by the
-        estimate: the predictor's error is of the order of the local error itself. Growth of
-        the update from the third on, a non-finite update or ``max_newton`` updates fail the
-        step (it is retried smaller).
+        ``newton_tol``; for full Newton also, from the second update on, the error it leaves,
+        estimated from the observed contraction θ = ‖Δ_i‖/‖Δ_{i−1}‖ as θ/(1 − θ)·‖Δ_i‖
+        (Hairer & Wanner, *Solving ODEs II*, §IV.8), below ``newton_tol`` (23-DOF reduced spin-up
+        at 40 rad/s: 2898 → 2670 iterations, same steps). The first update is never trusted by
+        the estimate: the predictor's error is of the order of the local error itself. Modified
+        Newton keeps the plain test: its contraction from the predictor's large first update
+        is no guide to the later ones, and stopping on it cost the full RNCF beam more steps
+        (20 rad/s: 1094 instead of 1029, 199 rejections instead of 155). Growth of the update
+        from the third on, a non-finite update or ``max_newton`` updates fail the step (it is
+        retried smaller).
         """
         c_C, c_K = solver.derivatives(h)
         stage = make_stage(m, t1, h, q, v, a, abar)
@@ -288,7 +292,9 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
             norm = rms(m.error_space(q, c_K * da)[1], scale, mask)
             theta = norm / prev
             left = theta / jnp.maximum(1.0 - theta, 1e-16) * norm  # the error this update leaves
-            done = (norm < newton_tol) | ((i >= 1) & (theta < 1.0) & (left < newton_tol))
+            done = norm < newton_tol
+            if config.newton == "full":
+                done = done | ((i >= 1) & (theta < 1.0) & (left < newton_tol))
             failed = (i + 1 >= config.max_newton) & ~done
             failed = failed | ~jnp.isfinite(norm) | ((i >= 2) & (theta > 1.0))
             return a1, i + 1, norm, done, failed
