@@ -194,17 +194,11 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
         if not slope < 0.0:  # not a descent direction: restart from steepest descent
             state, step = lbfgs.init(u), -grad
             slope = float(grad @ step)
-        alpha, accepted = 1.0, False
-        for _ in range(20):  # Armijo backtracking
-            u_try = u + alpha * step
-            v_try, g_try = evaluate(u_try)
-            evals += 1
-            if v_try <= value + 1e-4 * alpha * slope:
-                accepted = True
-                break
-            alpha *= 0.5
-        if not accepted:
+        found, tries = armijo_backtracking(evaluate, u, value, step, slope)
+        evals += tries
+        if found is None:
             break
+        u_try, v_try, g_try = found
         n_lbfgs += 1
         converged = value - v_try <= ftol * value
         u, value, grad = u_try, v_try, g_try
@@ -220,6 +214,30 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
         loss_evaluations=evals, wall_s=time.perf_counter() - t0, compile_s=compile_s,
         gradient="offline" if isinstance(family, OfflineSpinupFamily) else "fixed_basis",
     )
+
+
+def armijo_backtracking(evaluate: Callable, u, value: float, step, slope: float, *, c1: float = 1e-4,
+                        shrink: float = 0.5, max_tries: int = 20):
+    """The step length of a line search by Armijo backtracking: the first ``α = shrink^k`` with
+    ``f(u + α·step) ≤ f(u) + c1·α·slope``. Returns ``((u_try, f(u_try), ∇f(u_try)), tries)``,
+    or ``(None, tries)`` when no trial decreases f enough.
+
+    ``evaluate(u) → (f, ∇f)`` may fail at a trial point: a simulation that stops early
+    (``SimulationError``, or equinox's runtime error inside the compiled loss) or a non-finite
+    loss (``FloatingPointError``). A long L-BFGS step can leave the region where the model
+    integrates (e.g. a much softer beam at the same tolerances); such a trial counts as no
+    decrease and the step is shortened instead of ending the identification."""
+    alpha = 1.0
+    for tries in range(1, max_tries + 1):
+        u_try = u + alpha * step
+        try:
+            v_try, g_try = evaluate(u_try)
+        except (RuntimeError, FloatingPointError):
+            v_try, g_try = np.inf, None
+        if v_try <= value + c1 * alpha * slope:
+            return (u_try, v_try, g_try), tries
+        alpha *= shrink
+    return None, max_tries
 
 
 def _fmt(names, x) -> str:
