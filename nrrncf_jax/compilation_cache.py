@@ -1,10 +1,10 @@
 """A persistent XLA compilation cache across processes (opt-in; the CLI turns it on).
 
-Nearly all of a cold NR-RNCF offline stage is compilation: on the 24-element paper beam at
-ωs = 40 rad/s about 230 XLA compilations make up ~19 of its ~20 s on the 2-core CI CPU, while
-the same stage run again in the same process takes about 1 s. JAX can keep compiled
+Most of a cold NR-RNCF offline stage is compilation: on the 24-element paper beam at
+ωs = 40 rad/s its five compiled kernels take about 3 of its ~4 s on the 2-core CI CPU, while
+the same stage run again in the same process takes about 0.4 s. JAX can keep compiled
 executables on disk, so that a later process (a restarted notebook kernel, the next command)
-loads them instead of compiling; ``benchmarks/offline.py`` measures the three cases.
+loads them instead of compiling (about 1.3 s); ``benchmarks/offline.py`` measures the cases.
 
 This changes JAX's global configuration, so the library never calls it on import: call
 ``enable_compilation_cache()`` yourself (before the first computation). The ``nrrncf`` command
