@@ -237,8 +237,8 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
 
     h0 = limit_step(t0, jnp.minimum(dt0, dt_max), k0)
     init = dict(
-        t=t0, h=h0, q=q0, v=v0, a=a0, abar=a0, k=k0, ys=ys,
-        steps=jnp.array(0), rejected=jnp.array(0), newton=jnp.array(0), result=jnp.array(0),
+        t=t0, h=h0, y=jnp.stack([q0, v0, a0, a0]), k=k0, ys=ys,  # y = (q, v, a, ā): one carried array
+        counts=jnp.zeros(3, int), result=jnp.array(0),  # counts: accepted, rejected steps; Newton iterations
     )
 
     def make_stage(m, t1, h, q, v, a, abar):
@@ -276,11 +276,10 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
             fac = m.factor_iteration_matrix(t1, q1, v1, 1.0, c_C, c_K)
 
         def cond(s):
-            a1, i, prev, done, failed = s
-            return ~done & ~failed
+            return s[3] == 0  # status: 0 iterating, 1 converged, 2 failed
 
         def body(s):
-            a1, i, prev, done, failed = s
+            a1, i, prev, _ = s
             q1, v1, a1, _ = stage(a1)
             if config.newton == "full":
                 r, fac_i = m.linearize(t1, q1, v1, a1, 1.0, c_C, c_K)
@@ -295,17 +294,16 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
             done = norm < newton_tol
             if config.newton == "full":
                 done = done | ((i >= 1) & (theta < 1.0) & (left < newton_tol))
-            failed = (i + 1 >= config.max_newton) & ~done
-            failed = failed | ~jnp.isfinite(norm) | ((i >= 2) & (theta > 1.0))
-            return a1, i + 1, norm, done, failed
+            failed = (i + 1 >= config.max_newton) | ~jnp.isfinite(norm) | ((i >= 2) & (theta > 1.0))
+            return a1, i + 1, norm, jnp.where(done, 1, jnp.where(failed, 2, 0))
 
-        a1, iters, _, done, _ = lax.while_loop(
-            cond, body, (a, jnp.array(0), jnp.array(jnp.inf), jnp.array(False), jnp.array(False))
-        )
+        a1, iters, _, status = lax.while_loop(cond, body, (a, jnp.array(0), jnp.array(jnp.inf), jnp.array(0)))
+        done = status == 1
         return a1, iters, done, stage, c_C, c_K
 
     def step(c):
-        t, h, q, v, a, abar, k = c["t"], c["h"], c["q"], c["v"], c["a"], c["abar"], c["k"]
+        t, h, k = c["t"], c["h"], c["k"]
+        q, v, a, abar = c["y"]
         h = lax.stop_gradient(h)
         t1 = t + h
         ns = next_stop(k)
@@ -376,13 +374,13 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
         result = jnp.where(~accept & (h_new < dt_min), jnp.where(finite, 2, 3), 0)
         if config.progress:
             lax.cond(
-                accept & (c["steps"] % 200 == 0),
-                lambda: jax.debug.callback(_print_progress, t_new, t_end, c["steps"]),
+                accept & (c["counts"][0] % 200 == 0),
+                lambda: jax.debug.callback(_print_progress, t_new, t_end, c["counts"][0]),
                 lambda: None,
             )
         return dict(
-            t=t_new, h=h_new, q=pick(q1, q), v=pick(v1, v), a=pick(a1, a), abar=pick(abar1, abar), k=k_new, ys=ys,
-            steps=c["steps"] + accept, rejected=c["rejected"] + (~accept), newton=c["newton"] + iters, result=result,
+            t=t_new, h=h_new, y=pick(jnp.stack([q1, v1, a1, abar1]), c["y"]), k=k_new, ys=ys,
+            counts=c["counts"] + jnp.stack([accept, ~accept, iters]).astype(int), result=result,
         )
 
     def cond(c):
@@ -394,10 +392,10 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
     )
     result = jnp.where((final["result"] == 0) & (final["t"] < t_end), 1, final["result"])
     if config.progress:
-        jax.debug.callback(_print_progress, final["t"], t_end, final["steps"], True)
+        jax.debug.callback(_print_progress, final["t"], t_end, final["counts"][0], True)
     return Solution(
         ts=ts, ys=jtu.tree_map(lambda y: y[:n_out], final["ys"]), t_final=final["t"], result=result,
-        num_steps=final["steps"], num_rejected=final["rejected"], num_newton=final["newton"],
+        num_steps=final["counts"][0], num_rejected=final["counts"][1], num_newton=final["counts"][2],
     )
 
 
