@@ -360,10 +360,11 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
             # Every slot of the window is written, without reading the buffer back: a slot
             # past t1, or any slot of a rejected step, is rewritten by the accepted step that
             # covers its time (the window starts at the first uncovered slot, which only
-            # accepted steps advance). Reading the old values back made this a fusion over the
-            # whole buffer, which XLA splits across threads: a thread hand-off every step.
+            # accepted steps advance). One in-place dynamic-update-slice: reading the old values
+            # back, or a scatter, is an operation over the whole buffer to XLA's cost model,
+            # which splits it across threads, a thread hand-off every step.
             def write_window(x, buf):
-                return buf.at[idx].set(x)
+                return lax.dynamic_update_slice_in_dim(buf, x.astype(buf.dtype), k, axis=0)
 
         ys = jtu.tree_map(write_window, obs, c["ys"])
         k_new = jnp.where(accept, k + jnp.sum(tau <= t1), k)
@@ -387,7 +388,8 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
         return (c["t"] < t_end) & (c["result"] == 0)
 
     final = eqxi.while_loop(
-        cond, step, init, max_steps=config.max_steps, buffers=lambda c: c["ys"],
+        cond, step, init, max_steps=config.max_steps,
+        buffers=(lambda c: c["ys"]) if config.adjoint == "reverse" else None,
         kind="checkpointed" if config.adjoint == "reverse" else "lax",
     )
     result = jnp.where((final["result"] == 0) & (final["t"] < t_end), 1, final["result"])
