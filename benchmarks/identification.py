@@ -23,7 +23,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import machine  # noqa: E402
+from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax.families import SpinupFamily  # noqa: E402
 from nrrncf_jax.identify import Measurement, Observation, misfit, tip_deflection  # noqa: E402
@@ -100,10 +100,7 @@ def main():
               "loop (`equinox.internal.while_loop(kind='checkpointed')`, max_steps = 100000) keeps O(√max_steps) "
               "checkpoints and recomputes between them.", ""]
     text = "\n".join(lines)
-    os.makedirs(os.path.dirname(a.out), exist_ok=True)
-    with open(a.out, "w") as f:
-        f.write(text)
-    print(text)
+    report(text, a.out)
 
 
 if __name__ == "__main__":

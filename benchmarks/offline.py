@@ -57,7 +57,7 @@ def main(argv=None):
     ap.add_argument("--out", default="benchmarks/results/offline.md")
     a = ap.parse_args(argv)
     sys.path.insert(0, os.path.dirname(__file__))
-    from _machine import machine
+    from _machine import machine, report
 
     rows = {"cold": [], "cache, first": [], "cache, warm": []}
     for _ in range(a.repeats):
@@ -82,10 +82,7 @@ def main(argv=None):
         *lines, "",
         "cold: no persistent cache; cache, first: `enable_compilation_cache` on an empty directory; "
         "cache, warm: a new process reusing it; in process: `nr_rncf` called again after the first.", ""])
-    print(text)
-    os.makedirs(os.path.dirname(a.out) or ".", exist_ok=True)
-    with open(a.out, "w") as f:
-        f.write(text)
+    report(text, a.out)
 
 
 if __name__ == "__main__":

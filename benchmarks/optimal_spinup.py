@@ -22,7 +22,7 @@ jax.config.update("jax_enable_x64", True)
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
-from _machine import machine  # noqa: E402
+from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax.control import optimal_spinup, residual_amplitude, tip_index, tip_response  # noqa: E402
 from nrrncf_jax.nr_rncf import nr_rncf  # noqa: E402
@@ -103,10 +103,7 @@ def main(argv=None):
         f"![tip deflection]({os.path.relpath(a.figure, os.path.dirname(a.out))})",
     ]
     text = "\n".join(lines) + "\n"
-    print(text)
-    os.makedirs(os.path.dirname(a.out) or ".", exist_ok=True)
-    with open(a.out, "w") as f:
-        f.write(text)
+    report(text, a.out)
     _figure(a, res, full_tip)
     _log(f"wrote {a.out} and {a.figure}")
 

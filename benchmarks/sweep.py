@@ -181,10 +181,10 @@ def main(argv=None):
         "is the largest accepted + rejected step count of any case. The CPU is shared with other jobs, so "
         "timings are noisy (repeat runs differ by tens of per cent).\n"
     )
-    print(text)
-    os.makedirs(os.path.dirname(a.out), exist_ok=True)
-    with open(a.out, "w") as f:
-        f.write(text)
+    sys.path.insert(0, HERE)
+    from _machine import report
+
+    report(text, a.out)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ jax.config.update("jax_enable_x64", True)
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
-from _machine import machine  # noqa: E402
+from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax import chi_rel, nr_rncf  # noqa: E402
 from nrrncf_jax.integrate import GeneralizedAlpha  # noqa: E402
@@ -86,10 +86,7 @@ def main(argv=None):
         "The first χ_rel column is what `table3.py` reports (both models at the same tolerance). The last "
         "column, at the tightest tolerance, is the reduction error: the part of χ_rel that no tolerance "
         "removes.", ""])
-    print(text)
-    os.makedirs(os.path.dirname(a.out) or ".", exist_ok=True)
-    with open(a.out, "w") as f:
-        f.write(text)
+    report(text, a.out)
 
 
 if __name__ == "__main__":
