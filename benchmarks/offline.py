@@ -7,7 +7,7 @@ The straight paper beam at the paper's mesh for ωs (24 elements at 40 rad/s), T
 spinning-state check, deflation, tensors), timed stage by stage in fresh processes:
 
 - *cold*: no persistent cache; every kernel compiles (what a first-ever run pays);
-- *cache, first*: ``enable_compilation_cache`` on an empty directory (compiles and stores);
+- *cache, first*: ``compilation_cache`` on an empty directory (compiles and stores);
 - *cache, warm*: a new process on the filled directory (a restarted kernel, the next command);
 - *in process*: the same stage called again in the warm process (nothing left to compile).
 
@@ -28,7 +28,7 @@ jax.config.update("jax_enable_x64", True)
 cache = sys.argv[2]
 if cache != "none":
     import nrrncf_jax
-    nrrncf_jax.enable_compilation_cache(cache)
+    nrrncf_jax.compilation_cache(cache).__enter__()  # for the whole worker process
 import jax.numpy as jnp
 from nrrncf_jax.nr_rncf import nr_rncf
 from nrrncf_jax.scenarios.spinup import build_spinup_model, default_elements, output_times
@@ -80,7 +80,7 @@ def main(argv=None):
         "Produced by `benchmarks/offline.py`. Machine: " + machine(), "",
         f"Best of {a.repeats} fresh processes per case (all totals: {json.dumps(totals)}).", "",
         *lines, "",
-        "cold: no persistent cache; cache, first: `enable_compilation_cache` on an empty directory; "
+        "cold: no persistent cache; cache, first: `compilation_cache` on an empty directory; "
         "cache, warm: a new process reusing it; in process: `nr_rncf` called again after the first.", ""])
     report(text, a.out)
 

@@ -8,7 +8,7 @@ line switches it on, in its own entry point.
 
 from .body import Body as Body
 from .body import beam_body as beam_body
-from .compilation_cache import enable_compilation_cache as enable_compilation_cache
+from .compilation_cache import compilation_cache as compilation_cache
 from .control import OptimalSpinup as OptimalSpinup
 from .control import optimal_spinup as optimal_spinup
 from .control import tip_response as tip_response

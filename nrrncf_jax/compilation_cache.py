@@ -6,11 +6,15 @@ the same stage run again in the same process takes about 0.4 s. JAX can keep com
 executables on disk, so that a later process (a restarted notebook kernel, the next command)
 loads them instead of compiling (about 1.3 s); ``benchmarks/offline.py`` measures the cases.
 
-This changes JAX's global configuration, so the library never calls it on import: call
-``enable_compilation_cache()`` yourself (before the first computation). The ``nrrncf`` command
-calls it unless ``NRRNCF_JAX_CACHE=off``.
+The cache is JAX configuration, so the library never sets it on its own: ``compilation_cache()``
+is a context manager that sets it for the code inside and restores the previous settings on
+exit (as ``jax.enable_x64`` does for float64); the ``nrrncf`` command runs each command inside
+it unless ``NRRNCF_JAX_CACHE=off``. In a notebook, wrap the offline stage:
+``with nrrncf_jax.compilation_cache(): red = nrrncf_jax.nr_rncf(...)``. JAX opens the cache
+directory once per process: later blocks reuse the first directory.
 """
 
+import contextlib
 import os
 
 import jax
@@ -28,17 +32,27 @@ def default_cache_dir() -> str:
     return os.path.join(base, "nrrncf_jax", "xla")
 
 
-def enable_compilation_cache(path: str | None = None) -> str:
-    """Keep every compiled executable in ``path`` (default ``default_cache_dir()``), however
-    short its compilation (JAX's default threshold of 1 s would skip the many small offline
-    kernels); returns the directory. Entries are keyed by the program and the JAX/XLA
-    versions and flags, so a stale entry is never used."""
+_SETTINGS = ("jax_compilation_cache_dir", "jax_persistent_cache_min_compile_time_secs",
+             "jax_persistent_cache_min_entry_size_bytes")
+
+
+@contextlib.contextmanager
+def compilation_cache(path: str | None = None):
+    """Within the block, keep every compiled executable in ``path`` (default
+    ``default_cache_dir()``), however short its compilation (JAX's default threshold of 1 s would
+    skip the many small offline kernels); yields the directory and restores JAX's previous
+    cache settings on exit. Entries are keyed by the program and the JAX/XLA versions and
+    flags, so a stale entry is never used."""
     path = default_cache_dir() if path is None else str(path)
     os.makedirs(path, exist_ok=True)
-    jax.config.update("jax_compilation_cache_dir", path)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
-    jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
-    return path
+    previous = {name: getattr(jax.config, name) for name in _SETTINGS}
+    try:
+        for name, value in zip(_SETTINGS, (path, 0.0, 0)):
+            jax.config.update(name, value)
+        yield path
+    finally:
+        for name, value in previous.items():
+            jax.config.update(name, value)
 
 
 def cli_cache_enabled() -> bool:

@@ -46,9 +46,11 @@ def test_library_import_leaves_jax_config_alone():
 
 
 def test_compilation_cache_keeps_small_kernels(tmp_path):
-    """enable_compilation_cache stores even a tiny kernel, and a new process finds it."""
-    code = ("import os, jax, nrrncf_jax; p = nrrncf_jax.enable_compilation_cache(os.environ['D']); "
-            "jax.jit(lambda x: 2.0 * x + 1.0)(1.0).block_until_ready(); print(len(os.listdir(p)))")
+    """compilation_cache stores even a tiny kernel, a new process finds it, and the block leaves
+    JAX's cache setting as it found it."""
+    code = ("import os, jax, nrrncf_jax\nwith nrrncf_jax.compilation_cache(os.environ['D']) as p:\n"
+            "    jax.jit(lambda x: 2.0 * x + 1.0)(1.0).block_until_ready()\n"
+            "assert jax.config.jax_compilation_cache_dir is None\nprint(len(os.listdir(p)))")
     env = dict(os.environ, D=str(tmp_path / "xla"))
     first = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
     second = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)

@@ -32,14 +32,16 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
     args.argv = argv  # for a subcommand that re-runs itself in a subprocess (sweep --devices)
+    import contextlib
+
     import jax
 
-    from ..compilation_cache import cli_cache_enabled, enable_compilation_cache
+    from ..compilation_cache import cli_cache_enabled, compilation_cache
 
-    if cli_cache_enabled():
-        enable_compilation_cache()
+    cache = compilation_cache() if cli_cache_enabled() else contextlib.nullcontext()
     try:
-        with jax.enable_x64(True):  # float64 for this command only; the global flag is left alone
+        # float64 and the compilation cache for this command only; the global settings are left alone
+        with jax.enable_x64(True), cache:
             return args.func(args)
     except ValueError as e:
         print(f"nrrncf: error: {e}", file=sys.stderr)
