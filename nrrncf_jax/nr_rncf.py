@@ -138,7 +138,7 @@ def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n
     body, free = full.body, full.free_mask()
     q_star, smodes = spinning_modes(full, spin, n_modes)
     sphi = np.asarray(smodes.phi)
-    match = match_modes(body, modes.phi, sphi)
+    match = match_modes(full.M, modes.phi, sphi)
     W = np.asarray(sel.W)
     by_weight = sorted(sel.vms, key=lambda i: -W[i, i])
     dominant = int(match[by_weight[0]])

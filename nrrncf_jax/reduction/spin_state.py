@@ -102,20 +102,12 @@ def spinning_modes(full, omega: float, k: int) -> tuple[Float[Array, "n 3"], Vib
     return q_star, modes
 
 
-def _mass_matrix(body) -> np.ndarray:
-    """``M ⊗ I3`` assembled in NumPy from the element blocks (``Body.mass_matrix`` outside a jit
-    compiles its scatter op by op)."""
-    idx = np.asarray(body.elements)
-    M = np.zeros((body.n_vectors, body.n_vectors))
-    np.add.at(M, (idx[:, :, None], idx[:, None, :]), np.asarray(body.M_e))
-    return np.kron(M, np.eye(3))
-
-
-def match_modes(body, phi_rest: Float[Array, "ndof k"], phi_spin: Float[Array, "ndof m"]) -> np.ndarray:
+def match_modes(M: Float[Array, "n n"], phi_rest: Float[Array, "ndof k"],
+                phi_spin: Float[Array, "ndof m"]) -> np.ndarray:
     """For each rest mode (column of ``phi_rest``), the index of the spinning mode most like it:
-    the largest ``(φᵀ M s)²`` (both sets mass-normalised, so this is the modal assurance
-    criterion in the mass metric)."""
-    mac = (np.asarray(phi_rest).T @ _mass_matrix(body) @ np.asarray(phi_spin)) ** 2
+    the largest ``(φᵀ (M ⊗ I3) s)²`` with M the scalar mass matrix M_αβ (the full model's ``M``;
+    both sets mass-normalised, so this is the modal assurance criterion in the mass metric)."""
+    mac = (np.asarray(phi_rest).T @ np.kron(np.asarray(M), np.eye(3)) @ np.asarray(phi_spin)) ** 2
     return np.argmax(mac, axis=1)
 
 
@@ -130,7 +122,7 @@ def ritz_frequencies(full, q_star: Float[Array, "n 3"], omega: float, Psi: Float
     span of ``Psi``: the eigenvalues of ``(ΨᵀK*Ψ, ΨᵀMΨ)``, upper bounds of the exact ones."""
     free = np.flatnonzero(np.asarray(full.free_mask()))
     K = np.asarray(spinning_stiffness(full, q_star, omega))[np.ix_(free, free)]
-    M = _mass_matrix(full.body)[np.ix_(free, free)]
+    M = np.kron(np.asarray(full.M), np.eye(3))[np.ix_(free, free)]  # the model's assembled M_αβ
     P = np.asarray(Psi)[free]
     Kr = P.T @ K @ P
     return np.sqrt(np.clip(scipy.linalg.eigh(0.5 * (Kr + Kr.T), P.T @ M @ P, eigvals_only=True), 0.0, None))
