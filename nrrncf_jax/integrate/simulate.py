@@ -99,8 +99,8 @@ def simulate(
     """Integrate ``model`` from ``t0`` and return ``observe(t, q, v)`` at the times ``ts``.
 
     Newton solves each step for the new acceleration; ``newton="modified"`` factors the
-    iteration matrix once per step, ``"full"`` once per iteration (residual and factor from
-    one ``model.linearize``), ``"auto"`` takes the model's ``preferred_newton``. The step size follows the
+    iteration matrix once per step, ``"full"`` once per iteration (each update from one
+    ``model.newton_update``), ``"auto"`` takes the model's ``preferred_newton``. The step size follows the
     local error estimate (RMS over the free coordinates, weighted by ``atol + rtol|q|``); a
     Newton failure or a non-finite state retries the step at a quarter of the size. With
     ``adaptive=False`` the step is ``dt0`` (shortened only to land on output times).
@@ -255,7 +255,8 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
         """Solve r(a1) = 0 for the step's true acceleration (modified or full Newton).
 
         Modified: the iteration matrix is factored once, at the predictor. Full: each
-        iteration takes residual and factor from one ``m.linearize`` call.
+        iteration's update comes from one ``m.newton_update`` call (residual and factor at the
+        iterate).
 
         Stopping test: the update's size ‖Δ_i‖ (in units of the step's error tolerance) below
         ``newton_tol``; for full Newton also, from the second update on, the error it leaves,
@@ -282,10 +283,9 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
             a1, i, prev, _ = s
             q1, v1, a1, _ = stage(a1)
             if config.newton == "full":
-                r, fac_i = m.linearize(t1, q1, v1, a1, 1.0, c_C, c_K)
+                da = m.newton_update(t1, q1, v1, a1, 1.0, c_C, c_K)
             else:
-                r, fac_i = m.residual(t1, q1, v1, a1), fac
-            da = fac_i.solve(r)
+                da = fac.solve(m.residual(t1, q1, v1, a1))
             a1 = a1 - da
             # The update's size, weighted by the tolerances at the step's start (``scale``).
             norm = rms(m.error_space(q, c_K * da)[1], scale, mask)

@@ -51,12 +51,13 @@ class AbstractModel(eqx.Module):
     ):
         """Factor ``c_M ∂r/∂a + c_C ∂r/∂v + c_K ∂r/∂q``; returns an object with ``.solve(b)``."""
 
-    def linearize(self, t: Scalar, q: Float[Array, " n"], v: Float[Array, " n"], a: Float[Array, " n"], c_M, c_C,
-                  c_K):
-        """``(residual(t, q, v, a), factor_iteration_matrix(t, q, v, c_M, c_C, c_K))``: what one
-        full-Newton iteration needs. Models whose residual and tangent share their costly part
-        (the reduced model's cubic force) override it to evaluate that part once."""
-        return self.residual(t, q, v, a), self.factor_iteration_matrix(t, q, v, c_M, c_C, c_K)
+    def newton_update(self, t: Scalar, q: Float[Array, " n"], v: Float[Array, " n"], a: Float[Array, " n"], c_M,
+                      c_C, c_K) -> Float[Array, " n"]:
+        """One full-Newton update: ``S⁻¹ r`` with ``r = residual(t, q, v, a)`` and ``S`` the
+        iteration matrix ``c_M ∂r/∂a + c_C ∂r/∂v + c_K ∂r/∂q`` at the same state. Models whose
+        residual and tangent share their costly part (the reduced model's cubic force) override
+        it to evaluate that part once."""
+        return self.factor_iteration_matrix(t, q, v, c_M, c_C, c_K).solve(self.residual(t, q, v, a))
 
     def error_space(self, q: Float[Array, " n"], e: Float[Array, " n"]):
         """Where the step's error is measured: ``(q_err, e_err, mask)``, the coordinates that

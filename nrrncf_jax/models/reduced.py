@@ -19,7 +19,7 @@ import jax.scipy.linalg as jsl
 from .._types import Array, Bool, Float
 from ..body import Body
 from ..damping import RayleighDamping
-from ..linalg import DenseLU
+from ..linalg import DenseLU, solve_once
 from ..motion import SpinUp, Stationary, rotation_about
 from ..reduction.tensors import ElasticTensors, RotationInertia, elastic_tensors, rotation_inertia
 from .base import AbstractModel
@@ -48,7 +48,7 @@ class ReducedRotatingModel(AbstractModel):
     −θ̈ ḡ − θ̇² c̄ + Ψᵀ Q``: linearised elastic force, and the rotation only as the load it exerts
     (the parametric Coriolis/centrifugal terms would make it unstable above the first critical
     speed, since the centrifugal stiffening is nonlinear)."""
-    # Full Newton: ``linearize`` takes F and ∂F/∂p from one cubic contraction, so an iteration
+    # Full Newton: ``newton_update`` takes F and ∂F/∂p from one cubic contraction, so an iteration
     # with a fresh factor costs about what a modified-Newton residual does, and converges
     # quadratically (30 s spin-up at 40 rad/s, Km = 23: 2908 iterations against 3053).
     preferred_newton: ClassVar[str] = "full"
@@ -105,13 +105,15 @@ class ReducedRotatingModel(AbstractModel):
 
     def factor_iteration_matrix(self, t, p, v, c_M, c_C, c_K):
         _, J = self.elastic_force_and_jacobian(p)
-        return self._factor(t, J, c_M, c_C, c_K)
+        lu, piv = jsl.lu_factor(self._iteration_matrix(t, J, c_M, c_C, c_K))
+        return DenseLU(lu=lu, piv=piv)
 
-    def linearize(self, t, p, v, a, c_M, c_C, c_K):
-        """Residual and factored iteration matrix from one evaluation of F and ∂F/∂p (they
-        share the cubic contraction N p p, the bulk of the cost)."""
+    def newton_update(self, t, p, v, a, c_M, c_C, c_K):
+        """One full-Newton update ``S⁻¹ r`` from one evaluation of F and ∂F/∂p (they share the
+        cubic contraction N p p, the bulk of the cost), solved by one factorisation of the
+        augmented matrix ``[S | r]`` (``linalg.solve_once``)."""
         F, J = self.elastic_force_and_jacobian(p)
-        return self._residual(t, p, v, a, F), self._factor(t, J, c_M, c_C, c_K)
+        return solve_once(self._iteration_matrix(t, J, c_M, c_C, c_K), self._residual(t, p, v, a, F))
 
     def _residual(self, t, p, v, a, F):
         _, dth, ddth = self.motion(t)
@@ -127,7 +129,8 @@ class ReducedRotatingModel(AbstractModel):
         inertial = I.I * a + I.G * (2.0 * dth * v + ddth * p) + I.C * (dth**2 * p)
         return jnp.sum(inertial, axis=1) + F + load
 
-    def _factor(self, t, J, c_M, c_C, c_K):
+    def _iteration_matrix(self, t, J, c_M, c_C, c_K):
+        """S = c_M ∂r/∂a + c_C ∂r/∂v + c_K ∂r/∂p (Eq. 25 with the rotation terms)."""
         _, dth, ddth = self.motion(t)
         I = self.inertia
         if self.linear:
@@ -137,8 +140,7 @@ class ReducedRotatingModel(AbstractModel):
         D = self.damping_matrix()
         if D is not None:
             S = S + c_C * D
-        lu, piv = jsl.lu_factor(S)
-        return DenseLU(lu=lu, piv=piv)
+        return S
 
     def error_space(self, p, e):
         # Measure the step error in the physical coordinates q = q° + Ψp (only those that move).

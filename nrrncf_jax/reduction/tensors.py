@@ -73,7 +73,7 @@ class ElasticTensors(eqx.Module):
         # The small contractions as elementwise products and sums rather than dots: XLA fuses
         # them with the additions around them (on a CPU each separate kernel costs a dispatch,
         # more than these few hundred multiply-adds).
-        Lp = jnp.sum(self.L * p, axis=2)
+        Lp = self.L @ p
         F = self.f + jnp.sum((self.K + Lp + Npp) * p, axis=1)  # f + (K + L p + N p p) p
         return F, self.K + 2.0 * Lp + 3.0 * Npp
 
