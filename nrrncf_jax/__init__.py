@@ -30,6 +30,9 @@ from .integrate import (
 from .integrate import (
     simulate as simulate,
 )
+from .integrate import (
+    simulate_batch as simulate_batch,
+)
 from .integrate.simulate import simulate_timed as simulate_timed
 from .integrate.static import static_equilibrium as static_equilibrium
 from .material import Material as Material

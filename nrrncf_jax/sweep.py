@@ -17,10 +17,11 @@ tensors (Km⁴ numbers per case under ``vmap``), the sweep divides the other ter
 equations (inertia, rotation and external loads, Km² numbers) by s: the same solution.
 
 **Devices.** The batch is split with ``shard_map`` over a 1-D mesh of the devices (one device
-is a mesh of one), and every device runs its own ``vmap``-ped adaptive loops to the end: the
-compiled program holds no cross-device operation (``SweepResult.collectives``), so there is no
-per-step synchronisation (a ``jit`` over a sharded batch would all-reduce the loop condition
-every step). Under ``vmap`` a loop runs until its slowest member is done, so cases are sorted by
+is a mesh of one), and every device runs its own batched adaptive loops to the end
+(``simulate_batch``: one loop whose step is ``vmap``-ped over the cases, each case with its own
+step size): the compiled program holds no cross-device operation (``SweepResult.collectives``),
+so there is no per-step synchronisation (a ``jit`` over a sharded batch would all-reduce the
+loop condition every step). A batched loop runs until its slowest member is done, so cases are sorted by
 expected cost, padded at the end with copies of the costliest to a multiple of the device count,
 and each device gets a contiguous block of that order (``balance='blocks'``): every device's
 wall time is bounded by the hardest case, as it would be with interleaving, but the devices
@@ -45,7 +46,7 @@ import numpy as np
 
 from . import _validate
 from .integrate import GeneralizedAlpha
-from .integrate.simulate import RESULTS, SimulationError, simulate, simulate_timed
+from .integrate.simulate import RESULTS, SimulationError, simulate, simulate_batch, simulate_timed
 from .models.reduced import ReducedRotatingModel
 from .motion import SpinUp
 from .observe import beam_tip, tip_observer
@@ -185,19 +186,22 @@ class _Config:
     scale_E: bool
 
 
-def _one_case(model, omega_s, T_s, E_scale, ts, cfg: _Config):
-    m = case_model(model, omega_s, T_s, E_scale if cfg.scale_E else 1.0)
-    sol = simulate(m, ts, solver=GeneralizedAlpha(cfg.rho_inf), rtol=cfg.rtol, atol=cfg.atol, dt0=cfg.dt0,
-                   adaptive=cfg.adaptive, max_steps=cfg.max_steps, observe=tip_observer(m, cfg.tip), throw=False)
-    return dict(tip=sol.ys, steps=sol.num_steps, rejected=sol.num_rejected, newton=sol.num_newton,
-                result=sol.result, t_final=sol.t_final)
+def _case(model, scale_E: bool, p):
+    """The reduced model of one case from its parameters ``p = (ωs, Ts, E/E0)``."""
+    omega_s, T_s, E_scale = p
+    return case_model(model, omega_s, T_s, E_scale if scale_E else 1.0)
 
 
 def _local_sweep(model, omega_s, T_s, E_scale, ts, cfg):
-    """The cases of one device, (n_loops, cases_per_loop): one vmapped loop per row, in turn."""
+    """The cases of one device, (n_loops, cases_per_loop): one batched loop per row, in turn."""
 
     def one_loop(x):
-        return jax.vmap(_one_case, in_axes=(None, 0, 0, 0, None, None))(model, *x, ts, cfg)
+        sol = simulate_batch(jax.tree_util.Partial(_case, model, cfg.scale_E), x, ts,
+                             solver=GeneralizedAlpha(cfg.rho_inf), rtol=cfg.rtol, atol=cfg.atol, dt0=cfg.dt0,
+                             adaptive=cfg.adaptive, max_steps=cfg.max_steps, observe=tip_observer(model, cfg.tip),
+                             throw=False)
+        return dict(tip=sol.ys, steps=sol.num_steps, rejected=sol.num_rejected, newton=sol.num_newton,
+                    result=sol.result, t_final=sol.t_final)
 
     out = jax.lax.map(one_loop, (omega_s, T_s, E_scale))
     return jax.tree_util.tree_map(lambda y: y.reshape((-1,) + y.shape[2:]), out)

@@ -15,6 +15,7 @@ from nrrncf_jax import (
     SpinUp,
     Stationary,
     simulate,
+    simulate_batch,
     vibration_modes,
 )
 
@@ -101,6 +102,37 @@ def test_nan_stops_with_error_naming_time():
 def test_max_steps_is_an_error():
     with pytest.raises(SimulationError, match="max_steps"):
         simulate(_oscillator(), jnp.array([10.0]), observe=_first, max_steps=20, rtol=1e-8, atol=1e-8)
+
+
+def _oscillator_of(k):
+    """The oscillator with stiffness k (a traced scalar under ``simulate_batch``)."""
+    return LinearModel(M=[[1.0]], K=k, q0=[1.0], v0=[0.0])
+
+
+def test_batch_members_keep_their_own_steps_and_end():
+    """``simulate_batch``: each member equals its own run (the stiffer ones take more steps and
+    run on after the others are done, which must leave the finished ones untouched); a member
+    that needs more than ``max_steps`` alone ends with result 1."""
+    ks = jnp.array([1.0, 4.0, 16.0]) * OMEGA**2
+    ts = jnp.linspace(0.0, 2.0, 21)
+    kw = dict(observe=_first, rtol=1e-6, atol=1e-8)
+    batch = simulate_batch(_oscillator_of, ks, ts, **kw)
+    assert batch.ys.shape == (3, 21) and batch.num_steps.shape == (3,)
+    for i, k in enumerate(ks):
+        one = simulate(_oscillator_of(k), ts, **kw)
+        np.testing.assert_allclose(batch.ys[i], one.ys, rtol=0, atol=1e-12)
+        assert int(batch.num_steps[i]) == int(one.num_steps) and int(batch.num_newton[i]) == int(one.num_newton)
+    n = np.asarray(batch.num_steps + batch.num_rejected)
+    assert n[0] < n[1] < n[2]
+    cut = simulate_batch(_oscillator_of, ks, ts, max_steps=int(n[1]), throw=False, **kw)
+    np.testing.assert_array_equal(np.asarray(cut.result), [0, 0, 1])
+    np.testing.assert_allclose(cut.ys[:2], batch.ys[:2], rtol=0, atol=0)
+    with pytest.raises(SimulationError, match="max_steps"):
+        simulate_batch(_oscillator_of, ks, ts, max_steps=int(n[1]), **kw)
+    with pytest.raises(ValueError, match="leading batch axis"):
+        simulate_batch(lambda p: _oscillator_of(p[0] + p[1]), (ks, ks[:2]), ts)
+    with pytest.raises(ValueError, match="leading batch axis"):
+        simulate_batch(_oscillator_of, jnp.zeros(0), ts)
 
 
 def test_bad_integrator_input():

@@ -13,3 +13,6 @@ from .simulate import (
 from .simulate import (
     simulate as simulate,
 )
+from .simulate import (
+    simulate_batch as simulate_batch,
+)
