@@ -133,6 +133,8 @@ def test_batch_members_keep_their_own_steps_and_end():
         simulate_batch(lambda p: _oscillator_of(p[0] + p[1]), (ks, ks[:2]), ts)
     with pytest.raises(ValueError, match="leading batch axis"):
         simulate_batch(_oscillator_of, jnp.zeros(0), ts)
+    with pytest.raises(ValueError, match="adjoint"):
+        simulate_batch(_oscillator_of, ks, ts, adjoint="reverse")
 
 
 def test_bad_integrator_input():

@@ -117,30 +117,13 @@ def simulate(
     return _check(sol, throw)
 
 
-def simulate_batch(
-    model_fn: Callable,
-    params,
-    ts,
-    *,
-    t0: float = 0.0,
-    solver: GeneralizedAlpha | None = None,
-    rtol: float = 1e-4,
-    atol: float = 1e-6,
-    dt0: float | None = None,
-    dt_min: float = 1e-10,
-    dt_max: float = np.inf,
-    adaptive: bool = True,
-    max_steps: int = 200_000,
-    newton_tol: float = 1e-3,
-    max_newton: int = 10,
-    newton: Literal["auto", "modified", "full"] = "auto",
-    observe: Callable | None = None,
-    throw: bool = True,
-) -> Solution:
+def simulate_batch(model_fn: Callable, params, ts, **kwargs) -> Solution:
     """``simulate`` for a batch of models, ``model_fn(p)`` for each ``p`` along the leading axis of
     the pytree ``params``, in one loop: each member keeps its own adaptive steps, and the loop
     runs until the last member is done. Returns a ``Solution`` whose fields have the batch axis
-    first. Forward mode only (``jax.jvp``/``jacfwd`` pass through; use ``simulate`` with
+    first. The keyword arguments are ``simulate``'s (same defaults), except ``y0``, ``adjoint``
+    and ``progress``: the members start from their models' initial states, and the loop runs in
+    forward mode (``jax.jvp``/``jacfwd`` pass through; use ``simulate`` with
     ``adjoint="reverse"`` for reverse mode).
 
     ``jax.vmap(simulate)`` gives the same result but costs more: see ``_simulate_batch``.
@@ -148,15 +131,17 @@ def simulate_batch(
     ``equinox.Module``) when it closes over arrays, so that they are traced rather than baked
     in. ``observe(t, q, v)`` is shared by the members.
     """
+    for name in ("y0", "adjoint", "progress"):
+        if name in kwargs:
+            raise ValueError(f"simulate_batch takes no {name!r} (see its docstring)")
+    a, throw = _simulate_arguments(None, ts, kwargs)
     leaves = jtu.tree_leaves(params)
     sizes = {int(np.shape(x)[0]) if np.ndim(x) else -1 for x in leaves}
     if not leaves or len(sizes) != 1 or -1 in sizes or 0 in sizes:
         raise ValueError("params must be a pytree of arrays sharing a non-empty leading batch axis, got leading "
                          f"sizes {sorted(sizes)}")
-    example = model_fn(jtu.tree_map(lambda x: x[0], params))
-    args = _prepare(example, ts, t0, None, solver, rtol, atol, dt0, dt_min, dt_max, adaptive, max_steps, newton_tol,
-                    max_newton, newton, observe, "forward", False)
-    _, ts_, t0_, _, *rest = args
+    a["model"] = model_fn(jtu.tree_map(lambda x: x[0], params))  # one member, for the checks
+    _, ts_, t0_, _, *rest = _prepare(**a)
     sol = _simulate_batch(model_fn, params, ts_, t0_, *rest)
     return _check(sol, throw)
 
@@ -168,12 +153,7 @@ def simulate_timed(model: "AbstractModel", ts, **kwargs) -> tuple[Solution, floa
     """
     import time
 
-    throw = kwargs.pop("throw", True)
-    sig = inspect.signature(simulate)
-    bound = sig.bind(model, ts, **kwargs)
-    bound.apply_defaults()
-    a = dict(bound.arguments)
-    a.pop("throw")
+    a, throw = _simulate_arguments(model, ts, kwargs)
     args = _prepare(**a)
     t0 = time.perf_counter()
     compiled = _simulate.lower(*args).compile()
@@ -181,6 +161,14 @@ def simulate_timed(model: "AbstractModel", ts, **kwargs) -> tuple[Solution, floa
     sol = jax.block_until_ready(compiled(*args))
     t2 = time.perf_counter()
     return _check(sol, throw), t1 - t0, t2 - t1
+
+
+def _simulate_arguments(model, ts, kwargs: dict) -> tuple[dict, bool]:
+    """``simulate``'s arguments with its defaults filled in (``_prepare``'s keywords), and ``throw``."""
+    bound = inspect.signature(simulate).bind(model, ts, **kwargs)
+    bound.apply_defaults()
+    a = dict(bound.arguments)
+    return a, a.pop("throw")
 
 
 def _prepare(model, ts, t0, y0, solver, rtol, atol, dt0, dt_min, dt_max, adaptive, max_steps, newton_tol, max_newton,
