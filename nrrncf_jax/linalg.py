@@ -29,17 +29,29 @@ class DenseLU(eqx.Module):
 
 
 def solve_once(A: Float[Array, "n n"], b: Float[Array, " n"]) -> Float[Array, " n"]:
-    """``A⁻¹ b`` for one right-hand side, from the LU factorisation with partial pivoting of the
-    augmented matrix ``[A | b]``: LAPACK's getrf pivots on A's columns and carries b along, so
-    ``P [A | b] = L [U | c]`` and ``x = U⁻¹ c`` is one triangular solve.
+    """``A⁻¹ b`` for one right-hand side, by LU with partial pivoting, in the form that batches
+    best on the platform it runs on (``lax.platform_dependent``; the same result to round-off).
 
-    Hand-written because ``lu_factor`` + ``lu_solve`` turn the pivots into a permutation with a
-    loop of n scatter steps, which under ``vmap`` dominated the solve (a batch of 32 systems
-    with n = 23: that loop cost more than the factorisation); here there is none, and one
-    triangular solve instead of two.
+    On a CPU, one LU factorisation of the augmented matrix ``[A | b]``: LAPACK's getrf pivots on
+    A's columns and carries b along, so ``P [A | b] = L [U | c]`` and ``x = U⁻¹ c`` is one
+    triangular solve. ``lu_factor`` + ``lu_solve`` would turn the pivots into a permutation with
+    a loop of n scatter steps, which under ``vmap`` dominated the solve (a batch of 32 systems
+    with n = 23: that loop cost more than the factorisation).
+
+    Elsewhere, the square factorisation and ``lu_solve``: jaxlib's GPU getrf batches square
+    matrices only (cuBLAS getrfBatched) and factors a batch of rectangular ones one by one, and
+    on a GPU the pivots become a permutation in one kernel.
     """
+    return lax.platform_dependent(A, b, cpu=_solve_augmented, default=_solve_factored)
+
+
+def _solve_augmented(A, b):
     lu, _ = jsl.lu_factor(jnp.concatenate([A, b[:, None]], axis=1))
     return jsl.solve_triangular(lu[:, :-1], lu[:, -1], lower=False)
+
+
+def _solve_factored(A, b):
+    return jsl.lu_solve(jsl.lu_factor(A), b)
 
 
 class BlockTridiagonalLU(eqx.Module):
