@@ -110,6 +110,9 @@ def simulate(
 
     ``throw=True`` raises ``SimulationError`` naming the time reached if the run stops early
     (or, inside a user's ``jit``/``vmap``, an ``eqx.error_if`` runtime error).
+
+    ``jax.vmap`` works through it; for a batch of models in forward mode, ``simulate_batch``
+    gives the same results for less (see there).
     """
     args = _prepare(model, ts, t0, y0, solver, rtol, atol, dt0, dt_min, dt_max, adaptive, max_steps, newton_tol,
                     max_newton, newton, observe, adjoint, progress)
