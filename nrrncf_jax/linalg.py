@@ -24,6 +24,12 @@ class DenseLU(eqx.Module):
     lu: Float[Array, "n n"]
     piv: Int[Array, " n"]
 
+    @classmethod
+    def factor(cls, A: Float[Array, "n n"]) -> "DenseLU":
+        """LU with partial pivoting of ``A``."""
+        lu, piv = jsl.lu_factor(A)
+        return cls(lu=lu, piv=piv)
+
     def solve(self, b: Float[Array, " n"]) -> Float[Array, " n"]:
         return jsl.lu_solve((self.lu, self.piv), b)
 
@@ -51,7 +57,7 @@ def _solve_augmented(A, b):
 
 
 def _solve_factored(A, b):
-    return jsl.lu_solve(jsl.lu_factor(A), b)
+    return DenseLU.factor(A).solve(b)
 
 
 class BlockTridiagonalLU(eqx.Module):
@@ -115,8 +121,7 @@ def assemble_and_factor(
         A = jnp.zeros((n, n), Ge.dtype).at[element_dofs[:, :, None], element_dofs[:, None, :]].add(Ge)
         f = free.astype(Ge.dtype)
         A = A * f[:, None] * f[None, :] + jnp.diag(1.0 - f)
-        lu, piv = jsl.lu_factor(A)
-        return DenseLU(lu=lu, piv=piv)
+        return DenseLU.factor(A)
     m = chain_block
     nb = n // m
     n_el = Ge.shape[0]

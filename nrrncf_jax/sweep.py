@@ -452,7 +452,7 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     (``rtol``/``atol``, generalized-α with ``rho_inf``). ``devices``: a count or a list of
     devices (default: every device JAX sees); with more than one the batch is split by
     ``shard_map`` and ``balance`` (see ``schedule``). ``cases_per_loop``: cases advanced together
-    by one vmapped loop; a device runs its loops in turn (default: all its cases in one loop on
+    by one batched loop (``simulate_batch``); a device runs its loops in turn (default: all its cases in one loop on
     GPUs; on CPUs at most 32, and at most 16 on several CPU host devices, which hung with wider
     loops).
     ``dt``: a fixed step size instead of the adaptive step (every case then takes the same steps).
@@ -499,8 +499,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
         # Several CPU devices share one host thread pool; with jaxlib 0.10.2 a loop 32 cases wide
         # on 2 forced host devices never finished (16 did), so host devices get loops of <= 16.
         # On one CPU device, cost-sorted loops of 32: a loop runs until its slowest case is done,
-        # and on a CPU the batch's arithmetic, not the per-step overhead, sets the cost of a
-        # wide loop (64 speeds, 2-40 rad/s: 32 per loop 18 % faster than 64, 16 slower).
+        # and on a CPU a wider batch gains little per case (its cost is many small batched
+        # kernels; sweep.md). 64 speeds, 2-40 rad/s: 32 per loop 3.70 s, 64 3.82 s, 16 3.98 s.
         if devs[0].platform == "cpu":
             c = min(per_dev, _CPU_SHARDED_LOOP if n_dev > 1 else _CPU_LOOP)
         else:

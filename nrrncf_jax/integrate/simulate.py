@@ -235,7 +235,7 @@ def _check(sol: Solution, throw: bool) -> Solution:
 class _Loop(NamedTuple):
     """One run's adaptive loop: its initial carry, step, condition and the Solution it ends in."""
 
-    init: dict
+    init: Callable  # init() -> carry
     step: Callable  # step(carry, active=None) -> carry
     cond: Callable  # cond(carry) -> bool
     finish: Callable  # finish(final carry) -> Solution
@@ -256,20 +256,7 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
         r = ex / scale
         return jnp.sqrt(jnp.sum(jnp.where(mask, r * r, 0.0)) / jnp.maximum(jnp.sum(mask), 1))
 
-    # Initial state and consistent acceleration: M a0 = −g(t0, q0, v0).
-    q0, v0 = model.initial_state(t0) if y0 is None else y0
-    q0, v0, _ = model.constrain(t0, q0, v0, jnp.zeros_like(q0))
-    z = jnp.zeros_like(q0)
-    fac0 = model.factor_iteration_matrix(t0, q0, v0, 1.0, 0.0, 0.0)
-    a0 = -fac0.solve(model.residual(t0, q0, v0, z))
-    _, _, a0 = model.constrain(t0, q0, v0, a0)
-
-    obs0 = config.observe(t0, q0, v0)
     n_out = ts.shape[0]
-    ys = jtu.tree_map(lambda x: jnp.zeros((n_out + K,) + jnp.shape(x), jnp.result_type(x)), obs0)
-    at_start = ts_pad <= t0
-    ys = jtu.tree_map(lambda buf, x: jnp.where(at_start.reshape((-1,) + (1,) * jnp.ndim(x)), x, buf), ys, obs0)
-    k0 = jnp.sum(at_start).astype(int)
 
     def next_stop(k):
         return jnp.minimum(ts_pad[k + K - 1], t_end)
@@ -278,11 +265,27 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
         rem = next_stop(k) - t
         return jnp.where(rem <= 1.1 * h, rem, jnp.where(rem < 2.0 * h, 0.5 * rem, h))
 
-    h0 = limit_step(t0, jnp.minimum(dt0, dt_max), k0)
-    init = dict(
-        t=t0, h=h0, y=jnp.stack([q0, v0, a0, a0]), k=k0, ys=ys,  # y = (q, v, a, ā): one carried array
-        counts=jnp.zeros(3, int), result=jnp.array(0),  # counts: accepted, rejected steps; Newton iterations
-    )
+    def initial_carry():
+        """The loop's first carry; a function, so that tracing the step or the condition does not
+        trace the initial solve too."""
+        # Initial state and consistent acceleration: M a0 = −g(t0, q0, v0).
+        q0, v0 = model.initial_state(t0) if y0 is None else y0
+        q0, v0, _ = model.constrain(t0, q0, v0, jnp.zeros_like(q0))
+        z = jnp.zeros_like(q0)
+        fac0 = model.factor_iteration_matrix(t0, q0, v0, 1.0, 0.0, 0.0)
+        a0 = -fac0.solve(model.residual(t0, q0, v0, z))
+        _, _, a0 = model.constrain(t0, q0, v0, a0)
+
+        obs0 = config.observe(t0, q0, v0)
+        ys = jtu.tree_map(lambda x: jnp.zeros((n_out + K,) + jnp.shape(x), jnp.result_type(x)), obs0)
+        at_start = ts_pad <= t0
+        ys = jtu.tree_map(lambda buf, x: jnp.where(at_start.reshape((-1,) + (1,) * jnp.ndim(x)), x, buf), ys, obs0)
+        k0 = jnp.sum(at_start).astype(int)
+        h0 = limit_step(t0, jnp.minimum(dt0, dt_max), k0)
+        return dict(
+            t=t0, h=h0, y=jnp.stack([q0, v0, a0, a0]), k=k0, ys=ys,  # y = (q, v, a, ā): one carried array
+            counts=jnp.zeros(3, int), result=jnp.array(0),  # counts: accepted, rejected steps; Newton iterations
+        )
 
     def make_stage(m, t1, h, q, v, a, abar):
         """(q1, v1, a1, ā1) of the step as functions of the new acceleration a1."""
@@ -446,14 +449,14 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
             num_steps=final["counts"][0], num_rejected=final["counts"][1], num_newton=final["counts"][2],
         )
 
-    return _Loop(init=init, step=step, cond=cond, finish=finish)
+    return _Loop(init=initial_carry, step=step, cond=cond, finish=finish)
 
 
 @eqx.filter_jit
 def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config: _Config) -> Solution:
     loop = _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config)
     final = eqxi.while_loop(
-        loop.cond, loop.step, loop.init, max_steps=config.max_steps,
+        loop.cond, loop.step, loop.init(), max_steps=config.max_steps,
         buffers=(lambda c: c["ys"]) if config.adjoint == "reverse" else None,
         kind="checkpointed" if config.adjoint == "reverse" else "lax",
     )
@@ -478,14 +481,16 @@ def _simulate_batch(model_fn, params, ts, t0, dt0, rtol, atol, dt_min, dt_max, n
     def loop(p):
         return _build_loop(model_fn(p), ts, t0, None, dt0, rtol, atol, dt_min, dt_max, newton_tol, config)
 
-    def running(p, c):
-        return loop(p).cond(c) & (c["counts"][0] + c["counts"][1] < config.max_steps)
+    def running(one: _Loop, c):
+        return one.cond(c) & (c["counts"][0] + c["counts"][1] < config.max_steps)
 
-    def step(C):
-        return jax.vmap(lambda p, c: loop(p).step(c, active=running(p, c)))(params, C)
+    def step_member(p, c):
+        one = loop(p)
+        return one.step(c, active=running(one, c))
 
-    init = jax.vmap(lambda p: loop(p).init)(params)
-    final = lax.while_loop(lambda C: jnp.any(jax.vmap(running)(params, C)), step, init)
+    init = jax.vmap(lambda p: loop(p).init())(params)
+    cond = lambda C: jnp.any(jax.vmap(lambda p, c: running(loop(p), c))(params, C))  # noqa: E731
+    final = lax.while_loop(cond, lambda C: jax.vmap(step_member)(params, C), init)
     return jax.vmap(lambda p, f: loop(p).finish(f))(params, final)
 
 

@@ -7,7 +7,6 @@ from collections.abc import Callable
 
 import equinox as eqx
 import jax.numpy as jnp
-import jax.scipy.linalg as jsl
 
 from .._types import Array, Float
 from ..linalg import DenseLU
@@ -51,5 +50,4 @@ class LinearModel(AbstractModel):
         return r if self.force is None else r - self.force(t)
 
     def factor_iteration_matrix(self, t, q, v, c_M, c_C, c_K):
-        lu, piv = jsl.lu_factor(c_M * self.M + c_C * self.C + c_K * self.K)
-        return DenseLU(lu=lu, piv=piv)
+        return DenseLU.factor(c_M * self.M + c_C * self.C + c_K * self.K)

@@ -14,7 +14,6 @@ from typing import ClassVar
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jax.scipy.linalg as jsl
 
 from .._types import Array, Bool, Float
 from ..body import Body
@@ -105,8 +104,7 @@ class ReducedRotatingModel(AbstractModel):
 
     def factor_iteration_matrix(self, t, p, v, c_M, c_C, c_K):
         _, J = self.elastic_force_and_jacobian(p)
-        lu, piv = jsl.lu_factor(self._iteration_matrix(t, J, c_M, c_C, c_K))
-        return DenseLU(lu=lu, piv=piv)
+        return DenseLU.factor(self._iteration_matrix(t, J, c_M, c_C, c_K))
 
     def newton_update(self, t, p, v, a, c_M, c_C, c_K):
         """One full-Newton update ``S⁻¹ r`` from one evaluation of F and ∂F/∂p (they share the

@@ -70,9 +70,8 @@ class ElasticTensors(eqx.Module):
         """``(F(p), ∂F/∂p)`` (Eq. 25) sharing the contractions."""
         k, l = self.pairs
         Npp = (self.N2u @ (p[k] * p[l]))[self.unpack]  # N p p, symmetric
-        # The small contractions as elementwise products and sums rather than dots: XLA fuses
-        # them with the additions around them (on a CPU each separate kernel costs a dispatch,
-        # more than these few hundred multiply-adds).
+        # L p as a dot (faster than a broadcast sum, batched or not); the last product as an
+        # elementwise sum, which XLA fuses with the additions around it.
         Lp = self.L @ p
         F = self.f + jnp.sum((self.K + Lp + Npp) * p, axis=1)  # f + (K + L p + N p p) p
         return F, self.K + 2.0 * Lp + 3.0 * Npp
