@@ -150,9 +150,20 @@ def test_solve_once_forms_agree_under_vmap_and_jvp():
     x = np.linalg.solve(A, b[..., None])[..., 0]
     for f in (solve_once, _solve_augmented, _solve_factored):
         np.testing.assert_allclose(jax.vmap(f)(A, b), x, rtol=1e-10, atol=1e-12)
+    twice = jax.vmap(jax.vmap(solve_once))(A.reshape(5, 1, 7, 7), b.reshape(5, 1, 7))
+    np.testing.assert_allclose(twice[:, 0], x, rtol=1e-10, atol=1e-12)
+    shared = jax.vmap(solve_once, in_axes=(None, 0))(A[1], b)  # one matrix, a batch of right-hand sides
+    np.testing.assert_allclose(shared, np.linalg.solve(A[1], b.T).T, rtol=1e-10, atol=1e-12)
     dA, db = rng.normal(size=(7, 7)), rng.normal(size=7)
     x0, dx = jax.jvp(solve_once, (jnp.asarray(A[0]), jnp.asarray(b[0])), (jnp.asarray(dA), jnp.asarray(db)))
     np.testing.assert_allclose(dx, np.linalg.solve(A[0], db - dA @ np.asarray(x0)), rtol=1e-9, atol=1e-12)
+    _, dxs = jax.vmap(lambda a, c: jax.jvp(solve_once, (a, c), (jnp.asarray(dA), jnp.asarray(db))))(A, b)
+    np.testing.assert_allclose(dxs, np.linalg.solve(A, (db - np.einsum("ij,bj->bi", dA, x))[..., None])[..., 0],
+                               rtol=1e-9, atol=1e-12)
+    if jax.default_backend() == "cpu":
+        text = jax.jit(jax.vmap(solve_once)).lower(A, b).as_text()
+        operands = re.findall(r"lapack_dgetrf_ffi.*?\((tensor<[^>]*>)", text)
+        assert operands and all(t == "tensor<7x8xf64>" for t in operands), operands
 
 
 def test_bad_integrator_input():
