@@ -67,7 +67,7 @@ def _worker(a):
     res = spinup_sweep(model, _grid(a), t_end=a.t_end, dt_out=a.dt_out, devices=a.worker_devices,
                        balance=a.balance, time_single=a.single)
     s = res.summary()
-    keep = ("cases", "devices", "platform", "balance", "cases_per_loop", "loops", "collectives", "compile_s",
+    keep = ("cases", "devices", "platform", "balance", "lanes", "padded", "collectives", "compile_s",
             "run_s", "throughput_per_s", "single_run_s", "single_compile_s", "sweep_over_single", "single_case")
     d = {k: s.get(k) for k in keep}
     d.update(max_steps=int((res.steps + res.rejected).max()), min_steps=int((res.steps + res.rejected).min()),
@@ -149,13 +149,14 @@ def main(argv=None):
 
     base = rows[0]
     single = base["single_run_s"]
-    head = ("devices", "platform", "schedule", "cases per loop × loops", "compile [s]", "run [s]", "manoeuvres/s",
-            "speed-up vs 1 device", "sweep / single run", "loop iterations (max per case)")
+    head = ("devices", "platform", "schedule", "lanes per device (cases per device)", "compile [s]", "run [s]",
+            "manoeuvres/s", "speed-up vs 1 device", "sweep / single run", "steps of the costliest case")
     lines = ["| " + " | ".join(head) + " |", "|---:|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         lines.append("| " + " | ".join(str(c) for c in (
             r["devices"], f"{r['platform'].upper()} ({r['device_kind']})", r["balance"],
-            f"{r['cases_per_loop']} × {r['loops']}", f"{r['compile_s']:.1f}", f"{r['run_s']:.2f}",
+            f"{r['lanes']} ({(r['cases'] + r['padded']) // r['devices']})", f"{r['compile_s']:.1f}",
+            f"{r['run_s']:.2f}",
             f"{r['throughput_per_s']:.1f}",
             f"{base['run_s'] / r['run_s']:.2f}x" if r["platform"] == base["platform"] else "—",
             f"{r['run_s'] / (r['single_run_s'] or single):.1f}", r["max_steps"])) + " |")
@@ -177,10 +178,11 @@ def main(argv=None):
         "the core count they add no cores, though their loops can fill each other's idle time between small "
         "kernels; they test the sharded program, whose compiled text holds "
         f"no cross-device operation (collectives per row: {', '.join(str(r['collectives']) for r in rows)}). "
-        "'blocks': cases sorted by expected cost, each device a contiguous block; 'interleave': sorted cases "
-        "dealt round-robin. A vmapped adaptive loop runs until its slowest member is done, so 'loop iterations' "
-        "is the largest accepted + rejected step count of any case. The CPU is shared with other jobs, so "
-        "timings are noisy (repeat runs differ by tens of per cent).\n"
+        "Each device runs one batched loop (`simulate_batch`) that advances 'lanes' cases together; its other "
+        "cases wait in a queue, costliest first, and take the lane of a case that ends. 'blocks': cases "
+        "sorted by expected cost, each device a contiguous block; 'interleave': sorted cases dealt round-robin. "
+        "'Steps of the costliest case' counts its accepted + rejected steps. The CPU is shared with other jobs, "
+        "so timings are noisy (repeat runs differ by tens of per cent).\n"
     )
     sys.path.insert(0, HERE)
     from _machine import report

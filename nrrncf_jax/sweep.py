@@ -17,19 +17,20 @@ tensors (Km⁴ numbers per case under ``vmap``), the sweep divides the other ter
 equations (inertia, rotation and external loads, Km² numbers) by s: the same solution.
 
 **Devices.** The batch is split with ``shard_map`` over a 1-D mesh of the devices (one device
-is a mesh of one), and every device runs its own batched adaptive loops to the end
-(``simulate_batch``: one loop whose step is ``vmap``-ped over the cases, each case with its own
-step size): the compiled program holds no cross-device operation (``SweepResult.collectives``),
-so there is no per-step synchronisation (a ``jit`` over a sharded batch would all-reduce the
-loop condition every step). A batched loop runs until its slowest member is done, so cases are sorted by
-expected cost, padded at the end with copies of the costliest to a multiple of the device count,
-and each device gets a contiguous block of that order (``balance='blocks'``): every device's
-wall time is bounded by the hardest case, as it would be with interleaving, but the devices
-holding the cheap cases finish early instead of stepping masked cases until the slowest is done
-(on a CPU whose cores the devices share, that time goes to the others). ``balance='interleave'``
-deals the sorted cases round-robin instead (every device the same mix). The same call runs on a
-multi-GPU host, or on every device of a cluster after ``jax.distributed.initialize()`` (inputs
-are placed as global arrays, results gathered from every process).
+is a mesh of one), and every device runs its own batched adaptive loop to the end
+(``simulate_batch``: one loop whose step is ``vmap``-ped over ``lanes`` cases, each case with its
+own step size, the device's other cases queued for a lane): the compiled program holds no
+cross-device operation (``SweepResult.collectives``), so there is no per-step synchronisation (a
+``jit`` over a sharded batch would all-reduce the loop condition every step). Cases are sorted by
+expected cost, costliest first, and padded at the end with copies of the cheapest to a multiple
+of the device count. Each device gets a contiguous block of that order (``balance='blocks'``):
+when a device's cases all fit its lanes, its loop runs as long as its costliest case, and the
+devices holding the cheap cases finish early (on a CPU whose cores the devices share, that time
+goes to the others). ``balance='interleave'`` deals the sorted cases round-robin instead (every
+device the same mix, which balances devices whose cases queue). Within a device the queue starts
+with its costliest cases, so that the cheap ones fill the lanes at the end. The same call runs
+on a multi-GPU host, or on every device of a cluster after ``jax.distributed.initialize()``
+(inputs are placed as global arrays, results gathered from every process).
 """
 
 import csv
@@ -52,8 +53,8 @@ from .motion import SpinUp
 from .observe import beam_tip, tip_observer
 
 _AXIS = "cases"
-_CPU_SHARDED_LOOP = 16
-_CPU_LOOP = 32
+_CPU_SHARDED_LANES = 16
+_CPU_LANES = 32
 BALANCES = ("blocks", "interleave")
 
 
@@ -184,6 +185,7 @@ class _Config:
     adaptive: bool
     tip: int
     scale_E: bool
+    lanes: int
 
 
 def _case(model, scale_E: bool, p):
@@ -193,18 +195,13 @@ def _case(model, scale_E: bool, p):
 
 
 def _local_sweep(model, omega_s, T_s, E_scale, ts, cfg):
-    """The cases of one device, (n_loops, cases_per_loop): one batched loop per row, in turn."""
-
-    def one_loop(x):
-        sol = simulate_batch(jax.tree_util.Partial(_case, model, cfg.scale_E), x, ts,
-                             solver=GeneralizedAlpha(cfg.rho_inf), rtol=cfg.rtol, atol=cfg.atol, dt0=cfg.dt0,
-                             adaptive=cfg.adaptive, max_steps=cfg.max_steps, observe=tip_observer(model, cfg.tip),
-                             throw=False)
-        return dict(tip=sol.ys, steps=sol.num_steps, rejected=sol.num_rejected, newton=sol.num_newton,
-                    result=sol.result, t_final=sol.t_final)
-
-    out = jax.lax.map(one_loop, (omega_s, T_s, E_scale))
-    return jax.tree_util.tree_map(lambda y: y.reshape((-1,) + y.shape[2:]), out)
+    """The cases of one device, in its queue's order: one batched loop of ``cfg.lanes`` lanes."""
+    sol = simulate_batch(jax.tree_util.Partial(_case, model, cfg.scale_E), (omega_s, T_s, E_scale), ts,
+                         width=cfg.lanes, solver=GeneralizedAlpha(cfg.rho_inf), rtol=cfg.rtol, atol=cfg.atol,
+                         dt0=cfg.dt0, adaptive=cfg.adaptive, max_steps=cfg.max_steps,
+                         observe=tip_observer(model, cfg.tip), throw=False)
+    return dict(tip=sol.ys, steps=sol.num_steps, rejected=sol.num_rejected, newton=sol.num_newton,
+                result=sol.result, t_final=sol.t_final)
 
 
 @eqx.filter_jit
@@ -217,7 +214,7 @@ def _sweep_kernel(model, omega_s, T_s, E_scale, ts, cfg: _Config, mesh):
     def local(dyn, w, T, E, ts):
         return _local_sweep(eqx.combine(dyn, static), w, T, E, ts, cfg)
 
-    # Each device runs its own loops on its block; nothing crosses devices until the results.
+    # Each device runs its own loop on its block; nothing crosses devices until the results.
     f = shard_map(local, mesh=mesh, in_specs=(P(), P(_AXIS), P(_AXIS), P(_AXIS), P()), out_specs=P(_AXIS),
                   check_vma=False)
     return f(dyn, omega_s, T_s, E_scale, ts)
@@ -228,19 +225,18 @@ _COLLECTIVES = re.compile(r"\b(all-reduce|all-gather|all-to-all|collective-permu
 
 # --- scheduling ---------------------------------------------------------------------------------
 
-def schedule(cost: np.ndarray, n_devices: int, cases_per_loop: int, balance: str = "blocks") -> np.ndarray:
-    """The case order fed to the devices: indices into the grid, sorted by ``cost`` and padded
-    at the end with copies of the costliest case to a multiple of ``n_devices·cases_per_loop``.
-    Consecutive runs of ``cases_per_loop`` form one vmapped loop; device d gets the d-th of
-    ``n_devices`` equal slices.
+def schedule(cost: np.ndarray, n_devices: int, balance: str = "blocks") -> np.ndarray:
+    """The case order fed to the devices: indices into the grid, costliest first by ``cost``, and
+    padded at the end with copies of the cheapest case to a multiple of ``n_devices``. Device d
+    gets the d-th of ``n_devices`` equal slices, and runs it as a queue in that order.
 
-    ``'blocks'``: contiguous slices (device 0 the cheapest cases); ``'interleave'``: the sorted
+    ``'blocks'``: contiguous slices (device 0 the costliest cases); ``'interleave'``: the sorted
     cases dealt round-robin, every slice the same mix.
     """
     if balance not in BALANCES:
         raise ValueError(f"balance must be one of {BALANCES}, got {balance!r}")
-    order = np.argsort(np.asarray(cost), kind="stable")
-    pad = (-order.size) % (n_devices * cases_per_loop)
+    order = np.argsort(-np.asarray(cost), kind="stable")
+    pad = (-order.size) % n_devices
     order = np.concatenate([order, np.full(pad, order[-1])])
     if balance == "interleave":
         order = order.reshape(-1, n_devices).T.reshape(-1)
@@ -308,8 +304,8 @@ class SweepResult:
     devices: int
     platform: str
     balance: str
-    cases_per_loop: int
-    loops: int  # vmapped loops over all devices (padding included)
+    lanes: int  # cases each device's batched loop advances together (the rest queue)
+    padded: int  # copies of a case added to give every device as many cases
     collectives: int  # cross-device operations in the compiled program (0: none)
     compile_s: float
     run_s: float
@@ -335,7 +331,7 @@ class SweepResult:
     def summary(self) -> dict:
         g = self.grid
         s = {"cases": self.cases, "devices": self.devices, "platform": self.platform, "balance": self.balance,
-             "cases_per_loop": self.cases_per_loop, "loops": self.loops, "collectives": self.collectives,
+             "lanes": self.lanes, "padded": self.padded, "collectives": self.collectives,
              "dofs": self.dofs, "t_end": float(self.ts[-1]), "compile_s": round(self.compile_s, 3),
              "run_s": round(self.run_s, 4), "throughput_per_s": round(self.throughput, 3),
              "single_run_s": None if self.single_s is None else round(self.single_s, 4),
@@ -442,7 +438,7 @@ def _as_model(model_or_reduction) -> ReducedRotatingModel:
 
 def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: float = 0.01, rtol: float = 1e-4,
                  atol: float = 1e-6, rho_inf: float = 0.9, dt: float | None = None, max_steps: int = 500_000,
-                 devices: int | Sequence | None = None, cases_per_loop: int | None = None, balance: str = "blocks",
+                 devices: int | Sequence | None = None, lanes: int | None = None, balance: str = "blocks",
                  tip: int | None = None, time_single: bool = False, throw: bool = True) -> SweepResult:
     """Run the spin-up of Eq. 43 for every case of ``grid`` in one compiled, vmapped loop.
 
@@ -451,10 +447,10 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     Outputs at 0, ``dt_out``, ..., ``t_end``; each case keeps its own adaptive step
     (``rtol``/``atol``, generalized-α with ``rho_inf``). ``devices``: a count or a list of
     devices (default: every device JAX sees); with more than one the batch is split by
-    ``shard_map`` and ``balance`` (see ``schedule``). ``cases_per_loop``: cases advanced together
-    by one batched loop (``simulate_batch``); a device runs its loops in turn (default: all its cases in one loop on
-    GPUs; on CPUs at most 32, and at most 16 on several CPU host devices, which hung with wider
-    loops).
+    ``shard_map`` and ``balance`` (see ``schedule``). ``lanes``: cases each device's batched loop
+    advances together (``simulate_batch``'s ``width``); the device's other cases wait in a queue
+    and take the lane of a case that ends (default: all of a device's cases at once on GPUs; on
+    CPUs at most 32, and at most 16 on each of several CPU host devices).
     ``dt``: a fixed step size instead of the adaptive step (every case then takes the same steps).
 
     Results do not depend on the device count beyond round-off: XLA may sum a batched
@@ -490,25 +486,24 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
 
     if dt is not None:
         _validate.positive("dt (fixed step size)", dt)
-    cfg = _Config(rtol=float(rtol), atol=float(atol), dt0=1e-3 * float(ts[-1]) if dt is None else float(dt),
-                  rho_inf=float(rho_inf), max_steps=max_steps, adaptive=dt is None, tip=tip,
-                  scale_E=bool(np.any(grid.E_scale != 1.0)))
     n_dev = len(devs)
     per_dev = -(-grid.cases // n_dev)
-    if cases_per_loop is None:
-        # Several CPU devices share one host thread pool; with jaxlib 0.10.2 a loop 32 cases wide
-        # on 2 forced host devices never finished (16 did), so host devices get loops of <= 16.
-        # On one CPU device, cost-sorted loops of 32: a loop runs until its slowest case is done,
-        # and on a CPU a wider batch gains little per case (its cost is many small batched
-        # kernels; sweep.md). 64 speeds, 2-40 rad/s: 32 per loop 3.70 s, 64 3.82 s, 16 3.98 s.
+    if lanes is None:
+        # On a CPU a wider batch gains little per case (its cost is many small batched kernels;
+        # sweep.md). 64 speeds, 2-40 rad/s, run time (best of 3): one device, 32 lanes 2.49 s,
+        # 24 2.58 s, 48 2.61 s, 16 2.90 s; two host devices (sharing 2 cores), 16 lanes 1.90 s,
+        # 32 lanes 2.25 s.
         if devs[0].platform == "cpu":
-            c = min(per_dev, _CPU_SHARDED_LOOP if n_dev > 1 else _CPU_LOOP)
+            c = min(per_dev, _CPU_SHARDED_LANES if n_dev > 1 else _CPU_LANES)
         else:
             c = per_dev
     else:
-        c = _validate.positive_int("cases_per_loop", cases_per_loop)
-    order = schedule(grid.expected_cost(), n_dev, c, balance)
-    params = [x[order].reshape(-1, c) for x in (grid.omega_s, grid.T_s, grid.E_scale)]
+        c = min(_validate.positive_int("lanes", lanes), per_dev)
+    cfg = _Config(rtol=float(rtol), atol=float(atol), dt0=1e-3 * float(ts[-1]) if dt is None else float(dt),
+                  rho_inf=float(rho_inf), max_steps=max_steps, adaptive=dt is None, tip=tip,
+                  scale_E=bool(np.any(grid.E_scale != 1.0)), lanes=c)
+    order = schedule(grid.expected_cost(), n_dev, balance)
+    params = [x[order] for x in (grid.omega_s, grid.T_s, grid.E_scale)]
     # One device is a mesh of one: a single code path whatever the device count.
     from jax.sharding import Mesh, NamedSharding
     from jax.sharding import PartitionSpec as P
@@ -539,8 +534,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     res = SweepResult(
         grid=grid, ts=ts, tip=tipw, peak_uy=peak_uy, peak_ux=peak_ux, residual_uy=residual,
         steps=out["steps"].astype(int), rejected=out["rejected"].astype(int), newton=out["newton"].astype(int),
-        dofs=model.n_dof, devices=n_dev, platform=devs[0].platform, balance=balance, cases_per_loop=c,
-        loops=order.size // c, collectives=collectives, compile_s=t1 - t0, run_s=t2 - t1,
+        dofs=model.n_dof, devices=n_dev, platform=devs[0].platform, balance=balance, lanes=c,
+        padded=order.size - grid.cases, collectives=collectives, compile_s=t1 - t0, run_s=t2 - t1,
     )
     if time_single:
         i = int(np.argmax(res.steps + res.rejected))

@@ -111,8 +111,9 @@ def _oscillator_of(k):
 
 def test_batch_members_keep_their_own_steps_and_end():
     """``simulate_batch``: each member equals its own run (the stiffer ones take more steps and
-    run on after the others are done, which must leave the finished ones untouched); a member
-    that needs more than ``max_steps`` alone ends with result 1."""
+    run on after the others are done, which must leave the finished ones untouched), also when
+    members queue for fewer lanes; a member that needs more than ``max_steps`` alone ends with
+    result 1."""
     ks = jnp.array([1.0, 4.0, 16.0]) * OMEGA**2
     ts = jnp.linspace(0.0, 2.0, 21)
     kw = dict(observe=_first, rtol=1e-6, atol=1e-8)
@@ -124,7 +125,13 @@ def test_batch_members_keep_their_own_steps_and_end():
         assert int(batch.num_steps[i]) == int(one.num_steps) and int(batch.num_newton[i]) == int(one.num_newton)
     n = np.asarray(batch.num_steps + batch.num_rejected)
     assert n[0] < n[1] < n[2]
-    cut = simulate_batch(_oscillator_of, ks, ts, max_steps=int(n[1]), throw=False, **kw)
+    # Fewer lanes than members: the third waits for a lane, and members end out of their order.
+    for width in (1, 2):
+        queued = simulate_batch(_oscillator_of, ks[::-1], ts, width=width, **kw)
+        np.testing.assert_allclose(queued.ys[::-1], batch.ys, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(np.asarray(queued.num_newton[::-1]), np.asarray(batch.num_newton))
+        np.testing.assert_array_equal(np.asarray(queued.t_final), 2.0)
+    cut = simulate_batch(_oscillator_of, ks, ts, max_steps=int(n[1]), throw=False, width=2, **kw)
     np.testing.assert_array_equal(np.asarray(cut.result), [0, 0, 1])
     np.testing.assert_allclose(cut.ys[:2], batch.ys[:2], rtol=0, atol=0)
     with pytest.raises(SimulationError, match="max_steps"):
@@ -135,12 +142,18 @@ def test_batch_members_keep_their_own_steps_and_end():
         simulate_batch(_oscillator_of, jnp.zeros(0), ts)
     with pytest.raises(ValueError, match="adjoint"):
         simulate_batch(_oscillator_of, ks, ts, adjoint="reverse")
+    with pytest.raises(ValueError, match="width"):
+        simulate_batch(_oscillator_of, ks, ts, width=0)
 
 
 def test_solve_once_forms_agree_under_vmap_and_jvp():
     """The Newton solve: the CPU form (one LU of [A | b]) and the other platforms' (LU and
-    lu_solve) against NumPy on matrices that need pivoting, batched, and its derivative against
-    the linear-solve identity dx = A⁻¹(db − dA x)."""
+    lu_solve) against NumPy on matrices that need pivoting, batched (once and twice, and with an
+    unbatched operand), and its derivative against the linear-solve identity
+    dx = A⁻¹(db − dA x), also batched. On a CPU a batch gives LAPACK one system per call: a
+    batched getrf in jaxlib 0.10.2 can deadlock the CPU thread pool (``linalg``)."""
+    import re
+
     from nrrncf_jax.linalg import _solve_augmented, _solve_factored, solve_once
 
     rng = np.random.default_rng(0)

@@ -83,10 +83,11 @@ _SUBPROCESS = textwrap.dedent("""
     model = pickle.load(open(sys.argv[1], "rb"))
     grid = sweep_grid({omega}, {ts}, {e})
     kw = dict(t_end={t_end}, dt_out={dt_out}, dt=0.01)
-    one = spinup_sweep(model, grid, devices=1, **kw)
+    one = spinup_sweep(model, grid, devices=1, lanes=2, **kw)  # 6 cases queue for 2 lanes
     four = spinup_sweep(model, grid, devices=4, **kw)
     print(json.dumps(dict(device_count=jax.device_count(), x64=jax.config.jax_enable_x64, devices=four.devices,
-                          loops=four.loops, collectives=four.collectives, steps=four.steps.tolist(),
+                          lanes=[one.lanes, four.lanes], padded=four.padded, collectives=four.collectives,
+                          steps=four.steps.tolist(),
                           diff=float(np.abs(one.tip - four.tip).max()), scale=float(np.abs(one.tip).max()),
                           peak_diff=float(np.abs(one.peak_uy - four.peak_uy).max()))))
 """)
@@ -107,7 +108,7 @@ def test_sharded_sweep_equals_unsharded_on_4_host_devices(red, tmp_path):
     assert out.returncode == 0, out.stderr[-3000:]
     d = json.loads(out.stdout.strip().splitlines()[-1])
     assert d["x64"] and d["device_count"] == 4 and d["devices"] == 4
-    assert d["loops"] == 4  # 6 cases padded to 8: one loop of 2 per device
+    assert d["lanes"] == [2, 2] and d["padded"] == 2  # 6 cases padded to 8: 2 per device, no queue
     assert d["collectives"] == 0  # no cross-device operation in the compiled program
     assert d["steps"] == [int(T_END / 0.01)] * 6
     assert d["diff"] <= 1e-11 * d["scale"], d
@@ -146,7 +147,7 @@ def test_bad_input_raises_before_tracing(red, grid, monkeypatch):
         (dict(t_end=T_END, dt_out=0.0), "dt_out"),
         (dict(t_end=T_END, devices=jax.device_count() + 1), "devices"),
         (dict(t_end=T_END, devices=0), "devices"),
-        (dict(t_end=T_END, cases_per_loop=0), "cases_per_loop"),
+        (dict(t_end=T_END, lanes=0), "lanes"),
         (dict(t_end=T_END, balance="random"), "balance"),
         (dict(t_end=T_END, dt=-0.01), "dt"),
         (dict(t_end=T_END, tip=10_000), "tip"),
@@ -161,11 +162,11 @@ def test_bad_input_raises_before_tracing(red, grid, monkeypatch):
 
 def test_schedule_sorts_pads_and_balances():
     cost = np.array([5.0, 1.0, 4.0, 2.0, 3.0])
-    blocks = schedule(cost, 2, 2)
-    assert blocks.tolist() == [1, 3, 4, 2, 0, 0, 0, 0]  # sorted; padded with the costliest to 2·2·2
-    inter = schedule(cost, 2, 2, "interleave")
-    assert inter.tolist() == [1, 4, 0, 0, 3, 2, 0, 0]  # each device: one cheap, one costly, padding
-    assert schedule(cost, 1, 5).tolist() == [1, 3, 4, 2, 0]
+    blocks = schedule(cost, 2)
+    assert blocks.tolist() == [0, 2, 4, 3, 1, 1]  # costliest first; padded with the cheapest to 2·3
+    inter = schedule(cost, 2, "interleave")
+    assert inter.tolist() == [0, 4, 1, 2, 3, 1]  # each device the same mix, costliest first
+    assert schedule(cost, 1).tolist() == [0, 2, 4, 3, 1]
 
 
 def test_cli_sweep_json_and_errors(res, tmp_path, capsys):

@@ -120,14 +120,19 @@ def simulate(
     return _check(sol, throw)
 
 
-def simulate_batch(model_fn: Callable, params, ts, **kwargs) -> Solution:
+def simulate_batch(model_fn: Callable, params, ts, *, width: int | None = None, **kwargs) -> Solution:
     """``simulate`` for a batch of models, ``model_fn(p)`` for each ``p`` along the leading axis of
-    the pytree ``params``, in one loop: each member keeps its own adaptive steps, and the loop
-    runs until the last member is done. Returns a ``Solution`` whose fields have the batch axis
-    first. The keyword arguments are ``simulate``'s (same defaults), except ``y0``, ``adjoint``
-    and ``progress``: the members start from their models' initial states, and the loop runs in
-    forward mode (``jax.jvp``/``jacfwd`` pass through; use ``simulate`` with
-    ``adjoint="reverse"`` for reverse mode).
+    the pytree ``params``, in one loop: each member keeps its own adaptive steps. Returns a
+    ``Solution`` whose fields have the batch axis first. The keyword arguments are ``simulate``'s
+    (same defaults), except ``y0``, ``adjoint`` and ``progress``: the members start from their
+    models' initial states, and the loop runs in forward mode (``jax.jvp``/``jacfwd`` pass
+    through; use ``simulate`` with ``adjoint="reverse"`` for reverse mode).
+
+    ``width``: how many members the loop advances together (its lanes; default all of them).
+    With fewer lanes than members, the others wait in a queue, in their order in ``params``: a
+    member that ends hands its lane to the next one, so the loop keeps ``width`` members busy
+    until the queue is empty instead of running until its slowest member is done with the rest
+    idle. Put the costliest members first.
 
     ``jax.vmap(simulate)`` gives the same result but costs more: see ``_simulate_batch``.
     ``model_fn`` should be a pytree-aware callable (``jax.tree_util.Partial`` or an
@@ -143,9 +148,14 @@ def simulate_batch(model_fn: Callable, params, ts, **kwargs) -> Solution:
     if not leaves or len(sizes) != 1 or -1 in sizes or 0 in sizes:
         raise ValueError("params must be a pytree of arrays sharing a non-empty leading batch axis, got leading "
                          f"sizes {sorted(sizes)}")
+    (n,) = sizes
+    if width is None:
+        width = n
+    elif isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
+        raise ValueError(f"width must be a positive integer (lanes of the batched loop), got width={width!r}")
     a["model"] = model_fn(jtu.tree_map(lambda x: x[0], params))  # one member, for the checks
     _, ts_, t0_, _, *rest = _prepare(**a)
-    sol = _simulate_batch(model_fn, params, ts_, t0_, *rest)
+    sol = _simulate_batch(model_fn, params, ts_, t0_, *rest, width=min(int(width), n))
     return _check(sol, throw)
 
 
@@ -235,8 +245,9 @@ def _check(sol: Solution, throw: bool) -> Solution:
 class _Loop(NamedTuple):
     """One run's adaptive loop: its initial carry, step, condition and the Solution it ends in."""
 
-    init: Callable  # init() -> carry
-    step: Callable  # step(carry, active=None) -> carry
+    init: Callable  # init(outputs=True) -> carry (with its output buffer "ys" unless outputs=False)
+    outputs: Callable  # outputs(carry) -> the output buffer of a run starting from this carry
+    step: Callable  # step(carry, active=None) -> carry (see step)
     cond: Callable  # cond(carry) -> bool
     finish: Callable  # finish(final carry) -> Solution
 
@@ -265,9 +276,9 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
         rem = next_stop(k) - t
         return jnp.where(rem <= 1.1 * h, rem, jnp.where(rem < 2.0 * h, 0.5 * rem, h))
 
-    def initial_carry():
+    def initial_carry(outputs=True):
         """The loop's first carry; a function, so that tracing the step or the condition does not
-        trace the initial solve too."""
+        trace the initial solve too. ``outputs=False``: without the output buffer."""
         # Initial state and consistent acceleration: M a0 = −g(t0, q0, v0).
         q0, v0 = model.initial_state(t0) if y0 is None else y0
         q0, v0, _ = model.constrain(t0, q0, v0, jnp.zeros_like(q0))
@@ -276,16 +287,21 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
         a0 = -fac0.solve(model.residual(t0, q0, v0, z))
         _, _, a0 = model.constrain(t0, q0, v0, a0)
 
-        obs0 = config.observe(t0, q0, v0)
-        ys = jtu.tree_map(lambda x: jnp.zeros((n_out + K,) + jnp.shape(x), jnp.result_type(x)), obs0)
-        at_start = ts_pad <= t0
-        ys = jtu.tree_map(lambda buf, x: jnp.where(at_start.reshape((-1,) + (1,) * jnp.ndim(x)), x, buf), ys, obs0)
-        k0 = jnp.sum(at_start).astype(int)
+        k0 = jnp.sum(ts_pad <= t0).astype(int)
         h0 = limit_step(t0, jnp.minimum(dt0, dt_max), k0)
-        return dict(
-            t=t0, h=h0, y=jnp.stack([q0, v0, a0, a0]), k=k0, ys=ys,  # y = (q, v, a, ā): one carried array
+        c = dict(
+            t=t0, h=h0, y=jnp.stack([q0, v0, a0, a0]), k=k0,  # y = (q, v, a, ā): one carried array
             counts=jnp.zeros(3, int), result=jnp.array(0),  # counts: accepted, rejected steps; Newton iterations
         )
+        return dict(c, ys=initial_outputs(c)) if outputs else c
+
+    def initial_outputs(c):
+        """The output buffer (n_out + K slots): the initial observation at the times ≤ t0."""
+        obs0 = config.observe(t0, c["y"][0], c["y"][1])
+        at_start = ts_pad <= t0
+        return jtu.tree_map(
+            lambda x: jnp.where(at_start.reshape((-1,) + (1,) * jnp.ndim(x)), x,
+                                jnp.zeros((n_out + K,) + jnp.shape(x), jnp.result_type(x))), obs0)
 
     def make_stage(m, t1, h, q, v, a, abar):
         """(q1, v1, a1, ā1) of the step as functions of the new acceleration a1."""
@@ -349,7 +365,9 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
 
     def step(c, active=None):
         """One attempted step. ``active`` (batched runs, see ``_simulate_batch``): a member that
-        is done steps at a harmless size and keeps its carry and its outputs unchanged."""
+        is done steps at a harmless size and keeps its carry unchanged. A carry without the
+        output buffer ``ys`` (``init(outputs=False)``) returns the step's output window instead,
+        ``"window"``: the K slots from ``c["k"]`` on, for the caller to write."""
         t, h, k = c["t"], c["h"], c["k"]
         q, v, a, abar = c["y"]
         if active is not None:
@@ -418,7 +436,6 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
                     x = jnp.where(active, x, lax.dynamic_slice_in_dim(buf, k, K, axis=0))
                 return lax.dynamic_update_slice_in_dim(buf, x.astype(buf.dtype), k, axis=0)
 
-        ys = jtu.tree_map(write_window, obs, c["ys"])
         k_new = jnp.where(accept, k + jnp.sum(tau <= t1), k)
 
         t_new = jnp.where(accept, t1, t)
@@ -432,11 +449,15 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
                 lambda: None,
             )
         new = dict(
-            t=t_new, h=h_new, y=pick(jnp.stack([q1, v1, a1, abar1]), c["y"]), k=k_new, ys=ys,
+            t=t_new, h=h_new, y=pick(jnp.stack([q1, v1, a1, abar1]), c["y"]), k=k_new,
             counts=c["counts"] + jnp.stack([accept, ~accept, iters]).astype(int), result=result,
         )
-        if active is not None:  # the outputs are already kept (write_window)
-            new = {key: val if key == "ys" else jnp.where(active, val, c[key]) for key, val in new.items()}
+        if active is not None:
+            new = {key: jnp.where(active, val, c[key]) for key, val in new.items()}
+        if "ys" in c:
+            new["ys"] = jtu.tree_map(write_window, obs, c["ys"])  # inactive: write_window keeps them
+        else:
+            new["window"] = obs
         return new
 
     def cond(c):
@@ -449,7 +470,7 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
             num_steps=final["counts"][0], num_rejected=final["counts"][1], num_newton=final["counts"][2],
         )
 
-    return _Loop(init=initial_carry, step=step, cond=cond, finish=finish)
+    return _Loop(init=initial_carry, outputs=initial_outputs, step=step, cond=cond, finish=finish)
 
 
 @eqx.filter_jit
@@ -466,32 +487,71 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
 
 
 @eqx.filter_jit
-def _simulate_batch(model_fn, params, ts, t0, dt0, rtol, atol, dt_min, dt_max, newton_tol,
-                    config: _Config) -> Solution:
-    """``simulate_batch``'s program: one ``lax.while_loop`` whose body advances every member by
-    one attempted step (``vmap`` of the step), until every member is done.
+def _simulate_batch(model_fn, params, ts, t0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config: _Config, *,
+                    width: int) -> Solution:
+    """``simulate_batch``'s program: one ``lax.while_loop`` whose body advances the member in each
+    of ``width`` lanes by one attempted step (``vmap`` of the step), until every member is done.
 
     Written out rather than ``vmap(simulate)``: a vmapped ``while_loop`` with a per-member
     condition selects between the new and the old carry of every member at every step, the
     output buffers included (for 32 members with 3001 outputs, a copy and a select of 2.3 MB per
-    step, ~10 % of a sweep). Here the condition is one ``any``, a member that is done keeps its
-    carry by ``where`` on the small state, and its outputs by rewriting their own values.
+    step, ~10 % of a sweep). Here the condition is one ``any``, and the lanes carry only the
+    small state: each step's output window is written straight into its member's row of the
+    results.
+
+    The queue: a lane holds the index of its member (``n`` once the queue is empty) and that
+    member's parameters. Every member's initial carry is computed before the loop; when a lane's
+    member ends, its carry is stored and the next member waiting takes the lane. This is
+    bookkeeping on small arrays, done every iteration rather than under a ``lax.cond``, whose
+    branches would copy the loop's state.
     """
+    n = jtu.tree_leaves(params)[0].shape[0]
 
     def loop(p):
         return _build_loop(model_fn(p), ts, t0, None, dt0, rtol, atol, dt_min, dt_max, newton_tol, config)
 
-    def running(one: _Loop, c):
-        return one.cond(c) & (c["counts"][0] + c["counts"][1] < config.max_steps)
+    def running(p, c):
+        return loop(p).cond(c) & (c["counts"][0] + c["counts"][1] < config.max_steps)
 
     def step_member(p, c):
-        one = loop(p)
-        return one.step(c, active=running(one, c))
+        return loop(p).step(c, active=running(p, c))
 
-    init = jax.vmap(lambda p: loop(p).init())(params)
-    cond = lambda C: jnp.any(jax.vmap(lambda p, c: running(loop(p), c))(params, C))  # noqa: E731
-    final = lax.while_loop(cond, lambda C: jax.vmap(step_member)(params, C), init)
-    return jax.vmap(lambda p, f: loop(p).finish(f))(params, final)
+    def take(tree, i):
+        return jtu.tree_map(lambda x: x[jnp.clip(i, 0, n - 1)], tree)
+
+    # Every member's initial carry, one after another: a batched initial solve would be one
+    # batched LAPACK LU (see ``linalg._solve_on_cpu_batched`` for why the library avoids those).
+    first = lax.map(lambda p: loop(p).init(outputs=False), params)
+    ys = jax.vmap(lambda p, c: loop(p).outputs(c))(params, first)  # (n, n_out + K, ...)
+    lane = jnp.arange(width)
+
+    def body(state):
+        C, lane_p, member, queued, final, ys = state
+        active = (member < n) & jax.vmap(running)(lane_p, C)
+        new = jax.vmap(step_member)(lane_p, C)
+        # Each lane's window of outputs into its member's row, from the slot it started at (one
+        # scatter); an idle lane's window is dropped.
+        row = jnp.where(active, member, n)[:, None]  # out of range: dropped
+        col = C["k"][:, None] + jnp.arange(_WINDOW)
+        ys = jtu.tree_map(lambda buf, w: buf.at[row, col].set(w.astype(buf.dtype), mode="drop"), ys,
+                          new.pop("window"))
+        # Members that end: store their carry, and hand their lanes to the next ones waiting.
+        ended = active & ~jax.vmap(running)(lane_p, new)
+        final = jtu.tree_map(lambda f, x: f.at[jnp.where(ended, member, n)].set(x, mode="drop"), final, new)
+        nxt = queued + jnp.cumsum(ended) - 1
+        start = ended & (nxt < n)
+
+        def pick(fresh, old):
+            return jnp.where(start.reshape((-1,) + (1,) * (fresh.ndim - 1)), fresh, old)
+
+        C = jtu.tree_map(pick, take(first, nxt), new)
+        lane_p = jtu.tree_map(pick, take(params, nxt), lane_p)
+        member = jnp.where(ended, jnp.where(start, nxt, n), member)
+        return C, lane_p, member, queued + jnp.sum(start), final, ys
+
+    state = (take(first, lane), take(params, lane), lane, jnp.array(width), first, ys)
+    _, _, _, _, final, ys = lax.while_loop(lambda s: jnp.any(s[2] < n), body, state)
+    return jax.vmap(lambda p, c, y: loop(p).finish(dict(c, ys=y)))(params, final, ys)
 
 
 def _print_progress(t, t_end, steps, last=False):
