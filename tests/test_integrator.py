@@ -150,7 +150,7 @@ def test_solve_once_forms_agree_under_vmap_and_jvp():
     """The Newton solve: the CPU form (one LU of [A | b]) and the other platforms' (LU and
     lu_solve) against NumPy on matrices that need pivoting, batched (once and twice, and with an
     unbatched operand), and its derivative against the linear-solve identity
-    dx = A⁻¹(db − dA x), also batched. On a CPU a batch gives LAPACK one system per call: a
+    dx = A⁻¹(db − dA x), also batched, and reverse mode. On a CPU a batch gives LAPACK one system per call: a
     batched getrf in jaxlib 0.10.2 can deadlock the CPU thread pool (``linalg``)."""
     import re
 
@@ -173,6 +173,11 @@ def test_solve_once_forms_agree_under_vmap_and_jvp():
     _, dxs = jax.vmap(lambda a, c: jax.jvp(solve_once, (a, c), (jnp.asarray(dA), jnp.asarray(db))))(A, b)
     np.testing.assert_allclose(dxs, np.linalg.solve(A, (db - np.einsum("ij,bj->bi", dA, x))[..., None])[..., 0],
                                rtol=1e-9, atol=1e-12)
+    # Reverse mode, batched or not, against jnp.linalg.solve's gradient.
+    loss = lambda f: lambda a, c: jnp.sum(jax.vmap(f)(a, c) ** 2)  # noqa: E731
+    for g, ref in zip(jax.grad(loss(solve_once), argnums=(0, 1))(A, b),
+                      jax.grad(loss(jnp.linalg.solve), argnums=(0, 1))(A, b)):
+        np.testing.assert_allclose(g, ref, rtol=1e-9, atol=1e-11)
     if jax.default_backend() == "cpu":
         text = jax.jit(jax.vmap(solve_once)).lower(A, b).as_text()
         operands = re.findall(r"lapack_dgetrf_ffi.*?\((tensor<[^>]*>)", text)
