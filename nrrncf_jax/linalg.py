@@ -62,7 +62,7 @@ def _solve_once_jvp(primals, tangents):
     A, b = primals
     dA, db = tangents
     x = solve_once(A, b)
-    return x, DenseLU(*jsl.lu_factor(A)).solve(db - dA @ x)
+    return x, DenseLU.factor(A).solve(db - dA @ x)
 
 
 @jax.custom_batching.custom_vmap

@@ -366,8 +366,9 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
     def step(c, active=None):
         """One attempted step. ``active`` (batched runs, see ``_simulate_batch``): a member that
         is done steps at a harmless size and keeps its carry unchanged. A carry without the
-        output buffer ``ys`` (``init(outputs=False)``) returns the step's output window instead,
-        ``"window"``: the K slots from ``c["k"]`` on, for the caller to write."""
+        output buffer ``ys`` (``init(outputs=False)``, as batched runs use) returns the step's
+        output window instead, ``"window"``: the K slots from ``c["k"]`` on, for the caller to
+        write (or drop, for an inactive member)."""
         t, h, k = c["t"], c["h"], c["k"]
         q, v, a, abar = c["y"]
         if active is not None:
@@ -432,8 +433,6 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
             # back, or a scatter, is an operation over the whole buffer to XLA's cost model,
             # which splits it across threads, a thread hand-off every step.
             def write_window(x, buf):
-                if active is not None:
-                    x = jnp.where(active, x, lax.dynamic_slice_in_dim(buf, k, K, axis=0))
                 return lax.dynamic_update_slice_in_dim(buf, x.astype(buf.dtype), k, axis=0)
 
         k_new = jnp.where(accept, k + jnp.sum(tau <= t1), k)
@@ -455,7 +454,7 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
         if active is not None:
             new = {key: jnp.where(active, val, c[key]) for key, val in new.items()}
         if "ys" in c:
-            new["ys"] = jtu.tree_map(write_window, obs, c["ys"])  # inactive: write_window keeps them
+            new["ys"] = jtu.tree_map(write_window, obs, c["ys"])
         else:
             new["window"] = obs
         return new
@@ -513,9 +512,6 @@ def _simulate_batch(model_fn, params, ts, t0, dt0, rtol, atol, dt_min, dt_max, n
     def running(p, c):
         return loop(p).cond(c) & (c["counts"][0] + c["counts"][1] < config.max_steps)
 
-    def step_member(p, c):
-        return loop(p).step(c, active=running(p, c))
-
     def take(tree, i):
         return jtu.tree_map(lambda x: x[jnp.clip(i, 0, n - 1)], tree)
 
@@ -528,7 +524,7 @@ def _simulate_batch(model_fn, params, ts, t0, dt0, rtol, atol, dt_min, dt_max, n
     def body(state):
         C, lane_p, member, queued, final, ys = state
         active = (member < n) & jax.vmap(running)(lane_p, C)
-        new = jax.vmap(step_member)(lane_p, C)
+        new = jax.vmap(lambda p, c, on: loop(p).step(c, active=on))(lane_p, C, active)
         # Each lane's window of outputs into its member's row, from the slot it started at (one
         # scatter); an idle lane's window is dropped.
         row = jnp.where(active, member, n)[:, None]  # out of range: dropped
