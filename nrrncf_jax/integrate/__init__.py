@@ -1,6 +1,9 @@
 """Time integration: adaptive generalized-α for second-order models."""
 
 from .generalized_alpha import GeneralizedAlpha as GeneralizedAlpha
+from .newton import NewtonResult as NewtonResult
+from .newton import NewtonSolution as NewtonSolution
+from .newton import newton as newton
 from .simulate import (
     RESULTS as RESULTS,
 )
