@@ -42,7 +42,7 @@ class NewtonResult(eqx.Enumeration):
     """How a Newton solve ended."""
 
     converged = ""
-    max_iterations = "Newton did not converge within max_newton corrections"
+    max_iterations = "Newton did not converge within its maximum number of corrections"
     diverged = "Newton's corrections grew from the third on"
     nonfinite = "Newton met a non-finite correction"
 

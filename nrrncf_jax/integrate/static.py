@@ -10,8 +10,11 @@ from typing import TYPE_CHECKING
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import jax.tree_util as jtu
+import numpy as np
 from jax import lax
 
+from .newton import NewtonResult, newton
 from .simulate import SimulationError
 
 if TYPE_CHECKING:  # the models import the integrator's users; annotations only
@@ -30,45 +33,45 @@ def _static(model, load_steps: int, tol, max_iter: int, q0=None):
         q0, _ = model.initial_state(0.0)
     z = jnp.zeros_like(q0)
     free = model.free_mask()
+    q0, _, _ = model.constrain(0.0, q0, z, z)
 
     def solve_at(q, lam):
         m = _scale_loads(model, lam)
+        scale = 1.0 + jnp.max(jnp.abs(q))  # the increment's start: corrections relative to it
 
-        def cond(s):
-            q, i, norm = s
-            return (norm > tol) & (i < max_iter) & jnp.isfinite(norm)
-
-        def body(s):
-            q, i, _ = s
-            q, _, _ = m.constrain(0.0, q, z, z)
+        def update(q):
             fac = m.factor_iteration_matrix(0.0, q, z, 0.0, 0.0, 1.0)
-            dq = fac.solve(m.residual(0.0, q, z, z))
-            q = q - jnp.where(free, dq, 0.0)
-            norm = jnp.max(jnp.abs(dq)) / (1.0 + jnp.max(jnp.abs(q)))
-            return q, i + 1, norm
+            return jnp.where(free, fac.solve(m.residual(0.0, q, z, z)), 0.0)
 
-        q, iters, norm = lax.while_loop(cond, body, (q, jnp.array(0), jnp.array(1.0)))
-        return q, (iters, norm)
+        sol = newton(update, lambda dq: jnp.max(jnp.abs(dq)) / scale, q, tol, max_iter)
+        return sol.x, (sol.iterations, sol.result)
 
     lams = jnp.arange(1, load_steps + 1) / load_steps
-    q, (iters, norms) = lax.scan(solve_at, q0, lams)
-    return q, iters, norms
+    q, (iters, results) = lax.scan(solve_at, q0, lams)
+    return q, iters, results
 
 
 def static_equilibrium(model: "AbstractModel", load_steps: int = 10, tol: float = 1e-10, max_iter: int = 30,
                        q0=None):
     """Equilibrium of ``model`` under its loads (no inertia, t = 0), reached in ``load_steps``
-    equal load increments from ``q0`` (default: the model's initial state). Returns the
-    coordinates q; raises ``SimulationError`` if Newton does not converge at some increment."""
-    if load_steps < 1:
-        raise ValueError(f"load_steps must be >= 1, got {load_steps}")
-    q, iters, norms = _static(model, int(load_steps), jnp.asarray(tol), int(max_iter), q0)
-    if not isinstance(norms, jax.core.Tracer):
-        bad = ~(norms <= tol)
-        if bool(jnp.any(bad)):
-            i = int(jnp.argmax(bad))
-            raise SimulationError(
-                f"static Newton did not converge at load increment {i + 1}/{load_steps} "
-                f"(last relative update {float(norms[i]):.3g}); use more load_steps"
-            )
+    equal load increments from ``q0`` (default: the model's initial state), each solved by the
+    integrator's Newton (``integrate.newton``) until the correction is below ``tol`` relative to
+    ``1 + max|q|`` at the increment's start. Returns the coordinates q; raises
+    ``SimulationError`` naming the increment and the ``NewtonResult`` if Newton does not
+    converge at some increment."""
+    if isinstance(load_steps, bool) or not isinstance(load_steps, (int, np.integer)) or load_steps < 1:
+        raise ValueError(f"load_steps must be a positive integer, got {load_steps!r}")
+    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
+        raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
+    if not float(tol) > 0.0:
+        raise ValueError(f"tol must be > 0, got tol={tol!r}")
+    q, iters, results = _static(model, int(load_steps), jnp.asarray(tol, dtype=float), int(max_iter), q0)
+    if not isinstance(iters, jax.core.Tracer):
+        for i in range(int(load_steps)):
+            r = jtu.tree_map(lambda x: x[i], results)
+            if not bool(r == NewtonResult.converged):
+                raise SimulationError(
+                    f"static Newton did not converge at load increment {i + 1}/{load_steps} "
+                    f"({NewtonResult[r]}); use more load_steps"
+                )
     return q
