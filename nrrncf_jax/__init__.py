@@ -4,88 +4,78 @@ nonlinear order reduction (Yuan, Ren et al., Mech. Mach. Theory 185, 2023).
 The library never changes global JAX configuration: switch float64 on yourself (JAX's x64
 option, as the README's example does) before building models. Only the ``nrrncf`` command
 line switches it on, in its own entry point.
+
+The names below are imported on first use (PEP 562), so that ``import nrrncf_jax`` (and the
+``nrrncf`` command's ``--help`` and argument checks) does not start JAX; ``nrrncf_jax.simulate``
+and ``from nrrncf_jax import simulate`` work as usual.
 """
 
-from .body import Body as Body
-from .body import beam_body as beam_body
-from .compilation_cache import compilation_cache as compilation_cache
-from .control import OptimalSpinup as OptimalSpinup
-from .control import optimal_spinup as optimal_spinup
-from .control import tip_response as tip_response
-from .damping import RayleighDamping as RayleighDamping
-from .families import SpinupFamily as SpinupFamily
-from .families import offline_family as offline_family
-from .identify import Measurement as Measurement
-from .identify import identify as identify
-from .identify import misfit as misfit
-from .integrate import (
-    GeneralizedAlpha as GeneralizedAlpha,
-)
-from .integrate import (
-    SimulationError as SimulationError,
-)
-from .integrate import (
-    Solution as Solution,
-)
-from .integrate import (
-    simulate as simulate,
-)
-from .integrate import (
-    simulate_batch as simulate_batch,
-)
-from .integrate.simulate import simulate_timed as simulate_timed
-from .integrate.static import static_equilibrium as static_equilibrium
-from .material import Material as Material
-from .mesh import (
-    BeamReference as BeamReference,
-)
-from .mesh import (
-    arc_reference as arc_reference,
-)
-from .mesh import (
-    centerline_reference as centerline_reference,
-)
-from .mesh import (
-    straight_reference as straight_reference,
-)
-from .metrics import chi_rel as chi_rel
-from .models import (
-    AbstractModel as AbstractModel,
-)
-from .models import (
-    InertialFrameModel as InertialFrameModel,
-)
-from .models import (
-    LinearModel as LinearModel,
-)
-from .models import (
-    Loads as Loads,
-)
-from .models import ReducedRotatingModel as ReducedRotatingModel
-from .models import (
-    RotatingFrameModel as RotatingFrameModel,
-)
-from .models import reduce_rotating_model as reduce_rotating_model
-from .motion import SpinUp as SpinUp
-from .motion import Stationary as Stationary
-from .motion import SteadySpin as SteadySpin
-from .nr_rncf import Reduction as Reduction
-from .nr_rncf import nr_rncf as nr_rncf
-from .observe import tip_index as tip_index
-from .profiles import FourierSpinUp as FourierSpinUp
-from .reduction import ModalDerivatives as ModalDerivatives
-from .reduction import VibrationModes as VibrationModes
-from .reduction import deflate as deflate
-from .reduction import modal_derivatives as modal_derivatives
-from .reduction import vibration_modes as vibration_modes
-from .scenarios import BEAMS as BEAMS
-from .scenarios import beam_preset as beam_preset
-from .scenarios import run_spinup as run_spinup
-from .section import TubeSection as TubeSection
-from .sweep import SweepGrid as SweepGrid
-from .sweep import SweepResult as SweepResult
-from .sweep import spinup_sweep as spinup_sweep
-from .sweep import sweep_grid as sweep_grid
-from .sweep import sweep_reduction as sweep_reduction
+import importlib
+import importlib.util
+import sys
+import types
 
 __version__ = "0.1.0"
+
+_EXPORTS = {
+    "body": ("Body", "beam_body"),
+    "compilation_cache": ("compilation_cache",),
+    "control": ("OptimalSpinup", "optimal_spinup", "tip_response"),
+    "damping": ("RayleighDamping",),
+    "families": ("SpinupFamily", "offline_family"),
+    "identify": ("Measurement", "identify", "misfit"),
+    "integrate": ("GeneralizedAlpha", "SimulationError", "Solution", "simulate", "simulate_batch"),
+    "integrate.simulate": ("simulate_timed",),
+    "integrate.static": ("static_equilibrium",),
+    "material": ("Material",),
+    "mesh": ("BeamReference", "arc_reference", "centerline_reference", "straight_reference"),
+    "metrics": ("chi_rel",),
+    "models": ("AbstractModel", "InertialFrameModel", "LinearModel", "Loads", "ReducedRotatingModel",
+               "RotatingFrameModel", "reduce_rotating_model"),
+    "motion": ("SpinUp", "Stationary", "SteadySpin"),
+    "nr_rncf": ("Reduction", "nr_rncf"),
+    "observe": ("tip_index",),
+    "profiles": ("FourierSpinUp",),
+    "reduction": ("ModalDerivatives", "VibrationModes", "deflate", "modal_derivatives", "vibration_modes"),
+    "scenarios": ("BEAMS", "beam_preset", "run_spinup"),
+    "section": ("TubeSection",),
+    "sweep": ("SweepGrid", "SweepResult", "spinup_sweep", "sweep_grid", "sweep_reduction"),
+}
+"""Public names by the submodule (relative to this package) that defines them."""
+
+_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    """Import a public name (or a submodule) on first use and keep it."""
+    module = _WHERE.get(name)
+    if module is not None:
+        value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    elif importlib.util.find_spec(f"{__name__}.{name}") is not None:
+        value = importlib.import_module(f"{__name__}.{name}")
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_WHERE))
+
+
+class _Package(types.ModuleType):
+    """This package's module type: a submodule that shares its name with a function exported here
+    (``identify``, ``nr_rncf``, ``compilation_cache``) does not replace the function as the
+    package's attribute when it is imported (the import system sets each submodule on its package),
+    so ``nrrncf_jax.identify`` is the function, as it was when the package imported everything at
+    once; the submodule stays in ``sys.modules``."""
+
+    def __setattr__(self, name, value):
+        if isinstance(value, types.ModuleType) and name in _WHERE and value.__name__ == f"{__name__}.{name}":
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

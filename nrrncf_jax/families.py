@@ -197,7 +197,7 @@ def offline_family(full: RotatingFrameModel, reduction, preset, *, omega_ref=Non
         gap = np.min(np.abs(others - w[i])) / w[i]
         if gap < gap_rtol:
             warnings.warn(
-                f"mode {i + 1} ({w[i]:.6g} rad/s) has a repeated eigenvalue (relative gap {gap:.1e}): its "
+                f"mode {i} (0-based; {w[i]:.6g} rad/s) has a repeated eigenvalue (relative gap {gap:.1e}): its "
                 "eigenvector has no unique derivative, so the gradient cannot go through the offline stage; "
                 "using the fixed-basis family (exact for E of a homogeneous body)", DegenerateModesWarning,
                 stacklevel=2)

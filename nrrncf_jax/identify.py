@@ -17,6 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
+from ._progress import note
 from ._types import Array, Float
 from .families import OFFLINE_PARAMETERS, PARAMETERS, OfflineSpinupFamily, check_params
 from .integrate.generalized_alpha import GeneralizedAlpha
@@ -128,6 +129,7 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
     ``compile_s``. Gradients are reverse-mode through the checkpointed integrator; the
     step-size control is not differentiated (each step's Newton solve is, implicitly).
     A non-finite loss or gradient stops it with ``FloatingPointError`` naming the parameters.
+    ``progress=True`` prints the compilation and each iteration (loss, parameters) on stderr.
     """
     if not isinstance(measurement, Measurement):
         raise ValueError("measurement must be a Measurement(ts, values)")
@@ -158,9 +160,11 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
     value_and_grad = eqx.filter_jit(jax.value_and_grad(loss))
     t0 = time.perf_counter()
     u = jnp.zeros(len(names))
+    note(progress, f"identify {', '.join(names)}: compiling the loss and its reverse-mode gradient ...")
     tc = time.perf_counter()
     value_and_grad = value_and_grad.lower(u).compile()
     compile_s = time.perf_counter() - tc
+    note(progress, f"compiled in {compile_s:.1f} s; {int(adam_steps)} Adam steps, then up to {int(lbfgs_steps)} L-BFGS")
 
     def evaluate(u):
         value, grad = value_and_grad(u)
@@ -177,8 +181,7 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
         history.append(value)
         updates, state = adam.update(grad, state, u)
         u = optax.apply_updates(u, updates)
-        if progress:
-            print(f"  adam  {i + 1:3d}  loss {value:.4e}  " + _fmt(names, x0 * jnp.exp(u)), flush=True)
+        note(progress, f"adam  {i + 1:3d}  loss {value:.4e}  " + _fmt(names, x0 * jnp.exp(u)))
 
     lbfgs = optax.scale_by_lbfgs()
     state = lbfgs.init(u)
@@ -203,8 +206,7 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
         converged = value - v_try <= ftol * value
         u, value, grad = u_try, v_try, g_try
         history.append(value)
-        if progress:
-            print(f"  lbfgs {n_lbfgs:3d}  loss {value:.4e}  " + _fmt(names, x0 * jnp.exp(u)), flush=True)
+        note(progress, f"lbfgs {n_lbfgs:3d}  loss {value:.4e}  " + _fmt(names, x0 * jnp.exp(u)))
         if converged:
             break
     x = np.asarray(x0 * jnp.exp(u))

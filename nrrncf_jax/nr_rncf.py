@@ -40,6 +40,19 @@ class Reduction:
         """Columns added by the spinning-state enrichment (before deflation)."""
         return 0 if self.spin is None or not self.spin.enriched else len(self.spin.vms) + len(self.spin.pairs)
 
+    def describe(self) -> str:
+        """Where the reduced coordinates come from, e.g. ``14 DOFs (3 VMs + 6 MDs + 5 spinning-state
+        vectors: 1 spinning mode + 4 MDs of spinning modes)``: every basis column, and how many the
+        SVD deflation removed when it removed any."""
+        parts = [f"{self.n_vms} VMs", f"{self.n_mds} MDs"]
+        if self.n_spin:
+            modes = len(self.spin.vms)
+            parts.append(f"{self.n_spin} spinning-state vectors: {modes} spinning mode{'s' if modes > 1 else ''} + "
+                         f"{len(self.spin.pairs)} MDs of spinning modes")
+        removed = self.n_vms + self.n_mds + self.n_spin - self.dofs
+        tail = f"; {removed} removed by the SVD deflation" if removed > 0 else ""
+        return f"{self.dofs} DOFs ({' + '.join(parts)}{tail})"
+
 
 def _modal_damping_ratio(full, omega):
     """ζ_i = α/(2ω_i) + βω_i/2 of the full model's Rayleigh damping (None when undamped)."""

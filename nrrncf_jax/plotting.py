@@ -83,8 +83,8 @@ def plot_mmi(path: str, W, selection: "Selection", omega=None, n_first: int = 8,
     starred on the axes.
 
     Shown are the first ``n_first`` candidate modes and every selected VM beyond them (e.g. an
-    axial mode far up the spectrum), labelled by mode number (1-based); ``omega`` (rad/s), if
-    given, is listed in the title for the modes shown."""
+    axial mode far up the spectrum), labelled by mode index (0-based, as everywhere); ``omega``
+    (rad/s), if given, is listed in the title for the modes shown."""
     plt = _pyplot()
     from matplotlib.patches import Patch
 
@@ -106,7 +106,7 @@ def plot_mmi(path: str, W, selection: "Selection", omega=None, n_first: int = 8,
             cs.append(_SELECTED if (i, j) in pairs else _OTHER)
     ax.bar3d(np.array(xs) + 0.15, np.array(ys) + 0.15, np.zeros(len(xs)), 0.7, 0.7, np.array(hs), color=cs,
              shade=True, edgecolor="k", linewidth=0.2)
-    ticks = [f"{i + 1}{'*' if i in vms else ''}" for i in shown]
+    ticks = [f"{i}{'*' if i in vms else ''}" for i in shown]  # 0-based mode indices, as everywhere
     for set_ticks, set_labels in ((ax.set_xticks, ax.set_xticklabels), (ax.set_yticks, ax.set_yticklabels)):
         set_ticks(np.arange(n) + 0.5)
         set_labels(ticks, fontsize=7)
@@ -123,7 +123,7 @@ def plot_mmi(path: str, W, selection: "Selection", omega=None, n_first: int = 8,
     if n_md_shown < n_md:
         sub += f" ({n_md - n_md_shown} selected MDs off the plot)"
     if omega is not None:
-        om = [f"{i + 1}: {np.asarray(omega)[i]:.3g}" for i in shown]
+        om = [f"{i}: {np.asarray(omega)[i]:.3g}" for i in shown]
         sub += "\nω [rad/s]  " + "\n".join(", ".join(om[r:r + 8]) for r in range(0, len(om), 8))
     ax.set_title((title + "\n" if title else "") + sub, fontsize=8)
     fig.tight_layout()

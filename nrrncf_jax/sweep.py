@@ -46,6 +46,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _validate
+from ._progress import note
+from ._validate import parse_range as parse_range  # the CLI's grid syntax, checked without JAX
 from .integrate import GeneralizedAlpha
 from .integrate.simulate import RESULTS, SimulationError, simulate, simulate_batch, simulate_timed
 from .models.reduced import ReducedRotatingModel
@@ -73,7 +75,7 @@ def _positive_values(name: str, values) -> np.ndarray:
         raise ValueError(f"{name}: the grid is empty (no values given)")
     bad = ~np.isfinite(v) | (v <= 0.0)
     if np.any(bad):
-        raise ValueError(f"{name} must be finite and positive, got {name}={v[bad][0]!r}")
+        raise ValueError(f"{name} must be finite and positive, got {v[bad][0]:g}")
     return v
 
 
@@ -124,30 +126,6 @@ def sweep_grid(omega_s, T_s=15.0, E_scale=1.0) -> SweepGrid:
     E = _positive_values(_GRID_NAMES["E_scale"], E_scale)
     W, TT, EE = np.meshgrid(w, T, E, indexing="ij")
     return SweepGrid(W.reshape(-1), TT.reshape(-1), EE.reshape(-1), shape=W.shape)
-
-
-def parse_range(spec: str, name: str = "value") -> np.ndarray:
-    """``'a:b:n'`` → n values evenly spaced from a to b inclusive; ``'a,b,c'`` → those values;
-    ``'a'`` → one value. Raises ``ValueError`` naming ``name`` on anything else."""
-    form = f"{name} must be 'start:stop:count' (e.g. 2:40:64), a comma-separated list or one number, got {spec!r}"
-    s = str(spec).strip()
-    parts = s.split(":")
-    try:
-        if len(parts) == 3:
-            a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
-        elif len(parts) == 1 and s:
-            values = np.array([float(x) for x in s.split(",")])
-        else:
-            raise ValueError
-    except ValueError:
-        raise ValueError(form) from None
-    if len(parts) == 1:
-        return values
-    if n < 1:
-        raise ValueError(f"{name}: the count in {spec!r} must be >= 1, got {n}")
-    if not (np.isfinite(a) and np.isfinite(b)):
-        raise ValueError(form)
-    return np.linspace(a, b, n)
 
 
 # --- the per-case model -------------------------------------------------------------------------
@@ -439,7 +417,8 @@ def _as_model(model_or_reduction) -> ReducedRotatingModel:
 def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: float = 0.01, rtol: float = 1e-4,
                  atol: float = 1e-6, rho_inf: float = 0.9, dt: float | None = None, max_steps: int = 500_000,
                  devices: int | Sequence | None = None, lanes: int | None = None, balance: str = "blocks",
-                 tip: int | None = None, time_single: bool = False, throw: bool = True) -> SweepResult:
+                 tip: int | None = None, time_single: bool = False, throw: bool = True,
+                 progress: bool = False) -> SweepResult:
     """Run the spin-up of Eq. 43 for every case of ``grid`` in one compiled, vmapped loop.
 
     ``model_or_reduction``: a ``ReducedRotatingModel`` (or the ``Reduction`` from ``nr_rncf``);
@@ -459,7 +438,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     (with fixed steps they stay at round-off). ``tip``: the nodal vector observed
     (default the beam's tip position vector). Compilation (ahead of time) and the run are timed
     apart; with ``time_single=True`` the slowest case is then run alone for comparison.
-    ``throw=True`` raises ``SimulationError`` naming a case that stopped early.
+    ``throw=True`` raises ``SimulationError`` naming a case that stopped early. ``progress=True``
+    prints each stage (compilation, the run, the single run) on stderr.
 
     Returns a ``SweepResult``. Every check on the input runs before anything is traced.
     """
@@ -471,8 +451,7 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     ts = output_times(t_end, dt_out)
     if ts.size < 2:
         raise ValueError(f"t_end={t_end!r} must be at least one output interval dt_out={dt_out!r}")
-    _validate.positive("rtol", rtol)
-    _validate.positive("atol", atol)
+    _validate.tolerances(rtol, atol)
     if not 0.0 <= float(rho_inf) <= 1.0:
         raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={rho_inf!r}")
     max_steps = _validate.positive_int("max_steps", max_steps)
@@ -513,11 +492,15 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     model_r = jax.tree_util.tree_map(lambda x: _put(x, rep) if eqx.is_array(x) else x, model)
     args = (model_r, *(_put(x, split) for x in params), _put(ts, rep))
 
+    note(progress, f"sweep: compiling the batched loop ({grid.cases} cases on {n_dev} {devs[0].platform.upper()} "
+                   f"device(s), {c} lanes each) ...")
     t0 = time.perf_counter()
     compiled = _sweep_kernel.lower(*args, cfg, mesh).compile()
     t1 = time.perf_counter()
+    note(progress, f"sweep: compiled in {t1 - t0:.1f} s; running the {grid.cases} cases ...")
     out = jax.block_until_ready(compiled(*args, cfg, mesh))
     t2 = time.perf_counter()
+    note(progress, f"sweep: ran in {t2 - t1:.1f} s")
     collectives = len(_COLLECTIVES.findall(compiled.compiled.as_text()))  # the jax.stages.Compiled inside
     out = {k: _fetch(v) for k, v in out.items()}
 
@@ -539,6 +522,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     )
     if time_single:
         i = int(np.argmax(res.steps + res.rejected))
+        note(progress, f"sweep: the slowest case (case {i}, omega_s = {grid.omega_s[i]:g} rad/s) alone, for "
+                       "comparison (compile and run) ...")
         sol, c_s, r_s = single_run(model, grid.omega_s[i], grid.T_s[i], grid.E_scale[i], t_end=t_end, dt_out=dt_out,
                                    rtol=rtol, atol=atol, rho_inf=rho_inf, dt=dt, max_steps=max_steps, tip=tip,
                                    timed=True)

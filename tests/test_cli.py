@@ -6,8 +6,19 @@ import math
 import os
 import subprocess
 import sys
+import time
+from types import SimpleNamespace
 
-from nrrncf_jax.cli import main
+import jax.numpy as jnp
+import pytest
+
+import nrrncf_jax.cli as cli
+from nrrncf_jax.cli import build_parser, main
+from nrrncf_jax.cli._common import BEAM_NAMES
+from nrrncf_jax.nr_rncf import Reduction, nr_rncf
+from nrrncf_jax.reduction import SpinCheck
+from nrrncf_jax.scenarios import BEAMS
+from nrrncf_jax.scenarios.spinup import build_spinup_model, output_times
 
 
 def test_spinup_json_csv_plot(tmp_path, capsys):
@@ -69,6 +80,7 @@ def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):
     assert d["formulation"] == "nr-rncf"
     assert 0 < d["dofs"] <= d["vms"] + d["mds"] and d["vms"] >= 1
     assert len(d["selected_vms"]) == d["vms"] and len(d["selected_mds"]) == d["mds"]
+    assert d["basis"].startswith(f"{d['dofs']} DOFs ({d['vms']} VMs + {d['mds']} MDs")
     assert isinstance(d["chi_rel_percent"], float) and math.isfinite(d["chi_rel_percent"])
     assert 0 <= d["chi_rel_percent"] < 5
     assert d["speedup"] > 0 and d["reference"]["dofs"] == 2 * 18 + 9
@@ -85,11 +97,149 @@ def test_modes_mmi_json(tmp_path, capsys):
     W = mmi["W_quarter"]
     assert len(W) == 8 and all(len(row) == 8 for row in W)
     assert max(max(row) for row in W) == 1.0
-    assert mmi["selected_vms"] and all(1 <= i <= 8 for i in mmi["selected_vms"])
+    assert mmi["selected_vms"] and all(0 <= i < 8 for i in mmi["selected_vms"])  # 0-based, as in Python
     assert all(i <= j and i in mmi["selected_vms"] and j in mmi["selected_vms"] for i, j in mmi["selected_mds"])
     assert png.stat().st_size > 5_000
+    # The same selection as the Python API's, index for index (one convention: 0-based).
+    full = build_spinup_model("rncf", "paper", 4.0, 15.0, 2)
+    sel = nr_rncf(full, jnp.asarray(output_times(3.0, 0.01)), n_modes=8).selection
+    assert mmi["selected_vms"] == list(sel.vms)
+    assert mmi["selected_mds"] == [list(p) for p in sel.pairs]
+    assert mmi["basis"].startswith(f"{mmi['dofs']} DOFs ({len(sel.vms)} VMs + {len(sel.pairs)} MDs")
 
 
 def test_modes_mmi_needs_omega(capsys):
     assert main(["modes", "--elements", "2", "--mmi"]) == 2
     assert "--omega" in capsys.readouterr().err
+
+
+# --- bad input: one line on stderr and exit status 2, before any work ----------------------------------------------
+
+MISSING = "/nonexistent/dir/"
+BAD_INPUT = {
+    "vms-zero": (["spinup", "--formulation", "nr-rncf", "--omega", "10", "--vms", "0"],
+                 "argument --vms: must be 'auto' or an integer >= 1, got '0'"),
+    "mds-nonsense": (["spinup", "--formulation", "nr-rncf", "--omega", "10", "--mds", "many"],
+                     "argument --mds: must be 'auto' or an integer >= 0, got 'many'"),
+    "mds-negative": (["spinup", "--formulation", "nr-rncf", "--omega", "10", "--mds", "-2"],
+                     "argument --mds: must be 'auto' or an integer >= 0, got '-2'"),
+    "vms-beyond-modes": (["spinup", "--formulation", "nr-rncf", "--omega", "10", "--vms", "9", "--modes", "8"],
+                         "--vms 9 asks for more vibration modes than the --modes 8 candidates"),
+    "spinup-out-dir": (["spinup", "--omega", "10", "--out", MISSING + "tip.csv"],
+                       f"--out {MISSING}tip.csv: the directory /nonexistent/dir does not exist"),
+    "spinup-plot-dir": (["spinup", "--omega", "10", "--plot", MISSING + "tip.png"], "/nonexistent/dir does not exist"),
+    "spinup-out-is-a-directory": (["spinup", "--omega", "10", "--out", "."], "--out . is a directory"),
+    "modes-plot-dir": (["modes", "--mmi", "--omega", "4", "--plot", MISSING + "mmi.png"], "does not exist"),
+    "identify-plot-dir": (["identify", "--demo", "--plot", MISSING + "fit.png"], "does not exist"),
+    "sweep-out-dir": (["sweep", "--omega", "2:40:4", "--out", MISSING + "sweep.csv"], "does not exist"),
+    "sweep-plot-dir": (["sweep", "--omega", "2:40:4", "--plot", MISSING + "sweep.png"], "does not exist"),
+    "rtol-too-large": (["spinup", "--omega", "10", "--rtol", "5"], "--rtol (relative tolerance) must be < 1"),
+    "rtol-one": (["sweep", "--omega", "2:40:4", "--rtol", "1"], "--rtol (relative tolerance) must be < 1"),
+    "rtol-zero": (["spinup", "--omega", "10", "--rtol", "0"], "--rtol (relative tolerance) must be > 0, got 0"),
+    "rtol-negative": (["sweep", "--omega", "2:40:4", "--rtol=-1e-4"],
+                      "--rtol (relative tolerance) must be > 0, got -0.0001"),
+    "omega-negative": (["spinup", "--omega", "-5"], "--omega (steady spin rate) must be > 0, got -5"),
+    "omega-nan": (["spinup", "--omega", "nan"], "--omega (steady spin rate) must be finite and > 0, got nan"),
+    "modes-omega-negative": (["modes", "--mmi", "--omega", "-5"], "--omega (steady spin rate) must be > 0, got -5"),
+    "range-reversed": (["sweep", "--omega", "40:2:4"], "--omega: the start of '40:2:4' must be smaller than its stop"),
+    "range-count-zero": (["sweep", "--omega", "2:40:0"], "--omega: the count in '2:40:0' must be an integer >= 1"),
+    "range-count-fraction": (["sweep", "--omega", "2:40:2.5"], "the count in '2:40:2.5' must be an integer >= 1"),
+    "range-negative-values": (["sweep", "--omega=-4:2:3"], "--omega (steady spin rates omega_s) must be finite and"),
+    "ts-range-reversed": (["sweep", "--omega", "4", "--ts", "20:10:3"], "--ts: the start of '20:10:3'"),
+    "flag-typo": (["spinup", "--omgea", "10"], "unrecognized arguments: --omgea 10; did you mean --omega?"),
+    "flag-typo-sweep": (["sweep", "--omega", "2:4:2", "--devcies", "2"], "unrecognized arguments: --devcies 2"),
+    "t-end-negative": (["spinup", "--omega", "10", "--t-end", "-1"], "--t-end (end time) must be > 0, got -1"),
+    "dt-out-beyond-t-end": (["spinup", "--omega", "10", "--t-end", "1", "--dt-out", "2"], "must not exceed --t-end"),
+    "elements-zero": (["modes", "--elements", "0"], "--elements must be >= 1, got 0"),
+    "reference-without-reduction": (["spinup", "--omega", "10", "--reference", "rncf"], "--formulation nr-rncf"),
+    "identify-without-demo": (["identify"], "only the demonstration"),
+    "identify-seed-negative": (["identify", "--demo", "--seed", "-1"], "--seed must be >= 0, got -1"),
+    "sweep-devices-zero": (["sweep", "--omega", "4", "--devices", "0"], "--devices must be >= 1, got 0"),
+    "missing-omega": (["spinup"], "the following arguments are required: --omega"),
+}
+
+
+@pytest.mark.parametrize("argv, message", BAD_INPUT.values(), ids=BAD_INPUT.keys())
+def test_bad_input_gets_one_line_before_any_work(argv, message, capsys, monkeypatch):
+    """Exit status 2 and one line ``nrrncf: error: ...`` naming the problem, before anything runs or
+    is printed about the run (the run itself is replaced by a trap)."""
+
+    def trap(args):
+        raise AssertionError(f"the run started for bad input {argv}")
+
+    monkeypatch.setattr(cli, "_run", trap)
+    t0 = time.perf_counter()
+    assert main(argv) == 2
+    assert time.perf_counter() - t0 < 2.0
+    out, err = capsys.readouterr()
+    assert out == ""  # no header describing the run
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("nrrncf: error: "), err
+    assert message in lines[0]
+
+
+def test_typo_of_a_required_flag_is_reported_as_the_typo(capsys):
+    assert main(["spinup", "--omgea", "10"]) == 2
+    err = capsys.readouterr().err
+    assert "--omgea" in err and "required" not in err
+
+
+def test_error_message_names_its_value_once(capsys):
+    assert main(["spinup", "--omega", "-5"]) == 2
+    err = capsys.readouterr().err
+    assert err == "nrrncf: error: --omega (steady spin rate) must be > 0, got -5\n"
+    # the library's own message, at its source
+    with pytest.raises(ValueError, match=r"^omega \(steady spin rate\) must be > 0, got -5$"):
+        build_spinup_model("rncf", "paper", -5.0)
+
+
+def test_help_and_argument_errors_do_not_start_jax():
+    """``--help`` of every subcommand and an argument error, in a fresh process: JAX never imported."""
+    code = """if True:
+        import contextlib, io, sys
+        from nrrncf_jax.cli import SUBCOMMANDS, build_parser, main
+        build_parser()
+        for argv in [["--help"]] + [[name, "--help"] for name in SUBCOMMANDS]:
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                assert main(argv) == 0
+            assert "usage: nrrncf" in out.getvalue()
+        with contextlib.redirect_stderr(io.StringIO()) as err:
+            assert main(["spinup", "--omega", "-5"]) == 2
+            assert main(["sweep", "--omega", "40:2:4"]) == 2
+            assert main(["spinup", "--omgea", "10"]) == 2
+        assert len(err.getvalue().splitlines()) == 3
+        import nrrncf_jax
+        print(sorted(m for m in sys.modules if m == "jax" or m.startswith(("jax.", "jaxlib"))))
+    """
+    env = {k: v for k, v in os.environ.items() if k != "JAX_ENABLE_X64"}
+    t0 = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
+    assert time.perf_counter() - t0 < 10.0  # JAX alone takes seconds to import on a small CPU
+
+
+def test_every_option_has_help_and_shows_its_default():
+    parser = build_parser()
+    subs = next(a.choices for a in parser._actions if a.dest == "command")
+    for name, sub in subs.items():
+        for action in sub._actions:
+            assert action.help and action.help.strip(), f"nrrncf {name} {action.option_strings} has no help"
+    assert "relative tolerance of the step control, in (0, 1) (default: 0.0001)" in " ".join(
+        subs["spinup"].format_help().split())
+    assert "seed of the noise" in subs["identify"].format_help()
+    assert "0-based" in subs["modes"].format_help() and "0-based" in subs["spinup"].format_help()
+
+
+def test_beam_names_are_the_presets():
+    assert BEAM_NAMES == tuple(sorted(BEAMS))
+
+
+def test_basis_summary_accounts_for_every_coordinate():
+    spin = SpinCheck(40.0, 0, 8.51, 8.69, True, (0,), ((0, 0), (0, 1), (0, 2), (1, 1)))
+    red = Reduction(model=SimpleNamespace(n_dof=14), omega=None, selection=None, n_vms=3, n_mds=6, offline_s={},
+                    spin=spin)
+    assert red.describe() == ("14 DOFs (3 VMs + 6 MDs + 5 spinning-state vectors: "
+                              "1 spinning mode + 4 MDs of spinning modes)")
+    red = Reduction(model=SimpleNamespace(n_dof=8), omega=None, selection=None, n_vms=3, n_mds=6, offline_s={})
+    assert red.describe() == "8 DOFs (3 VMs + 6 MDs; 1 removed by the SVD deflation)"

@@ -133,7 +133,7 @@ def test_identify_rejects_bad_input_before_tracing(straight):
         identify(fam, meas, {"E": E0}, adam_steps=-1)
     with pytest.raises(ValueError, match="unknown parameter"):
         identify(fam, meas, {"youngs": 1.0})
-    with pytest.raises(ValueError, match="positive"):
+    with pytest.raises(ValueError, match="E must be > 0, got -1"):
         identify(fam, meas, {"E": -1.0})
     with pytest.raises(ValueError, match="shape"):
         identify(fam, Measurement(TS, np.ones((TS.size, 2))), {"E": E0})
@@ -146,7 +146,9 @@ def test_identification_demo_cli(capsys):
     rc = main(["identify", "--demo", "--json", "--elements", "3", "--t-end", "20", "--dt-out", "0.1",
                "--adam-steps", "10", "--lbfgs-steps", "15"])
     assert rc == 0
-    d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    out, err = capsys.readouterr()
+    d = json.loads(out.strip().splitlines()[-1])
+    assert "the measurement" in err and "adam    1" in err and "lbfgs" in err  # progress by default, on stderr
     for key in ("E_true", "E_identified", "E_rel_err", "zeta_true", "zeta_identified", "zeta_rel_err",
                 "iterations", "wall_s"):
         assert key in d

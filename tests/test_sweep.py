@@ -172,7 +172,11 @@ def test_schedule_sorts_pads_and_balances():
 def test_cli_sweep_json_and_errors(res, tmp_path, capsys):
     png = tmp_path / "sweep.png"
     assert main(CLI_ARGS + ["--plot", str(png), "--json"]) == 0
-    d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    out, err = capsys.readouterr()
+    d = json.loads(out.strip().splitlines()[-1])
+    # progress by default, on stderr: each stage of the long command
+    for stage in ("reduced basis at omega_s = 6", "sweep: compiling", "running the 6 cases", "sweep: the slowest case"):
+        assert stage in err, err
     for key in ("cases", "devices", "compile_s", "run_s", "single_run_s", "sweep_over_single", "throughput_per_s",
                 "peak_uy", "peak_ux", "residual_uy", "dofs", "vms", "mds"):
         assert key in d, key
@@ -182,6 +186,13 @@ def test_cli_sweep_json_and_errors(res, tmp_path, capsys):
     assert d["E"] == [E0, 2 * E0, E0, 2 * E0, E0, 2 * E0]
     np.testing.assert_allclose(d["peak_uy"], res.peak_uy, rtol=1e-12)  # the same compiled program
     assert png.stat().st_size > 10_000
+    assert d["vms"] + d["mds"] + d["spin_vectors"] >= d["dofs"]
+    assert main(CLI_ARGS + ["--json", "--no-progress"]) == 0
+    out, err = capsys.readouterr()
+    assert err == "" and json.loads(out.strip().splitlines()[-1])["peak_uy"] == d["peak_uy"]
+    assert main(CLI_ARGS + ["--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert f"{d['dofs']} DOFs ({d['vms']} VMs + {d['mds']} MDs" in out  # every coordinate accounted for
     assert main(["sweep", "--omega", "2:40", "--json"]) == 2
     assert "--omega" in capsys.readouterr().err
     assert main(["sweep", "--omega", "2:40:8", "--ts", "0", "--json"]) == 2

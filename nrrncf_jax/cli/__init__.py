@@ -6,32 +6,87 @@
     nrrncf modes --beam curved-upwind --elements 8 --count 6 --mmi --omega 4 --plot mmi.png
     nrrncf identify --demo --json
 
-Each subcommand lives in its own module of this package, with a ``register(subparsers)``.
+Each subcommand lives in its own module of this package, with a ``register(subparsers)`` that
+sets ``func`` (the run) and ``check`` (the checks of its arguments). ``main`` parses, runs the
+checks, and only then starts JAX and the run: ``--help`` and a bad argument are answered at once,
+a bad argument with one line (``nrrncf: error: ...``) and exit status 2, before anything is
+printed about the run. Nothing in this package imports JAX when it is imported; the subcommands
+import the library inside their run functions.
+
 The command runs in float64 (a ``jax.enable_x64`` context around it), and keeps compiled
 kernels in a persistent cache (``nrrncf_jax.compilation_cache``; ``NRRNCF_JAX_CACHE=DIR`` moves
 it, ``NRRNCF_JAX_CACHE=off`` turns it off), so that a second command skips most compilation.
+Mode indices in the tables and the JSON are 0-based, as in the Python API.
 """
 
 import argparse
+import difflib
 import importlib
 import sys
+
+from ._common import HelpFormatter
 
 SUBCOMMANDS = ("spinup", "modes", "identify", "sweep")
 """Modules of this package, each with ``register(subparsers)``; their order is the help's."""
 
 
+class UsageError(Exception):
+    """A command-line error argparse found (unknown option, bad value, missing argument)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` whose errors are one line (``main`` prints them), not usage + message."""
+
+    def error(self, message):
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="nrrncf", description="NR-RNCF flexible multibody simulation (JAX)")
-    sub = p.add_subparsers(dest="command", required=True)
+    p = Parser(prog="nrrncf", description="NR-RNCF flexible multibody simulation (JAX)", formatter_class=HelpFormatter)
+    sub = p.add_subparsers(dest="command", required=True, metavar="{" + ",".join(SUBCOMMANDS) + "}")
     for name in SUBCOMMANDS:
         importlib.import_module(f"{__name__}.{name}").register(sub)
     return p
 
 
-def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    args = build_parser().parse_args(argv)
-    args.argv = argv  # for a subcommand that re-runs itself in a subprocess (sweep --devices)
+def _subparsers(parser: argparse.ArgumentParser) -> dict:
+    return next(a.choices for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+
+
+def _unknown_options_first(parser: argparse.ArgumentParser, argv: list) -> None:
+    """Report options no parser knows before missing required ones: a mistyped required option
+    (``--omgea 10``) is a typo to point at, not a missing ``--omega``. Parses once with every
+    option optional; raises ``UsageError`` naming the unknown arguments (and the closest option)."""
+    if "-h" in argv or "--help" in argv:
+        return  # the help, with the options as they are
+    subs = _subparsers(parser)
+    required = [a for s in subs.values() for a in s._actions if a.required and a.option_strings]
+    for a in required:
+        a.required = False
+    try:
+        ns, unknown = parser.parse_known_args(argv)
+    finally:
+        for a in required:
+            a.required = True
+    if not unknown:
+        return
+    sub = subs[ns.command]
+    known = [o for a in sub._actions for o in a.option_strings]
+    hint = difflib.get_close_matches(unknown[0], known, n=1) if unknown[0].startswith("-") else []
+    sub.error(f"unrecognized arguments: {' '.join(unknown)}" + (f"; did you mean {hint[0]}?" if hint else ""))
+
+
+def parse(argv: list) -> argparse.Namespace:
+    """The parsed and checked arguments; raises ``UsageError`` or ``ValueError`` (one line each)
+    before anything is run, or ``SystemExit(0)`` after ``--help``."""
+    parser = build_parser()
+    _unknown_options_first(parser, argv)
+    args = parser.parse_args(argv)
+    args.check(args)
+    return args
+
+
+def _run(args) -> int:
     import contextlib
 
     import jax
@@ -39,11 +94,22 @@ def main(argv=None) -> int:
     from ..compilation_cache import cli_cache_enabled, compilation_cache
 
     cache = compilation_cache() if cli_cache_enabled() else contextlib.nullcontext()
+    # float64 and the compilation cache for this command only; the global settings are left alone
+    with jax.enable_x64(True), cache:
+        return args.func(args)
+
+
+def main(argv=None) -> int:
+    """Run the command ``argv`` (default ``sys.argv[1:]``); returns the exit status: 0, or 2 after
+    one line ``nrrncf: error: ...`` on stderr for a bad argument."""
+    argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        # float64 and the compilation cache for this command only; the global settings are left alone
-        with jax.enable_x64(True), cache:
-            return args.func(args)
-    except ValueError as e:
+        args = parse(argv)
+        args.argv = argv  # for a subcommand that re-runs itself in a subprocess (sweep --devices)
+        return _run(args)
+    except SystemExit as e:  # --help
+        return e.code
+    except (UsageError, ValueError) as e:
         print(f"nrrncf: error: {e}", file=sys.stderr)
         return 2
 

@@ -1,6 +1,12 @@
-"""``nrrncf modes``: natural frequencies, and the MMI matrix (Eq. 39) of a spin-up."""
+"""``nrrncf modes``: natural frequencies, and the MMI matrix (Eq. 39) of a spin-up.
+
+Mode indices are 0-based (mode 0 is the lowest), in the table and the JSON alike, as in the
+Python API (``Selection.vms``, ``Selection.pairs``).
+"""
 
 import json
+
+from . import _common
 
 
 def _mmi(args) -> dict:
@@ -23,8 +29,9 @@ def _mmi(args) -> dict:
                  title=f"MMI, {args.beam} beam, {args.elements} el., $\\omega_s$ = {args.omega:g} rad/s")
     return {"omega_s": args.omega, "T_s": args.ts, "t_end": args.t_end,
             "W_quarter": np.round(mmi_quarter(sel.W), 6).tolist(),
-            "selected_vms": [i + 1 for i in sel.vms], "selected_mds": [[i + 1, j + 1] for i, j in sel.pairs],
-            "dofs": red.dofs, "offline_s": round(red.offline_s["total"], 3)}
+            "selected_vms": list(sel.vms), "selected_mds": [list(p) for p in sel.pairs],
+            "dofs": red.dofs, "spin_vectors": red.n_spin, "basis": red.describe(),
+            "offline_s": round(red.offline_s["total"], 3)}
 
 
 def _print_mmi(d: dict) -> None:
@@ -33,13 +40,13 @@ def _print_mmi(d: dict) -> None:
     Wq = np.asarray(d["W_quarter"])
     k = Wq.shape[0]
     print(f"\nMMI matrix (Eq. 39) of the spin-up, omega_s = {d['omega_s']:g} rad/s, T_s = {d['T_s']:g} s, "
-          f"t = 0..{d['t_end']:g} s: (W_ij / max W)^(1/4), upper triangle")
-    print("  i\\j " + "".join(f"{j + 1:>6d}" for j in range(k)))
+          f"t = 0..{d['t_end']:g} s: (W_ij / max W)^(1/4), upper triangle, modes 0-based")
+    print("  i\\j " + "".join(f"{j:>6d}" for j in range(k)))
     for i in range(k):
-        print(f"  {i + 1:4d}" + " " * 6 * i + "".join(f"{Wq[i, j]:6.2f}" for j in range(i, k)))
+        print(f"  {i:4d}" + " " * 6 * i + "".join(f"{Wq[i, j]:6.2f}" for j in range(i, k)))
     print(f"  selected VMs (auto): {d['selected_vms']}")
     print("  selected MDs (auto): " + (" ".join(f"θ{i},{j}" for i, j in d["selected_mds"]) or "none"))
-    print(f"  reduced DOFs after deflation: {d['dofs']}  (offline {d['offline_s']:.2f} s)")
+    print(f"  reduced basis: {d['basis']}  (offline {d['offline_s']:.2f} s)")
 
 
 def _modes(args) -> int:
@@ -53,10 +60,6 @@ def _modes(args) -> int:
     preset = beam_preset(args.beam)
     body = preset.body(args.elements)
     model = RotatingFrameModel(body, Stationary())
-    if (args.omega is not None or args.plot) and not args.mmi:
-        raise ValueError("--omega and --plot go with --mmi")
-    if args.mmi and args.omega is None:
-        raise ValueError("--mmi needs --omega (the steady spin rate of the spin-up)")
     modes = vibration_modes(body, model.free_mask(), args.count)
     omega = np.asarray(modes.omega)
     mmi = _mmi(args) if args.mmi else None
@@ -71,7 +74,7 @@ def _modes(args) -> int:
               f"(Euler-Bernoulli first bending: {preset.first_frequency_eb:.4f} rad/s)" if preset.curve is None
               else f"{args.beam} beam, {args.elements} elements, clamped at the hub")
         print("  mode   omega [rad/s]   f [Hz]")
-        for i, w in enumerate(omega, 1):
+        for i, w in enumerate(omega):
             print(f"  {i:4d}  {w:14.5f}  {w / (2 * np.pi):9.4f}")
         if mmi is not None:
             _print_mmi(mmi)
@@ -80,12 +83,29 @@ def _modes(args) -> int:
     return 0
 
 
-def register(sub) -> None:
-    from ..scenarios import BEAMS
+def _check(args) -> None:
+    """Every argument, before anything runs (no JAX)."""
+    _common.at_least("--elements", args.elements, 1)
+    _common.at_least("--count", args.count, 1)
+    if (args.omega is not None or args.plot) and not args.mmi:
+        raise ValueError("--omega and --plot go with --mmi")
+    if args.mmi:
+        if args.omega is None:
+            raise ValueError("--mmi needs --omega (the steady spin rate of the spin-up)")
+        _common.positive("--omega (steady spin rate)", args.omega)
+        _common.positive("--ts (spin-up time T_s)", args.ts)
+        _common.output_times(args.t_end, args.dt_out)
+        _common.output_path("--plot", args.plot)
 
-    m = sub.add_parser("modes", help="natural frequencies of a beam clamped at the hub")
-    m.add_argument("--beam", choices=sorted(BEAMS), default="paper")
-    m.add_argument("--elements", type=int, default=8)
+
+def register(sub) -> None:
+    m = sub.add_parser("modes", help="natural frequencies of a beam clamped at the hub",
+                       description="Natural frequencies of a beam clamped at the hub, and with --mmi the "
+                                   "maximum-modal-interaction matrix (Eq. 39) of a spin-up and the basis it selects. "
+                                   f"{_common.MODE_INDICES}.",
+                       formatter_class=_common.HelpFormatter)
+    m.add_argument("--beam", choices=_common.BEAM_NAMES, default="paper", help="beam preset")
+    m.add_argument("--elements", type=int, default=8, help="beam elements")
     m.add_argument("--count", type=int, default=10, help="modes to compute (with --mmi: the candidate modes)")
     m.add_argument("--mmi", action="store_true",
                    help="also the maximum-modal-interaction matrix (Eq. 39) of a spin-up and the automatic selection")
@@ -94,5 +114,6 @@ def register(sub) -> None:
     m.add_argument("--t-end", type=float, default=30.0, help="--mmi: end time [s] (default 30)")
     m.add_argument("--dt-out", type=float, default=0.01, help="--mmi: sampling interval of W [s] (default 0.01)")
     m.add_argument("--plot", help="--mmi: write the MMI bar plot (PNG) here")
-    m.add_argument("--json", action="store_true")
-    m.set_defaults(func=_modes)
+    m.add_argument("--json", action="store_true",
+                   help="print one JSON object (frequencies; with --mmi the MMI matrix and the 0-based selection)")
+    m.set_defaults(func=_modes, check=_check)

@@ -4,6 +4,8 @@ import os
 import subprocess
 import sys
 
+from . import _common
+
 _FORCE = "--xla_force_host_platform_device_count"
 
 
@@ -21,39 +23,77 @@ def _rerun_with_host_devices(args) -> int | None:
     return subprocess.run([sys.executable, "-c", code, *args.argv], env=env).returncode
 
 
+def _grid_values(args):
+    """``(omega_s, T_s, E or None)`` from ``--omega``, ``--ts``, ``--E``: parsed and checked (NumPy only)."""
+    from .._validate import parse_range
+
+    values = []
+    axes = (("--omega", args.omega, "steady spin rates omega_s"), ("--ts", args.ts, "spin-up times T_s"),
+            ("--E", args.E, "Young's moduli"))
+    for flag, spec, what in axes:
+        if spec is None:
+            values.append(None)
+            continue
+        v = parse_range(spec, flag)
+        bad = [x for x in v if not 0.0 < x < float("inf")]
+        if bad:
+            raise ValueError(f"{flag} ({what}) must be finite and > 0, got {bad[0]:g}")
+        values.append(v)
+    return tuple(values)
+
+
+def _check(args) -> None:
+    """Every argument, before anything runs (no JAX)."""
+    _grid_values(args)
+    _common.output_times(args.t_end, args.dt_out)
+    _common.at_least("--elements", args.elements, 1)
+    _common.at_least("--modes", args.modes, 1)
+    _common.at_least("--max-dofs", args.max_dofs, 1)
+    _common.rtol(args.rtol)
+    _common.at_least("--devices", args.devices, 1)
+    _common.output_path("--out", args.out)
+    _common.output_path("--plot", args.plot)
+
+
+def _range_text(v) -> str:
+    """The values of a grid axis for the header: one value, or how many and their span."""
+    return f"{v[0]:g}" if v.size == 1 else f"{v.size} values {v.min():g}..{v.max():g}"
+
+
 def _sweep(args) -> int:
     rc = _rerun_with_host_devices(args)
     if rc is not None:
         return rc
 
+    from .._progress import note
     from ..scenarios import beam_preset
-    from ..sweep import parse_range, spinup_sweep, sweep_grid, sweep_reduction
+    from ..sweep import spinup_sweep, sweep_grid, sweep_reduction
 
+    progress = not args.no_progress
     preset = beam_preset(args.beam)
-    omega = parse_range(args.omega, "--omega")
-    ts = parse_range(args.ts, "--ts")
-    E = parse_range(args.E, "--E") if args.E is not None else None
-    if E is not None and not (E.size and (E > 0).all() and (E < float("inf")).all()):
-        raise ValueError(f"--E must be finite and positive (Young's modulus in Pa), got {args.E!r}")
+    omega, ts, E = _grid_values(args)
     grid = sweep_grid(omega, ts, 1.0 if E is None else E / preset.E)
     if not args.json:
-        print(f"nrrncf sweep: {args.beam} beam, {grid.cases} cases (omega_s {omega.min():g}..{omega.max():g} rad/s "
-              f"x {ts.size} T_s" + (f" x {E.size} E" if E is not None else "") + f"), t = 0..{args.t_end:g} s",
-              flush=True)
+        print(f"nrrncf sweep: {args.beam} beam, {grid.cases} cases (omega_s {_range_text(omega)} rad/s "
+              f"x T_s {_range_text(ts)} s" + (f" x E {_range_text(E)} Pa" if E is not None else "")
+              + f"), t = 0..{args.t_end:g} s", flush=True)
+    note(progress, f"reduced basis at omega_s = {grid.omega_s.max():g} rad/s, T_s = {grid.T_s.min():g} s: modes, "
+                   "MMI simulation, modal derivatives, tensors ...")
     red = sweep_reduction(preset, grid, t_end=args.t_end, elements=args.elements, dt_out=args.dt_out,
                           n_modes=args.modes, max_dofs=args.max_dofs)
     if not args.json:
-        print(f"  basis at omega_s = {grid.omega_s.max():g} rad/s, T_s = {grid.T_s.min():g} s: {red.dofs} DOFs "
-              f"({red.n_vms} VMs + {red.n_mds} MDs), offline {red.offline_s['total']:.1f} s", flush=True)
+        print(f"  basis at omega_s = {grid.omega_s.max():g} rad/s, T_s = {grid.T_s.min():g} s: {red.describe()}, "
+              f"offline {red.offline_s['total']:.1f} s", flush=True)
     res = spinup_sweep(red, grid, t_end=args.t_end, dt_out=args.dt_out, rtol=args.rtol, devices=args.devices,
-                       time_single=True)
+                       time_single=True, progress=progress)
     if args.out:
         res.to_csv(args.out)
     if args.plot:
         res.plot(args.plot, title=f"{args.beam} beam spin-up sweep ({grid.cases} cases, {res.dofs} reduced DOFs)")
     if args.json:
         d = res.summary()
-        d.update(beam=args.beam, vms=red.n_vms, mds=red.n_mds, offline_s=round(red.offline_s["total"], 3),
+        d.update(beam=args.beam, vms=red.n_vms, mds=red.n_mds, spin_vectors=red.n_spin,
+                 offline_s=round(red.offline_s["total"], 3),
                  E=None if E is None else (grid.E_scale * preset.E).tolist())
         import json
 
@@ -68,26 +108,30 @@ def _sweep(args) -> int:
 
 
 def register(sub) -> None:
-    from ..scenarios import BEAMS
-
     s = sub.add_parser("sweep", help="batched spin-up over a grid of speeds (and T_s, E): peaks and residual "
-                       "vibration per case, vmapped and sharded across devices")
-    s.add_argument("--beam", choices=sorted(BEAMS), default="paper")
+                       "vibration per case, vmapped and sharded across devices",
+                       description="The spin-up of Eq. 43 for every (omega_s, T_s, E) of a grid, on one NR-RNCF "
+                                   "basis, in one compiled, vmapped run split across devices. Results on stdout; "
+                                   "each stage on stderr unless --no-progress.",
+                       formatter_class=_common.HelpFormatter)
+    s.add_argument("--beam", choices=_common.BEAM_NAMES, default="paper", help="beam preset")
     s.add_argument("--omega", required=True,
-                   help="steady spin rates omega_s [rad/s]: 'start:stop:count' (e.g. 2:40:64), 'a,b,c' or one value")
-    s.add_argument("--ts", default="15", help="spin-up times T_s [s], same forms as --omega (default 15)")
+                   help="steady spin rates omega_s [rad/s]: 'start:stop:count' (start < stop, count >= 1 values "
+                        "from start to stop inclusive, e.g. 2:40:64), 'a,b,c' or one value")
+    s.add_argument("--ts", default="15", help="spin-up times T_s [s], same forms as --omega")
     s.add_argument("--E", default=None, help="Young's moduli [Pa], same forms (default: the beam's)")
-    s.add_argument("--t-end", type=float, default=30.0, help="end time [s] (default 30)")
+    s.add_argument("--t-end", type=float, default=30.0, help="end time [s]")
     s.add_argument("--elements", type=int, default=None,
                    help="beam elements (default: the paper's Table 2 mesh for the largest omega_s)")
-    s.add_argument("--modes", type=int, default=24, help="candidate vibration modes of the basis (default 24)")
-    s.add_argument("--max-dofs", type=int, default=25, help="at most this many VMs + MDs (default 25)")
-    s.add_argument("--dt-out", type=float, default=0.01, help="output interval [s] (default 0.01)")
-    s.add_argument("--rtol", type=float, default=1e-4, help="relative tolerance of the step control")
+    s.add_argument("--modes", type=int, default=24, help="candidate vibration modes of the basis")
+    s.add_argument("--max-dofs", type=int, default=25, help="at most this many VMs + MDs")
+    s.add_argument("--dt-out", type=float, default=0.01, help="output interval [s]")
+    s.add_argument("--rtol", type=float, default=1e-4, help="relative tolerance of the step control, in (0, 1)")
     s.add_argument("--devices", type=int, default=None,
                    help="devices to split the batch over (default: all JAX sees; on a CPU this many host devices "
                         "are requested)")
     s.add_argument("--out", help="write the per-case CSV (omega_s, T_s, E_scale, peaks, residual, steps) here")
     s.add_argument("--plot", help="write a PNG of peak deflection against omega_s here")
     s.add_argument("--json", action="store_true", help="print one JSON object as the last line")
-    s.set_defaults(func=_sweep)
+    s.add_argument("--no-progress", action="store_true", help="no progress lines (stages) on stderr")
+    s.set_defaults(func=_sweep, check=_check)

@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
+from .._progress import note
 from ..damping import RayleighDamping
 from ..families import SpinupFamily
 from ..identify import IdentificationResult, Measurement, Observation, identify, tip_deflection
@@ -92,7 +93,8 @@ def identification_demo(*, elements: int = 6, omega_s: float = 10.0, T_s: float 
                         dt_out: float = 0.05, zeta: float = 0.02, noise: float = 0.01, start: float = 1.3,
                         vms: int = 3, seed: int = 0, adam_steps: int = 15, lbfgs_steps: int = 30,
                         progress: bool = False) -> IdentificationDemo:
-    """Run the demonstration (see the module docstring); defaults are the issue's case."""
+    """Run the demonstration (see the module docstring); defaults are the issue's case.
+    ``progress=True`` prints each stage and each iteration on stderr."""
     for name, value in (("omega_s", omega_s), ("T_s", T_s), ("zeta", zeta), ("start", start)):
         _validate.positive(name, value)
     _validate.non_negative("noise", noise)
@@ -103,6 +105,7 @@ def identification_demo(*, elements: int = 6, omega_s: float = 10.0, T_s: float 
 
     # The reduced model at the starting guess.
     E0 = start * E_true
+    note(progress, f"reduced model at the starting guess E = {E0:.4g} Pa: modes, MMI, modal derivatives, tensors ...")
     t0 = time.perf_counter()
     red = nr_rncf(RotatingFrameModel(preset.with_(E=E0).body(elements), SpinUp(omega_s, T_s)), jnp.asarray(ts),
                   n_modes=4 * vms, vms=vms, max_dofs=None)
@@ -110,12 +113,16 @@ def identification_demo(*, elements: int = 6, omega_s: float = 10.0, T_s: float 
     offline_s = time.perf_counter() - t0
 
     # The measurement: full RNCF at the true E with ζ in the same two modes of the true beam.
+    note(progress, f"offline stage {offline_s:.1f} s; the measurement: full RNCF model ({elements} elements) at the "
+                   f"true E and zeta, 0-{float(ts[-1]):g} s ...")
     t0 = time.perf_counter()
     w_ref = np.asarray(family.omega_ref) * np.sqrt(E_true / E0)
     body = preset.body(elements)
     truth = RotatingFrameModel(body, SpinUp(omega_s, T_s), damping=RayleighDamping.from_ratio(zeta, *w_ref))
-    clean = np.asarray(simulate(truth, jnp.asarray(ts), observe=tip_observer(truth), rtol=1e-6, atol=1e-9).ys)[:, 1]
+    clean = np.asarray(simulate(truth, jnp.asarray(ts), observe=tip_observer(truth), rtol=1e-6, atol=1e-9,
+                                progress=progress).ys)[:, 1]
     measurement_s = time.perf_counter() - t0
+    note(progress, f"measurement {measurement_s:.1f} s")
     rng = np.random.default_rng(seed)
     measured = clean + noise * np.std(clean) * rng.standard_normal(clean.shape)
 
@@ -128,6 +135,7 @@ def identification_demo(*, elements: int = 6, omega_s: float = 10.0, T_s: float 
         return np.asarray(simulate(m, jnp.asarray(ts), observe=Observation(m, tip_deflection(m)), rtol=1e-6,
                                    atol=1e-9).ys)
 
+    note(progress, "the reduced model's response at the start and at the identified parameters ...")
     return IdentificationDemo(
         ts=ts, clean=clean, measured=measured, initial_fit=response(initial), final_fit=response(result.params),
         E_true=float(E_true), zeta_true=float(zeta), result=result, reduced_dofs=red.dofs,

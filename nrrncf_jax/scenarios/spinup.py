@@ -50,8 +50,9 @@ class SpinupResult:
 
     For ``formulation='nr-rncf'`` (``run_nr_rncf_spinup``) the NR-RNCF fields are set too: the
     basis (``vms``, ``mds``: kept vibration modes and modal-derivative pairs, 0-based indices
-    into the candidate modes), the offline time, and, when the full RNCF ran as ``reference``,
-    χ_rel (Eq. 40, all nodal displacements) and the run-time ratio full/reduced.
+    into the candidate modes, in ``summary()``, ``table()`` and ``json()`` too), the offline time,
+    and, when the full RNCF ran as ``reference``, χ_rel (Eq. 40, all nodal displacements) and the
+    run-time ratio full/reduced.
     """
 
     formulation: str
@@ -96,15 +97,15 @@ class SpinupResult:
             ref = self.reference
             s.update({
                 "vms": len(self.vms), "mds": len(self.mds),
-                "selected_vms": [i + 1 for i in self.vms],  # mode numbers, 1-based as in ``nrrncf modes``
-                "selected_mds": [[i + 1, j + 1] for i, j in self.mds],
+                "selected_vms": list(self.vms),  # 0-based mode indices, as everywhere (``nrrncf modes`` too)
+                "selected_mds": [list(p) for p in self.mds],
                 "offline_s": round(self.offline_s["total"], 3),
+                "basis": None if self.reduction is None else self.reduction.describe(),
                 "spin_enriched": bool(self.spin is not None and self.spin.enriched),
                 "spin_check": None if self.spin is None else {
-                    "omega": self.spin.omega, "mode": self.spin.mode + 1, "omega_spin": self.spin.omega_spin,
+                    "omega": self.spin.omega, "mode": self.spin.mode, "omega_spin": self.spin.omega_spin,
                     "omega_ritz": self.spin.omega_ritz, "rel_err": self.spin.rel_err, "enriched": self.spin.enriched,
-                    "spin_vms": [i + 1 for i in self.spin.vms],
-                    "spin_mds": [[i + 1, j + 1] for i, j in self.spin.pairs]},
+                    "spin_vms": list(self.spin.vms), "spin_mds": [list(p) for p in self.spin.pairs]},
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup,
                 "reference": None if ref is None else {k: ref.summary()[k] for k in (
                     "formulation", "dofs", "steps", "rejected", "newton_iters", "compile_s", "run_s")},
@@ -117,9 +118,11 @@ class SpinupResult:
                 ("omega_s [rad/s] / T_s [s]", f"{s['omega_s']:g} / {s['T_s']:g}"),
                 ("time span [s]", f"0 - {s['t_end']:g}"), ("elements / DOFs", f"{s['elements']} / {s['dofs']}")]
         if self.reduced:
-            rows += [("VMs / MDs", f"{s['vms']} / {s['mds']}  (VMs {s['selected_vms']}; MDs "
+            rows += [("VMs / MDs (0-based modes)", f"{s['vms']} / {s['mds']}  (VMs {s['selected_vms']}; MDs "
                       + (" ".join(f"θ{i},{j}" for i, j in s["selected_mds"]) or "none") + ")"),
                      ("offline [s]", f"{s['offline_s']:.2f}")]
+            if self.reduction is not None:
+                rows.insert(-1, ("reduced coordinates", self.reduction.describe()))
             c = s["spin_check"]
             if c is not None:
                 added = (f"added spinning mode(s) {c['spin_vms']} and MDs "
@@ -169,12 +172,12 @@ def output_times(t_end: float, dt_out: float) -> np.ndarray:
     return ts[ts <= t_end + 1e-12]
 
 
-def _check_run_args(t_end, dt_out, rho_inf, rtol) -> np.ndarray:
+def _check_run_args(t_end, dt_out, rho_inf, rtol, atol) -> np.ndarray:
     """Validate the run options; return the output times."""
     ts = output_times(t_end, dt_out)
     if not 0.0 <= rho_inf <= 1.0:
-        raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={rho_inf!r}")
-    _validate.positive("rtol", rtol)
+        raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf!r}")
+    _validate.tolerances(rtol, atol)
     return ts
 
 
@@ -184,7 +187,7 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
                progress: bool = False, max_steps: int = 500_000) -> SpinupResult:
     """Run the spin-up of Eq. 43 with the full-order ``formulation`` and report tip motion in the
     rotating frame, step counts, and compile/run times (measured apart)."""
-    ts = _check_run_args(t_end, dt_out, rho_inf, rtol)
+    ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
     model = build_spinup_model(formulation, beam, omega_s, T_s, elements)
     body = model.body
     tip = body.n_vectors - body.vectors_per_node
@@ -233,7 +236,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     from ..metrics import chi_rel
     from ..nr_rncf import nr_rncf
 
-    ts = _check_run_args(t_end, dt_out, rho_inf, rtol)
+    ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
     full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
     red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs, spin_state=spin_state)
     model = red.model

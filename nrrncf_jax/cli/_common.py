@@ -1,0 +1,97 @@
+"""What the subcommands share: the beam names, the help format and the checks of their
+arguments that run before any work (and before JAX starts), so that a bad argument gets one
+line and exit status 2 at once.
+
+Nothing here imports JAX or the library's numerical modules (``_validate`` needs NumPy alone, and
+only once a check runs): ``--help`` and argument errors are instant. A check raises
+``ValueError``; ``main`` prints it as ``nrrncf: error: ...``.
+"""
+
+import argparse
+import os
+
+BEAM_NAMES = ("classic", "curved-downwind", "curved-out-of-plane", "curved-upwind", "paper")
+"""``sorted(nrrncf_jax.scenarios.BEAMS)``, spelt out so that building the parser imports no JAX
+(a test checks that the two agree)."""
+
+MODE_INDICES = "Mode indices are 0-based (mode 0 is the lowest), as in the Python API"
+"""The one convention for mode numbers in the command line's tables and JSON."""
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Adds ``(default: X)`` to an option's help unless the help mentions its default already or
+    the default says nothing (None, or False for a flag)."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if "default" in text or action.default in (None, False, argparse.SUPPRESS) or not action.option_strings:
+            return text
+        return text + " (default: %(default)s)"
+
+
+def output_path(flag: str, path: str | None) -> None:
+    """A file to be written after the run: its directory must exist and be writable, and it must
+    not be a directory itself (checked now rather than after a long simulation)."""
+    if path is None:
+        return
+    if not str(path).strip():
+        raise ValueError(f"{flag} needs a file name")
+    if os.path.isdir(path):
+        raise ValueError(f"{flag} {path} is a directory; give a file name")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ValueError(f"{flag} {path}: the directory {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"{flag} {path}: the directory {folder} is not writable")
+
+
+def positive(label: str, value: float) -> None:
+    """A number that must be finite and > 0 (``label`` names the option, e.g. ``--ts (spin-up time T_s)``)."""
+    from .. import _validate
+
+    _validate.positive(label, value)
+
+
+def non_negative(label: str, value: float) -> None:
+    """A number that must be finite and >= 0."""
+    from .. import _validate
+
+    _validate.non_negative(label, value)
+
+
+def output_times(t_end: float, dt_out: float) -> None:
+    """``--t-end`` and ``--dt-out``: positive, and at least one output interval in the run."""
+    positive("--t-end (end time)", t_end)
+    positive("--dt-out (output interval)", dt_out)
+    if dt_out > t_end:
+        raise ValueError(f"--dt-out (output interval) must not exceed --t-end, got {dt_out:g} > {t_end:g}")
+
+
+def rtol(value: float) -> None:
+    """``--rtol``: a relative tolerance, 0 < rtol < 1."""
+    from .. import _validate
+
+    _validate.tolerances(value, rtol_name="--rtol (relative tolerance)")
+
+
+def at_least(flag: str, value: int | None, minimum: int) -> None:
+    """An integer option (None: not given) that must be at least ``minimum``."""
+    if value is not None and value < minimum:
+        raise ValueError(f"{flag} must be >= {minimum}, got {value}")
+
+
+def count_or_auto(minimum: int):
+    """An argparse type: ``'auto'`` or an integer >= ``minimum`` (argparse names the option)."""
+
+    def parse(s: str):
+        if s == "auto":
+            return s
+        try:
+            k = int(s)
+        except ValueError:
+            k = None
+        if k is None or k < minimum:
+            raise argparse.ArgumentTypeError(f"must be 'auto' or an integer >= {minimum}, got {s!r}")
+        return k
+
+    return parse
