@@ -5,7 +5,7 @@
 
 The NR-RNCF basis is built once (paper beam, 24 elements, at ωs = 40 rad/s, Ts = 15 s: the
 hardest case of the grid) and held fixed; the sweep runs ωs = 2 … 40 rad/s over 0–30 s in one
-compiled, vmapped program (``nrrncf_jax.sweep.spinup_sweep``). Each device count runs in its own
+compiled, vmapped program (``nrrncf_jax.studies.sweep.spinup_sweep``). Each device count runs in its own
 subprocess, because JAX fixes the number of (forced host) devices when it starts:
 ``XLA_FLAGS=--xla_force_host_platform_device_count=N``; on a GPU host a further row runs on the
 GPUs. Compilation (ahead of time) and the run (to ``block_until_ready``) are timed apart. The
@@ -32,7 +32,7 @@ def _log(msg):
 def _grid(a):
     import numpy as np
 
-    from nrrncf_jax.sweep import sweep_grid
+    from nrrncf_jax.studies.sweep import sweep_grid
 
     return sweep_grid(np.linspace(a.omega_min, a.omega_max, a.cases), a.ts)
 
@@ -43,7 +43,7 @@ def _build(a, path):
     import numpy as np
 
     jax.config.update("jax_enable_x64", True)
-    from nrrncf_jax.sweep import sweep_reduction
+    from nrrncf_jax.studies.sweep import sweep_reduction
 
     red = sweep_reduction("paper", _grid(a), t_end=a.t_end, dt_out=a.dt_out)
     with open(path, "wb") as f:
@@ -60,7 +60,7 @@ def _worker(a):
     sys.path.insert(0, HERE)
     from _machine import machine
 
-    from nrrncf_jax.sweep import spinup_sweep
+    from nrrncf_jax.studies.sweep import spinup_sweep
 
     with open(a.model, "rb") as f:
         model = pickle.load(f)

@@ -20,10 +20,7 @@ __version__ = "0.1.0"
 _EXPORTS = {
     "body": ("Body", "beam_body"),
     "compilation_cache": ("compilation_cache",),
-    "control": ("OptimalSpinup", "optimal_spinup", "tip_response"),
     "damping": ("RayleighDamping",),
-    "families": ("SpinupFamily", "offline_family"),
-    "identify": ("Measurement", "identify", "misfit"),
     "integrate": ("GeneralizedAlpha", "SimulationError", "Solution", "simulate", "simulate_batch"),
     "integrate.simulate": ("simulate_timed",),
     "integrate.static": ("static_equilibrium",),
@@ -39,7 +36,10 @@ _EXPORTS = {
     "reduction": ("ModalDerivatives", "VibrationModes", "deflate", "modal_derivatives", "vibration_modes"),
     "scenarios": ("BEAMS", "beam_preset", "run_spinup"),
     "section": ("TubeSection",),
-    "sweep": ("SweepGrid", "SweepResult", "spinup_sweep", "sweep_grid", "sweep_reduction"),
+    "studies.control": ("OptimalSpinup", "optimal_spinup", "tip_response"),
+    "studies.families": ("SpinupFamily", "offline_family"),
+    "studies.identification": ("Measurement", "identify", "misfit"),
+    "studies.sweep": ("SweepGrid", "SweepResult", "spinup_sweep", "sweep_grid", "sweep_reduction"),
 }
 """Public names by the submodule (relative to this package) that defines them."""
 
@@ -67,10 +67,10 @@ def __dir__() -> list[str]:
 
 class _Package(types.ModuleType):
     """This package's module type: a submodule that shares its name with a function exported here
-    (``identify``, ``nr_rncf``, ``compilation_cache``) does not replace the function as the
-    package's attribute when it is imported (the import system sets each submodule on its package),
-    so ``nrrncf_jax.identify`` is the function, as it was when the package imported everything at
-    once; the submodule stays in ``sys.modules``."""
+    (``nr_rncf``, ``compilation_cache``) does not replace the function as the package's attribute
+    when it is imported (the import system sets each submodule on its package), so
+    ``nrrncf_jax.nr_rncf`` is the function, as it was when the package imported everything at once;
+    the submodule stays in ``sys.modules``."""
 
     def __setattr__(self, name, value):
         if isinstance(value, types.ModuleType) and name in _WHERE and value.__name__ == f"{__name__}.{name}":

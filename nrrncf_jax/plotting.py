@@ -6,13 +6,23 @@
   ``(W_ij / max W)^(1/4)``, the selected modal derivatives highlighted (paper Figs. 5 and 8).
 """
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 if TYPE_CHECKING:
     from .reduction.selection import Selection
-    from .scenarios.spinup import SpinupResult
+
+
+class TipRecord(Protocol):
+    """What ``plot_tip`` draws: the tip displacement (rotating frame) at the output times, and the
+    formulation and DOF count for the legend (an optional ``chi_rel_percent`` too). The spin-up
+    scenario's ``SpinupResult`` is one; the core does not import scenarios."""
+
+    formulation: str
+    dofs: int
+    ts: np.ndarray  # (nt,)
+    tip: np.ndarray  # (nt, 3)
 
 _STYLES = ["-", "--", ":", "-."]
 _SELECTED = "#800020"  # burgundy, as in the paper's bar plots
@@ -28,14 +38,14 @@ def _pyplot():
     return plt
 
 
-def _label(r: "SpinupResult") -> str:
+def _label(r: TipRecord) -> str:
     label = f"{r.formulation.upper()} ({r.dofs} DOF)"
     if getattr(r, "chi_rel_percent", None) is not None:
         label += f", $\\chi_{{rel}}$ = {r.chi_rel_percent:.2f} %"
     return label
 
 
-def plot_tip(path: str, *results: "SpinupResult", labels: list[str] | None = None, title: str | None = None,
+def plot_tip(path: str, *results: TipRecord, labels: list[str] | None = None, title: str | None = None,
              dpi: int = 120) -> None:
     """Tip displacement (rotating frame) of each result against t: u_y (transverse) and u_x
     (axial) panels, and u_z when any run moves out of the plane. The first result names the

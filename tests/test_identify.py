@@ -12,11 +12,11 @@ from conftest import paper_body
 
 from nrrncf_jax import RotatingFrameModel, SpinUp, nr_rncf
 from nrrncf_jax.cli import main
-from nrrncf_jax.families import DegenerateModesWarning, OfflineSpinupFamily, SpinupFamily, offline_family
-from nrrncf_jax.identify import Measurement, Observation, identify, misfit, tip_deflection
 from nrrncf_jax.integrate.simulate import simulate
 from nrrncf_jax.reduction.modes import eigh
 from nrrncf_jax.scenarios import beam_preset
+from nrrncf_jax.studies.families import DegenerateModesWarning, OfflineSpinupFamily, SpinupFamily, offline_family
+from nrrncf_jax.studies.identification import Measurement, Observation, identify, misfit, tip_deflection
 
 TS = np.linspace(0.0, 2.0, 21)
 # Fixed steps (finite differences then see no step-size changes) and tightly converged Newton
@@ -156,28 +156,3 @@ def test_identification_demo_cli(capsys):
     assert abs(d["E_rel_err"]) < 0.02
     assert abs(d["zeta_rel_err"]) < 0.15
 
-
-def test_line_search_backtracks_past_failed_trials():
-    """A trial point whose simulation stops early, or whose loss is not finite, shortens the
-    L-BFGS step instead of ending the identification; no decrease at all gives None."""
-    from nrrncf_jax.identify import armijo_backtracking
-    from nrrncf_jax.integrate.simulate import SimulationError
-
-    def f(u):
-        return float(np.sum((u - 1.0) ** 2)), 2.0 * (u - 1.0)
-
-    def evaluate(u):  # fails beyond u = 1.5, has no finite loss in (1.25, 1.5]
-        if u[0] > 1.5:
-            raise SimulationError("simulation stopped at t = 3 s")
-        if u[0] > 1.25:
-            raise FloatingPointError("non-finite loss")
-        return f(u)
-
-    u = np.zeros(1)
-    value, grad = f(u)
-    step = np.array([4.0])  # far too long: alpha = 1 and 0.5 fail, 0.25 (u = 1) is the minimum
-    (u_try, v_try, _), tries = armijo_backtracking(evaluate, u, value, step, float(grad @ step))
-    assert tries == 3 and u_try[0] == 1.0 and v_try == 0.0
-
-    found, tries = armijo_backtracking(evaluate, u, value, -step, float(grad @ -step), max_tries=5)
-    assert found is None and tries == 5  # an ascent direction never passes Armijo's test

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from nrrncf_jax.cli import main
-from nrrncf_jax.sweep import (
+from nrrncf_jax.studies.sweep import (
     SweepGrid,
     case_model,
     parse_range,
@@ -79,7 +79,7 @@ _SUBPROCESS = textwrap.dedent("""
     import json, pickle, sys
     import jax
     import numpy as np
-    from nrrncf_jax.sweep import spinup_sweep, sweep_grid
+    from nrrncf_jax.studies.sweep import spinup_sweep, sweep_grid
     model = pickle.load(open(sys.argv[1], "rb"))
     grid = sweep_grid({omega}, {ts}, {e})
     kw = dict(t_end={t_end}, dt_out={dt_out}, dt=0.01)
@@ -116,7 +116,7 @@ def test_sharded_sweep_equals_unsharded_on_4_host_devices(red, tmp_path):
 
 
 def test_bad_input_raises_before_tracing(red, grid, monkeypatch):
-    import nrrncf_jax.sweep as sweep_mod
+    import nrrncf_jax.studies.sweep as sweep_mod
 
     class NoTrace:
         def lower(self, *a, **k):

@@ -67,7 +67,7 @@ def _sweep(args) -> int:
 
     from .._progress import note
     from ..scenarios import beam_preset
-    from ..sweep import spinup_sweep, sweep_grid, sweep_reduction
+    from ..studies.sweep import spinup_sweep, sweep_grid, sweep_reduction
 
     progress = not args.no_progress
     preset = beam_preset(args.beam)

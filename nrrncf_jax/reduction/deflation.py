@@ -2,7 +2,7 @@
 
 NumPy rather than jnp: the deflation runs once, on a small concrete matrix, outside any trace,
 and op by op jnp compiled a dozen small XLA kernels (norm, svd, comparisons, slices) on every
-cold start. The differentiable offline path (``families.offline_family``) holds the deflation
+cold start. The differentiable offline path (``studies.families.offline_family``) holds the deflation
 map fixed at its nominal value; ``deflation_map`` gives it from the same SVD.
 """
 

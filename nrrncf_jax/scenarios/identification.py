@@ -20,13 +20,13 @@ import numpy as np
 from .. import _validate
 from .._progress import note
 from ..damping import RayleighDamping
-from ..families import SpinupFamily
-from ..identify import IdentificationResult, Measurement, Observation, identify, tip_deflection
 from ..integrate.simulate import simulate
 from ..models.full_order import RotatingFrameModel
 from ..motion import SpinUp
 from ..nr_rncf import nr_rncf
 from ..observe import tip_observer
+from ..studies.families import SpinupFamily
+from ..studies.identification import IdentificationResult, Measurement, Observation, identify, tip_deflection
 from .beams import beam_preset
 from .spinup import output_times
 

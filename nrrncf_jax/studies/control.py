@@ -5,9 +5,9 @@ The profile is a ``FourierSpinUp`` (Eq. 43 plus a zero-mean Fourier correction o
 θ̇(Ts) = ωs for any coefficients). The objective is the mean square of the in-plane tip
 deflection uy (rotating frame) over the output times in [Ts, t_end], after the manoeuvre, when
 a straight beam at constant spin and without load oscillates about uy ≈ 0. It is minimised by
-Adam on gradients taken through the whole simulation (``simulate(adjoint='reverse')``, a
-checkpointed loop; or forward mode, one tangent per coefficient). The amplitude reported is
-max |uy| over the same times.
+Adam, then L-BFGS (``optimize.lbfgs``), on gradients taken through the whole simulation
+(``simulate(adjoint='reverse')``, a checkpointed loop; or forward mode, one tangent per
+coefficient). The amplitude reported is max |uy| over the same times.
 """
 
 import dataclasses
@@ -19,12 +19,13 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from . import _validate
-from ._types import Array, Float
-from .integrate.simulate import simulate
-from .motion import SpinUp
-from .observe import TipObserver, tip_index, tip_observer  # noqa: F401  (re-exported for control users)
-from .profiles import FourierSpinUp
+from .. import _validate
+from .._types import Array, Float
+from ..integrate.simulate import simulate
+from ..motion import SpinUp
+from ..observe import TipObserver, tip_observer
+from ..profiles import FourierSpinUp
+from .optimize import lbfgs
 
 
 def _with_motion(model, motion):
@@ -119,14 +120,15 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
     with respect to x = coefficients / (ωs/Ts). The second term (off by default) penalises the
     departure from Eq. 43, should the optimum need large accelerations. ``steps`` Adam iterations
     (``learning_rate`` cosine-decayed to 5 %) are followed by up to ``lbfgs_steps`` L-BFGS
-    iterations (``optax.scale_by_lbfgs`` with a backtracking line search) from the best Adam
-    iterate: the residual vibration is nearly linear in θ̈, so J is nearly quadratic in x, where
-    quasi-Newton converges fast. ``grad='reverse'`` differentiates the checkpointed loop
-    (``simulate(adjoint='reverse')``; memory grows with ``max_steps``), ``'forward'`` pushes
-    2·n_terms tangents (measured 5x slower for 8 coefficients). ``rtol``, ``atol``,
-    ``adaptive``, ``dt0`` and ``max_steps`` go to ``simulate``; adaptive step sizes are held
-    fixed under differentiation. One value-and-gradient function is compiled and reused for
-    every evaluation. Returns an ``OptimalSpinup`` with the iterate of least loss.
+    iterations (``optimize.lbfgs``: optax's direction, Armijo backtracking, a trial point whose
+    simulation fails shortening the step) from the best Adam iterate: the residual vibration is
+    nearly linear in θ̈, so J is nearly quadratic in x, where quasi-Newton converges fast.
+    ``grad='reverse'`` differentiates the checkpointed loop (``simulate(adjoint='reverse')``;
+    memory grows with ``max_steps``), ``'forward'`` pushes 2·n_terms tangents (measured 5x slower
+    for 8 coefficients). ``rtol``, ``atol``, ``adaptive``, ``dt0`` and ``max_steps`` go to
+    ``simulate``; adaptive step sizes are held fixed under differentiation. One
+    value-and-gradient function is compiled and reused for every evaluation. Returns an
+    ``OptimalSpinup`` with the iterate of least loss.
     """
     _validate.positive("omega_s (steady spin rate)", omega_s)
     _validate.positive("T_s (spin-up time)", T_s)
@@ -186,8 +188,8 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
 
     def evaluate(x):
         nonlocal evaluations
-        (val, tip_u), g = value_and_grad(x, J0, dynamic)
         evaluations += 1
+        (val, tip_u), g = value_and_grad(x, J0, dynamic)
         val = float(val)
         if not np.isfinite(val) or not bool(jnp.all(jnp.isfinite(g))):
             raise FloatingPointError(f"non-finite loss or gradient after {len(history)} iterations: loss = {val}")
@@ -215,30 +217,11 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
         x = optax.apply_updates(x, upd)
         val, g, tip_u = evaluate(x)
         record(x, val, g, tip_u, "adam ")
-    if lbfgs_steps:
-        # A backtracking (Armijo) line search in Python reuses the one compiled function.
+    if lbfgs_steps:  # from the best Adam iterate, reusing the one compiled function (optimize.lbfgs)
         x = best["x"]
         val, g, _ = evaluate(x) if steps else (val, g, None)
-        lbfgs = optax.scale_by_lbfgs()
-        state = lbfgs.init(x)
-        for _ in range(lbfgs_steps):
-            d, state = lbfgs.update(g, state, x)
-            slope = -float(jnp.vdot(g, d))
-            if not slope < 0.0:  # not a descent direction: restart from steepest descent
-                state = lbfgs.init(x)
-                d = g / float(jnp.linalg.norm(g))
-                slope = -float(jnp.linalg.norm(g))
-            alpha = 1.0
-            for _ in range(_MAX_HALVINGS):
-                x_try = x - alpha * d
-                val_try, g_try, tip_try = evaluate(x_try)
-                if val_try <= val + 1e-4 * alpha * slope:
-                    break
-                alpha *= 0.5
-            else:  # no decrease: converged as far as the integrator resolves the objective
-                break
-            x, val, g = x_try, val_try, g_try
-            record(x, val, g, tip_try, "lbfgs")
+        lbfgs(evaluate, x, val, g, max_iterations=lbfgs_steps, max_tries=_MAX_HALVINGS,
+              on_step=lambda i, x, val, g, tip_u: record(x, val, g, tip_u, "lbfgs"))
     wall_s = time.perf_counter() - t0
 
     profile = FourierSpinUp(omega_s, T_s, scale * best["x"])
@@ -255,7 +238,7 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
     )
 
 
-_MAX_HALVINGS = 12
+_MAX_HALVINGS = 12  # line-search trials per L-BFGS iteration (each a simulation)
 
 
 def _non_negative_int(name, value) -> int:

@@ -45,14 +45,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from . import _validate
-from ._progress import note
-from ._validate import parse_range as parse_range  # the CLI's grid syntax, checked without JAX
-from .integrate import GeneralizedAlpha
-from .integrate.simulate import RESULTS, SimulationError, simulate, simulate_batch, simulate_timed
-from .models.reduced import ReducedRotatingModel
-from .motion import SpinUp
-from .observe import beam_tip, tip_observer
+from .. import _validate
+from .._progress import note
+from .._validate import parse_range as parse_range  # the CLI's grid syntax, checked without JAX
+from ..integrate import GeneralizedAlpha
+from ..integrate.simulate import RESULTS, SimulationError, simulate, simulate_batch, simulate_timed
+from ..models.reduced import ReducedRotatingModel
+from ..motion import SpinUp
+from ..observe import beam_tip, tip_observer
 
 _AXIS = "cases"
 _CPU_SHARDED_LANES = 16
@@ -362,7 +362,7 @@ class SweepResult:
     def plot(self, path: str, title: str | None = None, dpi: int = 120) -> None:
         """Peak transverse and axial tip deflection, and the residual vibration amplitude, against
         ωs: one line per (Ts, E) of the grid."""
-        from .plotting import _pyplot
+        from ..plotting import _pyplot
 
         plt = _pyplot()
         g = self.grid
@@ -443,7 +443,7 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
 
     Returns a ``SweepResult``. Every check on the input runs before anything is traced.
     """
-    from .scenarios.spinup import output_times
+    from ..scenarios.spinup import output_times
 
     model = _as_model(model_or_reduction)
     if not isinstance(grid, SweepGrid):
@@ -537,7 +537,7 @@ def single_run(model_or_reduction, omega_s: float, T_s: float, E_scale: float = 
                dt: float | None = None, max_steps: int = 500_000, tip: int | None = None, timed: bool = False):
     """One case of a sweep run alone, exactly as the sweep runs it: the ``Solution`` (``ys`` the
     tip displacement series); with ``timed=True``, ``(solution, compile_s, run_s)``."""
-    from .scenarios.spinup import output_times
+    from ..scenarios.spinup import output_times
 
     model = _as_model(model_or_reduction)
     ts = output_times(t_end, dt_out)
@@ -556,8 +556,8 @@ def sweep_reduction(beam, grid: SweepGrid, *, t_end: float, elements: int | None
     """The NR-RNCF ``Reduction`` one sweep shares: ``nr_rncf`` of the full RNCF model of ``beam``
     at the grid's hardest case (highest ωs, shortest Ts; the beam's own E), with the MMI
     simulation over 0..``t_end``. ``elements`` defaults to the paper's mesh for that ωs."""
-    from .nr_rncf import nr_rncf
-    from .scenarios.spinup import build_spinup_model, output_times
+    from ..nr_rncf import nr_rncf
+    from ..scenarios.spinup import build_spinup_model, output_times
 
     if not isinstance(grid, SweepGrid):
         raise ValueError(f"grid must be a SweepGrid (see sweep_grid), got {type(grid).__name__}")

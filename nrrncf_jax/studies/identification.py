@@ -17,13 +17,14 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from ._progress import note
-from ._types import Array, Float
+from .._progress import note
+from .._types import Array, Float
+from ..integrate.generalized_alpha import GeneralizedAlpha
+from ..integrate.simulate import simulate
+from ..models.reduced import ReducedRotatingModel
+from ..observe import beam_tip
 from .families import OFFLINE_PARAMETERS, PARAMETERS, OfflineSpinupFamily, check_params
-from .integrate.generalized_alpha import GeneralizedAlpha
-from .integrate.simulate import simulate
-from .models.reduced import ReducedRotatingModel
-from .observe import beam_tip
+from .optimize import lbfgs
 
 
 class Measurement:
@@ -123,12 +124,14 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
     minimising ``misfit`` (``simulation``: its keyword arguments, e.g. ``rtol``).
 
     Parameters are optimised as ``u = log(x / x_initial)`` (positive by construction, all of
-    order one): ``adam_steps`` of Adam, then up to ``lbfgs_steps`` of L-BFGS (optax's
-    ``scale_by_lbfgs`` direction, Armijo backtracking), stopping when ‖∇u‖ < ``gtol`` or an
-    iteration lowers the loss by less than ``ftol`` (relative). ``wall_s`` includes
+    order one): ``adam_steps`` of Adam, then up to ``lbfgs_steps`` of L-BFGS (``optimize.lbfgs``:
+    optax's direction, Armijo backtracking; a trial point where the simulation fails shortens the
+    step), stopping when ‖∇u‖ < ``gtol`` or an iteration lowers the loss by less than ``ftol``
+    (relative), or when no step along the direction lowers it. ``wall_s`` includes
     ``compile_s``. Gradients are reverse-mode through the checkpointed integrator; the
     step-size control is not differentiated (each step's Newton solve is, implicitly).
-    A non-finite loss or gradient stops it with ``FloatingPointError`` naming the parameters.
+    A non-finite loss or gradient stops it with ``FloatingPointError`` naming the parameters
+    (at an L-BFGS trial point it shortens the step instead).
     ``progress=True`` prints the compilation and each iteration (loss, parameters) on stderr.
     """
     if not isinstance(measurement, Measurement):
@@ -152,11 +155,8 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
     def loss(u):
         return misfit(family, dict(zip(names, x0 * jnp.exp(u))), measurement, observable=observable, **simulation)
 
-    # One compiled loss-and-gradient serves every Adam step and every L-BFGS line-search trial:
-    # optax.lbfgs's own zoom line search would embed the (long) reverse-mode simulation in a
-    # second and third compiled function, tripling the compile time. So the L-BFGS direction
-    # comes from optax (``scale_by_lbfgs``) and the step length from an Armijo backtracking
-    # loop here, on the host, around the shared compiled function.
+    # One compiled loss-and-gradient serves every Adam step and every L-BFGS line-search trial
+    # (``optimize.lbfgs``: optax's L-BFGS direction, Armijo backtracking on the host).
     value_and_grad = eqx.filter_jit(jax.value_and_grad(loss))
     t0 = time.perf_counter()
     u = jnp.zeros(len(names))
@@ -170,45 +170,27 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
         value, grad = value_and_grad(u)
         value = float(value)
         _check_finite(value, grad, names, x0 * jnp.exp(u))
-        return value, grad
+        return value, grad, None
 
     history, evals = [], 0
     adam = optax.adam(adam_lr)
     state = adam.init(u)
     for i in range(int(adam_steps)):
-        value, grad = evaluate(u)
+        value, grad, _ = evaluate(u)
         evals += 1
         history.append(value)
         updates, state = adam.update(grad, state, u)
         u = optax.apply_updates(u, updates)
         note(progress, f"adam  {i + 1:3d}  loss {value:.4e}  " + _fmt(names, x0 * jnp.exp(u)))
 
-    lbfgs = optax.scale_by_lbfgs()
-    state = lbfgs.init(u)
-    value, grad = evaluate(u)
-    evals += 1
-    n_lbfgs = 0
-    for i in range(int(lbfgs_steps)):
-        if float(jnp.linalg.norm(grad)) < gtol:
-            break
-        direction, state = lbfgs.update(grad, state, u)
-        step = -direction
-        slope = float(grad @ step)
-        if not slope < 0.0:  # not a descent direction: restart from steepest descent
-            state, step = lbfgs.init(u), -grad
-            slope = float(grad @ step)
-        found, tries = armijo_backtracking(evaluate, u, value, step, slope)
-        evals += tries
-        if found is None:
-            break
-        u_try, v_try, g_try = found
-        n_lbfgs += 1
-        converged = value - v_try <= ftol * value
-        u, value, grad = u_try, v_try, g_try
+    def on_step(iteration, u, value, grad, aux):
         history.append(value)
-        note(progress, f"lbfgs {n_lbfgs:3d}  loss {value:.4e}  " + _fmt(names, x0 * jnp.exp(u)))
-        if converged:
-            break
+        note(progress, f"lbfgs {iteration:3d}  loss {value:.4e}  " + _fmt(names, x0 * jnp.exp(u)))
+
+    value, grad, _ = evaluate(u)
+    evals += 1
+    run = lbfgs(evaluate, u, value, grad, max_iterations=int(lbfgs_steps), gtol=gtol, ftol=ftol, on_step=on_step)
+    u, evals, n_lbfgs = run.x, evals + run.evaluations, run.iterations
     x = np.asarray(x0 * jnp.exp(u))
     return IdentificationResult(
         params={k: float(v) for k, v in zip(names, x)}, initial={k: float(initial[k]) for k in names},
@@ -216,30 +198,6 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
         loss_evaluations=evals, wall_s=time.perf_counter() - t0, compile_s=compile_s,
         gradient="offline" if isinstance(family, OfflineSpinupFamily) else "fixed_basis",
     )
-
-
-def armijo_backtracking(evaluate: Callable, u, value: float, step, slope: float, *, c1: float = 1e-4,
-                        shrink: float = 0.5, max_tries: int = 20):
-    """The step length of a line search by Armijo backtracking: the first ``α = shrink^k`` with
-    ``f(u + α·step) ≤ f(u) + c1·α·slope``. Returns ``((u_try, f(u_try), ∇f(u_try)), tries)``,
-    or ``(None, tries)`` when no trial decreases f enough.
-
-    ``evaluate(u) → (f, ∇f)`` may fail at a trial point: a simulation that stops early
-    (``SimulationError``, or equinox's runtime error inside the compiled loss) or a non-finite
-    loss (``FloatingPointError``). A long L-BFGS step can leave the region where the model
-    integrates (e.g. a much softer beam at the same tolerances); such a trial counts as no
-    decrease and the step is shortened instead of ending the identification."""
-    alpha = 1.0
-    for tries in range(1, max_tries + 1):
-        u_try = u + alpha * step
-        try:
-            v_try, g_try = evaluate(u_try)
-        except (RuntimeError, FloatingPointError):
-            v_try, g_try = np.inf, None
-        if v_try <= value + c1 * alpha * slope:
-            return (u_try, v_try, g_try), tries
-        alpha *= shrink
-    return None, max_tries
 
 
 def _fmt(names, x) -> str:
