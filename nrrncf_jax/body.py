@@ -1,9 +1,13 @@
-"""A meshed flexible body: element κ's and inertia integrals, index maps, and the elastic
-force and tangent stiffness of THEORY §2 (Eqs. 9-11).
+"""A meshed flexible body: groups of elements on one set of nodal vectors, and the elastic
+force, tangent stiffness and inertia of THEORY §1-2 (Eqs. 9-11).
 
-κ is stored element by element (``n_e⁴`` numbers each) and every global quantity is assembled
-through the element index map; no dense global κ is ever formed.
+A body holds one ``ElementGroup`` per element type (beams, bars, ...), each with the element
+integrals stacked element by element (κ: ``n_e⁴`` numbers each) and its connectivity into the
+body's nodal vectors. Every global quantity is the sum over the groups, assembled through the
+connectivity; no dense global κ is ever formed.
 """
+
+from collections.abc import Sequence
 
 import equinox as eqx
 import jax
@@ -11,28 +15,139 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._types import Array, Bool, Float, Int
-from .elements.beam import NODAL_VECTORS_PER_NODE, beam_element_integrals
+from .elements.base import AbstractElement
+from .elements.beam import C1Beam
 from .material import Material
 from .mesh import BeamReference
 from .section import TubeSection
 
 
-class Body(eqx.Module):
-    """A flexible body in its own frame: the data of THEORY §1-2.
+class ElementGroup(eqx.Module):
+    """Elements of one type on a body's nodal vectors: ``elements[e]`` lists the body's nodal
+    vectors of element e (its n_e vectors in the element's order), with their integrals."""
 
-    Nodal vectors are ordered node by node, ``vectors_per_node`` to a node. A ``chain`` body has
-    element e on nodes (e, e+1), which makes every assembled matrix block-tridiagonal.
-    """
-
-    q_hat: Float[Array, "n 3"]
+    element: AbstractElement
     elements: Int[Array, "n_el ne"]
     kappa: Float[Array, "n_el ne ne ne ne"]
     M_e: Float[Array, "n_el ne ne"]
     varrho_e: Float[Array, "n_el ne"]
-    mass: Float[Array, ""]
-    is_position: Bool[Array, " n"]  # position vectors (a rigid translation moves these only)
+    m_e: Float[Array, " n_el"]
+
+    @property
+    def n_elements(self) -> int:
+        return self.elements.shape[0]
+
+    @property
+    def mass(self) -> Float[Array, ""]:
+        return jnp.sum(self.m_e)
+
+    def Q(self, q: Float[Array, "n 3"], q_hat: Float[Array, "n 3"]) -> Float[Array, "n_el ne ne"]:
+        """Q_μν = ½(q_μ·q_ν − q̂_μ·q̂_ν) per element."""
+        qe, qh = q[self.elements], q_hat[self.elements]
+        return 0.5 * (jnp.einsum("emi,eni->emn", qe, qe) - jnp.einsum("emi,eni->emn", qh, qh))
+
+    def theta(self, q, q_hat) -> Float[Array, "n_el ne ne"]:
+        """Θ_αβ = κ^{αβμν} Q_μν per element (a flat matvec; the hot path)."""
+        Q = self.Q(q, q_hat)
+        n_el, ne = Q.shape[:2]
+        k = self.kappa.reshape(n_el, ne * ne, ne * ne)
+        return jnp.einsum("eij,ej->ei", k, Q.reshape(n_el, -1)).reshape(n_el, ne, ne)
+
+    def strain_energy(self, q, q_hat) -> Float[Array, ""]:
+        """U = ½ κ^{αβμν} Q_αβ Q_μν."""
+        return 0.5 * jnp.sum(self.theta(q, q_hat) * self.Q(q, q_hat))
+
+    def forces(self, q, q_hat) -> Float[Array, "n_el ne 3"]:
+        """F^α = κ^{αβμν} Q_μν q_β per element (Eq. 9)."""
+        return jnp.einsum("eab,ebi->eai", self.theta(q, q_hat), q[self.elements])
+
+    def tangents(self, q, q_hat) -> Float[Array, "n_el ne 3 ne 3"]:
+        """∂F^α/∂q_β = κ^{αβμν} Q_μν I3 + κ^{αμβν} q_μ q_νᵀ per element (Eq. 11)."""
+        qe = q[self.elements]
+        kq = jnp.einsum("eambn,emi->eaibn", self.kappa, qe)
+        geo = jnp.einsum("eaibn,enj->eaibj", kq, qe)
+        return geo + jnp.einsum("eab,ij->eaibj", self.theta(q, q_hat), jnp.eye(3))
+
+    def dofs(self) -> Int[Array, "n_el nd"]:
+        """Flat DOF indices (3α + i) of each element."""
+        n_el, ne = self.elements.shape
+        return (3 * self.elements[:, :, None] + jnp.arange(3)).reshape(n_el, 3 * ne)
+
+
+_integrals_jit = eqx.filter_jit(lambda element, q_hat, length: element.integrals(q_hat, length))
+
+
+def element_group(element: AbstractElement, q_hat: Float[Array, "n 3"], elements, lengths=None) -> ElementGroup:
+    """The group of ``element``-type elements with connectivity ``elements`` (n_el × n_e indices
+    into the nodal vectors ``q_hat``), integrals computed from the reference configuration.
+    ``lengths``: each element's reference length (default: the distance between the position
+    vectors of its first and last node)."""
+    elements = np.asarray(elements) if not isinstance(elements, jax.core.Tracer) else elements
+    ne = element.vectors
+    if elements.ndim != 2 or elements.shape[1] != ne:
+        raise ValueError(f"{type(element).__name__} elements need {ne} nodal vectors each: connectivity of shape "
+                         f"(n_elements, {ne}), got {tuple(elements.shape)}")
+    if isinstance(elements, np.ndarray):
+        n = q_hat.shape[0]
+        if elements.size and (elements.min() < 0 or elements.max() >= n):
+            raise ValueError(f"connectivity refers to nodal vector {int(elements.max())} (or a negative one); the "
+                             f"body has {n}")
+    q_e = jnp.asarray(q_hat)[elements]  # (n_el, ne, 3)
+    if lengths is None:
+        first, last = element.position_slots[0], (element.nodes - 1) * element.vectors_per_node
+        lengths = jnp.linalg.norm(q_e[:, last] - q_e[:, first], axis=-1)
+    lengths = jnp.asarray(lengths, dtype=float)
+    leaves = jax.tree_util.tree_leaves((q_e, lengths, element))
+    if any(isinstance(x, jax.core.Tracer) for x in leaves):
+        # Inside a user's jit/grad: one vmapped kernel in their trace.
+        ints = jax.vmap(element.integrals)(q_e, lengths)
+    else:
+        # Concrete input: one compiled single-element kernel, called per element, so meshes of
+        # any size share one compilation (recompiling per element count costs seconds each).
+        per_element = [_integrals_jit(element, q_e[e], lengths[e]) for e in range(q_e.shape[0])]
+        ints = [jnp.stack(parts) for parts in zip(*per_element)]
+    kappa, M, varrho, m = ints
+    return ElementGroup(element=element, elements=jnp.asarray(elements), kappa=kappa, M_e=M, varrho_e=varrho, m_e=m)
+
+
+class Body(eqx.Module):
+    """A flexible body in its own frame: the data of THEORY §1-2.
+
+    ``q_hat``: the stress-free nodal vectors (n × 3); ``groups``: the element groups on them;
+    ``is_position``: which nodal vectors are positions (a rigid translation moves these only).
+    Nodal vectors are ordered node by node, ``vectors_per_node`` to a node. A ``chain`` body
+    has a single group whose element e is on nodes (e, e+1), which makes every assembled matrix
+    block-tridiagonal.
+    """
+
+    q_hat: Float[Array, "n 3"]
+    groups: tuple[ElementGroup, ...]
+    is_position: Bool[Array, " n"]
     vectors_per_node: int = eqx.field(static=True)
     chain: bool = eqx.field(static=True)
+
+    def __init__(self, q_hat, groups: Sequence[ElementGroup], is_position, vectors_per_node: int = 1,
+                 chain: bool = False):
+        self.q_hat = jnp.asarray(q_hat, dtype=float)
+        self.groups = tuple(groups)
+        self.is_position = jnp.asarray(is_position, dtype=bool)
+        self.vectors_per_node = int(vectors_per_node)
+        self.chain = bool(chain)
+        if self.q_hat.ndim != 2 or self.q_hat.shape[1] != 3:
+            raise ValueError(f"q_hat must have shape (n_vectors, 3), got {self.q_hat.shape}")
+        if not self.groups:
+            raise ValueError("a body needs at least one element group")
+        if self.is_position.shape != (self.q_hat.shape[0],):
+            raise ValueError(f"is_position must have shape ({self.q_hat.shape[0]},), got {self.is_position.shape}")
+        if self.chain and len(self.groups) != 1:
+            raise ValueError("a chain body has exactly one element group")
+        conn = [g.elements for g in self.groups]
+        if not any(isinstance(c, jax.core.Tracer) for c in conn):
+            used = np.zeros(self.q_hat.shape[0], bool)
+            for c in conn:
+                used[np.asarray(c).reshape(-1)] = True
+            if not used.all():
+                raise ValueError(f"nodal vectors {np.flatnonzero(~used)[:10].tolist()} belong to no element")
 
     @property
     def n_vectors(self) -> int:
@@ -48,56 +163,41 @@ class Body(eqx.Module):
 
     @property
     def n_elements(self) -> int:
-        return self.elements.shape[0]
+        return sum(g.n_elements for g in self.groups)
+
+    @property
+    def mass(self) -> Float[Array, ""]:
+        return sum(g.mass for g in self.groups)
 
     # --- elastic energy, force and stiffness (Eqs. 9-11) --------------------------------------
-    def _element_Q(self, q: Float[Array, "n 3"]) -> Float[Array, "n_el ne ne"]:
-        qe = q[self.elements]
-        qh = self.q_hat[self.elements]
-        # Q_μν = ½(q_μ·q_ν − q̂_μ·q̂_ν)
-        return 0.5 * (jnp.einsum("emi,eni->emn", qe, qe) - jnp.einsum("emi,eni->emn", qh, qh))
-
-    def _theta(self, q: Float[Array, "n 3"]) -> Float[Array, "n_el ne ne"]:
-        """Θ_αβ = κ^{αβμν} Q_μν per element (a flat matvec; the hot path)."""
-        Q = self._element_Q(q)
-        n_el, ne = Q.shape[:2]
-        return jnp.einsum("eij,ej->ei", self.kappa.reshape(n_el, ne * ne, ne * ne), Q.reshape(n_el, -1)).reshape(
-            n_el, ne, ne
-        )
-
     def strain_energy(self, q: Float[Array, "n 3"]) -> Float[Array, ""]:
-        """U = ½ κ^{αβμν} Q_αβ Q_μν."""
-        return 0.5 * jnp.sum(self._theta(q) * self._element_Q(q))
-
-    def element_elastic_forces(self, q: Float[Array, "n 3"]) -> Float[Array, "n_el ne 3"]:
-        # F^α = κ^{αβμν} Q_μν q_β   (Eq. 9)
-        return jnp.einsum("eab,ebi->eai", self._theta(q), q[self.elements])
+        """U = ½ κ^{αβμν} Q_αβ Q_μν, summed over the groups."""
+        return sum(g.strain_energy(q, self.q_hat) for g in self.groups)
 
     def elastic_force(self, q: Float[Array, "n 3"]) -> Float[Array, "n 3"]:
         """F^α = ∂U/∂q_α, assembled."""
-        return jnp.zeros_like(q).at[self.elements].add(self.element_elastic_forces(q))
+        F = jnp.zeros_like(q)
+        for g in self.groups:
+            F = F.at[g.elements].add(g.forces(q, self.q_hat))
+        return F
 
-    def element_tangents(self, q: Float[Array, "n 3"]) -> Float[Array, "n_el ne 3 ne 3"]:
-        """∂F^α/∂q_β = κ^{αβμν} Q_μν I3 + κ^{αμβν} q_μ q_νᵀ per element (Eq. 11)."""
-        qe = q[self.elements]
-        theta = self._theta(q)
-        kq = jnp.einsum("eambn,emi->eaibn", self.kappa, qe)
-        geo = jnp.einsum("eaibn,enj->eaibj", kq, qe)
-        return geo + jnp.einsum("eab,ij->eaibj", theta, jnp.eye(3))
-
-    def element_dofs(self) -> Int[Array, "n_el nd"]:
-        """Flat DOF indices (3α + i) of each element."""
-        n_el, ne = self.elements.shape
-        return (3 * self.elements[:, :, None] + jnp.arange(3)).reshape(n_el, 3 * ne)
+    def tangent_parts(self, q: Float[Array, "n 3"]) -> list[tuple[Float[Array, "n_el nd nd"], Int[Array, "n_el nd"]]]:
+        """The element tangent stiffnesses ∂F/∂q of each group as flat ``(n_el, 3n_e, 3n_e)``
+        blocks with their DOFs: what ``linalg.assemble_and_factor`` assembles."""
+        parts = []
+        for g in self.groups:
+            n_el, ne = g.elements.shape
+            parts.append((g.tangents(q, self.q_hat).reshape(n_el, 3 * ne, 3 * ne), g.dofs()))
+        return parts
 
     def stiffness_matrix(self, q: Float[Array, "n 3"]) -> Float[Array, "ndof ndof"]:
         """Dense tangent stiffness ∂F/∂q (for modal analysis and checks; the integrator
-        assembles its own iteration matrix in banded form)."""
-        Kt = self.element_tangents(q)
-        n_el, ne = self.elements.shape
-        dofs = self.element_dofs()
+        assembles its own iteration matrix in its solver's storage)."""
         n = self.n_dof
-        return jnp.zeros((n, n)).at[dofs[:, :, None], dofs[:, None, :]].add(Kt.reshape(n_el, 3 * ne, 3 * ne))
+        K = jnp.zeros((n, n), q.dtype)
+        for Ke, dofs in self.tangent_parts(q):
+            K = K.at[dofs[:, :, None], dofs[:, None, :]].add(Ke)
+        return K
 
     def rigid_modes(self) -> np.ndarray:
         """Infinitesimal rigid motions of the reference: 3 translations (position vectors only)
@@ -114,46 +214,49 @@ class Body(eqx.Module):
     def mass_matrix(self) -> Float[Array, "n n"]:
         """The scalar M_αβ (the full mass matrix is ``M ⊗ I3``)."""
         n = self.n_vectors
-        idx = self.elements
-        return jnp.zeros((n, n)).at[idx[:, :, None], idx[:, None, :]].add(self.M_e)
+        M = jnp.zeros((n, n))
+        for g in self.groups:
+            M = M.at[g.elements[:, :, None], g.elements[:, None, :]].add(g.M_e)
+        return M
+
+    def mass_parts(self) -> list[tuple[Float[Array, "n_el ne ne"], Int[Array, "n_el ne"]]]:
+        """The scalar element mass matrices of each group with their nodal vectors."""
+        return [(g.M_e, g.elements) for g in self.groups]
 
     def varrho(self) -> Float[Array, " n"]:
         """ϱ_α = ∫ρ S_α."""
-        return jnp.zeros(self.n_vectors).at[self.elements].add(self.varrho_e)
+        v = jnp.zeros(self.n_vectors)
+        for g in self.groups:
+            v = v.at[g.elements].add(g.varrho_e)
+        return v
 
 
 def beam_body(material: Material, section: TubeSection, reference: BeamReference, n_axial: int = 5) -> Body:
-    """Assemble the C1 ANCF beam body: κ, M, ϱ, m of every element (jit-compiled kernel)."""
+    """The C1 ANCF beam body on a reference centreline: one chain group of ``C1Beam`` elements."""
+    element = C1Beam(material, section, n_axial)
     q_nodes = reference.q_hat
     n_el = reference.n_elements
-    per = NODAL_VECTORS_PER_NODE
-    elem_q = jnp.concatenate([q_nodes[:-1], q_nodes[1:]], axis=1)  # (n_el, 12, 3)
-    kappa, M_e, varrho_e, m_e = _beam_integrals(elem_q, reference.lengths, material, section, n_axial)
-    elements = jnp.arange(n_el)[:, None] * per + jnp.arange(2 * per)[None, :]
-    return Body(
-        q_hat=q_nodes.reshape(-1, 3),
-        elements=elements,
-        kappa=kappa,
-        M_e=M_e,
-        varrho_e=varrho_e,
-        mass=jnp.sum(m_e),
-        is_position=(jnp.arange(q_nodes.shape[0] * per) % per) == 0,
-        vectors_per_node=per,
-        chain=True,
-    )
+    per = element.vectors_per_node
+    elements = np.arange(n_el)[:, None] * per + np.arange(2 * per)[None, :]
+    q_hat = q_nodes.reshape(-1, 3)
+    group = element_group(element, q_hat, elements, reference.lengths)
+    return Body(q_hat, [group], is_position=(np.arange(q_hat.shape[0]) % per) == 0, vectors_per_node=per, chain=True)
 
 
-_element_integrals_jit = eqx.filter_jit(beam_element_integrals)
-
-
-def _beam_integrals(elem_q, lengths, material, section, n_axial):
-    leaves = jax.tree_util.tree_leaves((elem_q, lengths, material, section))
-    if any(isinstance(x, jax.core.Tracer) for x in leaves):
-        # Inside a user's jit/grad: one vmapped kernel in their trace.
-        return jax.vmap(lambda qh, l: beam_element_integrals(qh, l, material, section, n_axial))(elem_q, lengths)
-    # Concrete input: one compiled single-element kernel, called per element, so meshes of any
-    # size share one compilation (recompiling per element count costs seconds each).
-    per_element = [
-        _element_integrals_jit(elem_q[e], lengths[e], material, section, n_axial) for e in range(elem_q.shape[0])
-    ]
-    return tuple(jnp.stack(parts) for parts in zip(*per_element))
+def truss_body(nodes, connectivity, bar: AbstractElement) -> Body:
+    """A pin-jointed truss: one position vector per node (``nodes``, n × 3) and one ``bar``
+    element (e.g. ``elements.Bar``) per row of ``connectivity`` (n_bars × 2 node indices)."""
+    nodes = np.asarray(nodes, dtype=float)
+    conn = np.asarray(connectivity)
+    if nodes.ndim != 2 or nodes.shape[1] != 3:
+        raise ValueError(f"nodes must have shape (n_nodes, 3), got {nodes.shape}")
+    if conn.ndim != 2 or conn.shape[1] != 2 or conn.size == 0:
+        raise ValueError(f"connectivity must have shape (n_bars, 2), got {conn.shape}")
+    if conn.min() < 0 or conn.max() >= len(nodes):
+        raise ValueError(f"connectivity refers to node {int(conn.max())} (or a negative one); there are {len(nodes)}")
+    lengths = np.linalg.norm(nodes[conn[:, 1]] - nodes[conn[:, 0]], axis=1)
+    short = np.flatnonzero(lengths <= 1e-12 * max(1.0, float(np.abs(nodes).max())))
+    if short.size:
+        raise ValueError(f"bars {short.tolist()} have zero length")
+    group = element_group(bar, nodes, conn, lengths)
+    return Body(nodes, [group], is_position=np.ones(len(nodes), bool), vectors_per_node=1)

@@ -39,8 +39,10 @@ def test_tip_deflection_matches_elastica(load):
     tip = body.n_vectors - body.vectors_per_node
     model = RotatingFrameModel(body, Stationary(), loads=Loads(point_vectors=[tip], point_forces=[[0.0, -P, 0.0]]))
     q = np.asarray(static_equilibrium(model, load_steps=8)).reshape(-1, 3)
-    assert q[tip, 1] == pytest.approx(y_ref, rel=1e-2)
-    assert q[tip, 0] == pytest.approx(x_ref, rel=1e-2)
+    # 8 elements: 0.22 % in y and 0.07 % in x measured (mesh and the element's small
+    # extensibility, which the inextensible elastica leaves out).
+    assert q[tip, 1] == pytest.approx(y_ref, rel=3e-3)
+    assert q[tip, 0] == pytest.approx(x_ref, rel=1e-3)
 
 
 def test_static_newton_failure_is_reported():

@@ -39,11 +39,16 @@ def test_first_frequency_matches_paper_value():
 
 
 @pytest.mark.parametrize("n_el", [8])
-def test_bending_and_axial_frequencies_within_half_percent(n_el):
+def test_bending_and_axial_frequencies(n_el):
+    """8 elements. Bending: Euler-Bernoulli leaves out rotary inertia and shear, which lower the
+    k-th frequency by ~(β_k r_g/L)²/2 ≈ 1.2e-5 (k = 1) and 7e-5 (k = 2) for this tube (radius of
+    gyration r_g = 10.4 mm); the third is limited by the mesh (5.4e-4 measured; it falls under
+    refinement, next test). Axial: the cubic Hermite field is near exact (8e-10 measured)."""
     bending, axial = _closed_form()
     bend_y, ax = _classified(n_el)
-    np.testing.assert_allclose(bend_y[:3], bending, rtol=5e-3)
-    assert ax[0] == pytest.approx(axial, rel=5e-3)
+    for k, rel in enumerate((3e-5, 2e-4, 1e-3)):
+        assert bend_y[k] == pytest.approx(bending[k], rel=rel), k
+    assert ax[0] == pytest.approx(axial, rel=1e-8)
 
 
 def test_frequencies_converge_under_mesh_refinement():

@@ -222,7 +222,7 @@ def _spin(omega_s, E_scale=1.0, adjoint="forward", T_s=6.0):
 def eqx_scale_kappa(body, s):
     import equinox as eqx
 
-    return eqx.tree_at(lambda b: b.kappa, body, body.kappa * s)
+    return eqx.tree_at(lambda b: b.groups[0].kappa, body, body.groups[0].kappa * s)
 
 
 def _loss(sol):

@@ -18,7 +18,7 @@ def _deformed(body, seed=0, amp=0.05):
 
 @pytest.mark.parametrize("beam", BEAMS)
 def test_kappa_symmetries(beam):
-    k = np.asarray(paper_body(2, beam).kappa)
+    k = np.asarray(paper_body(2, beam).groups[0].kappa)
     scale = np.abs(k).max()
     assert scale > 0
     np.testing.assert_allclose(k, k.transpose(0, 2, 1, 3, 4), atol=1e-12 * scale)  # κ^{αβμν} = κ^{βαμν}

@@ -1,11 +1,10 @@
-"""Finite elements: shape functions, quadrature, and the element integrals κ, M, ϱ, m."""
+"""Finite elements: one file per element type, each an ``AbstractElement`` (``base.py``) with its
+shape functions and the element integrals κ, M, ϱ, m."""
 
-from .beam import (
-    NODAL_VECTORS_PER_NODE as NODAL_VECTORS_PER_NODE,
-)
-from .beam import (
-    beam_element_integrals as beam_element_integrals,
-)
-from .beam import (
-    beam_shape_functions as beam_shape_functions,
-)
+from .bar import Bar as Bar
+from .base import AbstractElement as AbstractElement
+from .base import ElementIntegrals as ElementIntegrals
+from .beam import NODAL_VECTORS_PER_NODE as NODAL_VECTORS_PER_NODE
+from .beam import C1Beam as C1Beam
+from .beam import beam_element_integrals as beam_element_integrals
+from .beam import beam_shape_functions as beam_shape_functions

@@ -25,6 +25,9 @@ the *reference* geometry at every quadrature point, so curved reference geometry
 columns of J. T is constant, so κ stays constant.
 """
 
+from typing import ClassVar
+
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -32,6 +35,7 @@ import numpy as np
 from .._types import Array, Float
 from ..material import Material
 from ..section import TubeSection
+from .base import AbstractElement, ElementIntegrals
 
 NODAL_VECTORS_PER_NODE = 6
 """Per node: r, r_x, r_y, r_xy, r_z, r_xz."""
@@ -137,3 +141,21 @@ def beam_element_integrals(
     varrho = rho * jnp.einsum("q,qi->i", W, S)  # ϱ_α = ∫ρ S_α
     m = rho * jnp.sum(W)
     return kappa, M, varrho, m
+
+
+class C1Beam(AbstractElement):
+    """The C1 spatial ANCF beam of this module as an element type: two nodes of six nodal vectors
+    ``[r, r_x, r_y, r_xy, r_z, r_xz]``, of which r is the position; ``material`` and
+    ``section`` (a tube) define it, ``n_axial`` Gauss points along the axis (5 integrate the
+    straight element exactly)."""
+
+    material: Material
+    section: TubeSection
+    n_axial: int = eqx.field(static=True, default=5)
+
+    nodes: ClassVar[int] = 2
+    vectors_per_node: ClassVar[int] = NODAL_VECTORS_PER_NODE
+    position_slots: ClassVar[tuple[int, ...]] = (0,)
+
+    def integrals(self, q_hat: Float[Array, "12 3"], length: Float[Array, ""]) -> ElementIntegrals:
+        return ElementIntegrals(*beam_element_integrals(q_hat, length, self.material, self.section, self.n_axial))

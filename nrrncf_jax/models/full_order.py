@@ -18,7 +18,7 @@ from .._types import Array, Bool, Float, Int, Scalar
 from .._validate import is_concrete
 from ..body import Body
 from ..damping import RayleighDamping
-from ..linalg import assemble_and_factor
+from ..linalg import SparsityPattern, assemble_and_factor, choose_solver
 from ..motion import SpinUp, Stationary, rotation_about, skew
 from .base import AbstractModel
 
@@ -54,11 +54,15 @@ class _FullOrderModel(AbstractModel):
     clamped: Int[Array, " c"]  # nodal vectors fixed in the reference frame
     M: Float[Array, "n n"]  # scalar M_αβ, assembled once
     damping: RayleighDamping | None
-    D_e: Float[Array, "n_el nd nd"] | None  # element blocks of D = αM + βK̂ (None: undamped)
+    D_e: tuple | None  # per group, (element blocks of D = αM + βK̂, their DOFs); None: undamped
+
+    solver: str = eqx.field(static=True)  # linear solver of the iteration matrix, resolved at construction
+    pattern: SparsityPattern | None = eqx.field(static=True)  # the sparse solver's pattern, built once
 
     def __init__(self, body: Body, motion: SpinUp | Stationary, axis=(0.0, 0.0, 1.0), loads: Loads | None = None,
-                 clamped=None, damping: RayleighDamping | None = None):
+                 clamped=None, damping: RayleighDamping | None = None, solver: str = "auto"):
         self.body = body
+        self.solver, self.pattern = _choose_solver(body, solver)
         self.motion = motion
         axis = jnp.asarray(axis, dtype=float)
         if axis.shape != (3,):
@@ -67,7 +71,15 @@ class _FullOrderModel(AbstractModel):
         self.loads = Loads() if loads is None else loads
         # Default reference conditions: the root node's position and cross-section vectors
         # (r, r_y, r_z): the root section is clamped to the hub.
+        if clamped is None and not body.chain:
+            raise ValueError("clamped (the nodal vectors fixed in the reference frame) must be given for a body "
+                             "that is not a beam chain: without reference conditions its stiffness is singular")
         self.clamped = jnp.asarray([0, 2, 4] if clamped is None else clamped, dtype=int)
+        if is_concrete(self.clamped):
+            c = np.asarray(self.clamped)
+            if c.ndim != 1 or c.size == 0 or c.min() < 0 or c.max() >= body.n_vectors:
+                raise ValueError(f"clamped must list nodal vectors of the body (0..{body.n_vectors - 1}), got "
+                                 f"{c.tolist()}")
         self.M = body.mass_matrix()
         if damping is not None and not isinstance(damping, RayleighDamping):
             raise ValueError(f"damping must be a RayleighDamping or None, got {type(damping).__name__}")
@@ -75,10 +87,11 @@ class _FullOrderModel(AbstractModel):
         if damping is None:
             self.D_e = None
         else:
-            n_el, ne = body.elements.shape
-            K_hat = body.element_tangents(body.q_hat).reshape(n_el, 3 * ne, 3 * ne)
-            M_e = jnp.einsum("eab,ij->eaibj", body.M_e, jnp.eye(3)).reshape(n_el, 3 * ne, 3 * ne)
-            self.D_e = damping.alpha * M_e + damping.beta * K_hat
+            # Per element group: D_e = α M_e ⊗ I3 + β K̂_e, with its DOFs.
+            self.D_e = tuple(
+                (damping.alpha * _kron_eye3(M_e) + damping.beta * K_hat, dofs)
+                for (K_hat, dofs), (M_e, _) in zip(body.tangent_parts(body.q_hat), body.mass_parts())
+            )
 
     @property
     def n_dof(self) -> int:
@@ -103,22 +116,43 @@ class _FullOrderModel(AbstractModel):
 
     def damping_force(self, v: Float[Array, " n"]) -> Float[Array, " n"]:
         """D v with D = αM + βK̂, assembled from the element blocks (zero when undamped)."""
-        if self.D_e is None:
-            return jnp.zeros_like(v)
-        dofs = self.body.element_dofs()
-        return jnp.zeros_like(v).at[dofs].add(jnp.einsum("eab,eb->ea", self.D_e, v[dofs]))
+        Dv = jnp.zeros_like(v)
+        for D_e, dofs in self.D_e or ():
+            Dv = Dv.at[dofs].add(jnp.einsum("eab,eb->ea", D_e, v[dofs]))
+        return Dv
 
     def _factor(self, t, q, v, c_M, c_C, c_K, frame_C, frame_K):
-        """Iteration matrix from element blocks: c_M M + c_C (M⊗frame_C + D) + c_K (K + M⊗frame_K)."""
+        """Iteration matrix from element blocks, group by group:
+        c_M M + c_C (M⊗frame_C + D) + c_K (K + M⊗frame_K)."""
         body = self.body
-        n_el, ne = body.elements.shape
-        Kt = body.element_tangents(q.reshape(-1, 3))
-        G = c_K * Kt + jnp.einsum("eab,ij->eaibj", body.M_e, c_M * jnp.eye(3) + c_C * frame_C + c_K * frame_K)
-        G = G.reshape(n_el, 3 * ne, 3 * ne)
-        if self.D_e is not None:
-            G = G + c_C * self.D_e
+        frame = c_M * jnp.eye(3) + c_C * frame_C + c_K * frame_K
+        parts = []
+        for k, ((Kt, dofs), (M_e, _)) in enumerate(zip(body.tangent_parts(q.reshape(-1, 3)), body.mass_parts())):
+            G = c_K * Kt + _kron_eye3(M_e, frame)
+            if self.D_e is not None:
+                G = G + c_C * self.D_e[k][0]
+            parts.append((G, dofs))
         block = 3 * body.vectors_per_node if body.chain else None
-        return assemble_and_factor(G, body.element_dofs(), self.free_mask(), block)
+        return assemble_and_factor(parts, self.free_mask(), chain_block=block, solver=self.solver, pattern=self.pattern)
+
+
+def _choose_solver(body: Body, solver: str) -> tuple[str, SparsityPattern | None]:
+    """The iteration matrix's solver for this body (``linalg.choose_solver``: ``"auto"`` takes
+    block-tridiagonal for a beam chain, dense for small bodies, sparse for large ones), decided
+    once outside any trace; for the sparse solver also its pattern, built from the body's
+    concrete connectivity (inside the integrator's jit the connectivity is traced)."""
+    dofs = [np.asarray(g.dofs()) for g in body.groups]
+    shapes = [(np.broadcast_to(0.0, (d.shape[0], d.shape[1], d.shape[1])), d) for d in dofs]
+    block = 3 * body.vectors_per_node if body.chain else None
+    kind = choose_solver(shapes, body.n_dof, chain_block=block, solver=solver)
+    return kind, (SparsityPattern.from_dofs(body.n_dof, dofs) if kind == "sparse" else None)
+
+
+def _kron_eye3(M_e: Float[Array, "n_el ne ne"], B: Float[Array, "3 3"] | None = None) -> Float[Array, "n_el nd nd"]:
+    """Element blocks of ``M_e ⊗ B`` (B = I3 by default) as flat ``(n_el, 3n_e, 3n_e)`` matrices."""
+    n_el, ne = M_e.shape[:2]
+    B = jnp.eye(3) if B is None else B
+    return jnp.einsum("eab,ij->eaibj", M_e, B).reshape(n_el, 3 * ne, 3 * ne)
 
 
 class RotatingFrameModel(_FullOrderModel):
@@ -161,11 +195,11 @@ class InertialFrameModel(_FullOrderModel):
     """
 
     def __init__(self, body: Body, motion: SpinUp | Stationary, axis=(0.0, 0.0, 1.0), loads: Loads | None = None,
-                 clamped=None, damping: RayleighDamping | None = None):
+                 clamped=None, damping: RayleighDamping | None = None, solver: str = "auto"):
         if damping is not None:
             raise ValueError("InertialFrameModel (ANCF) is undamped: Rayleigh damping acts on the velocity "
                              "relative to the rotating frame; use RotatingFrameModel (RNCF)")
-        super().__init__(body, motion, axis, loads, clamped)
+        super().__init__(body, motion, axis, loads, clamped, solver=solver)
 
     def _root_motion(self, t):
         _, dth, ddth = self.motion(t)

@@ -33,14 +33,17 @@ def dK_deta_times(body: Body, q_eq: Float[Array, "n 3"], phi_j: Float[Array, "n 
 
     ``κ^{αβμν} ½(q°_μ·φ^j_ν + φ^j_μ·q°_ν) φ^i_β + κ^{αμβν}(q°_μ (φ^j_ν·φ^i_β) + φ^j_μ (q°_ν·φ^i_β))``.
     """
-    idx = body.elements
-    q0, pj, pi = q_eq[idx], phi_j[idx], phi_i[idx]
-    X = 0.5 * (jnp.einsum("emk,enk->emn", q0, pj) + jnp.einsum("emk,enk->emn", pj, q0))
-    first = jnp.einsum("eabmn,emn,ebk->eak", body.kappa, X, pi)
-    P = jnp.einsum("enk,ebk->enb", pj, pi)  # φ^j_ν·φ^i_β
-    R = jnp.einsum("enk,ebk->enb", q0, pi)  # q°_ν·φ^i_β
-    second = jnp.einsum("eambn,emk,enb->eak", body.kappa, q0, P) + jnp.einsum("eambn,emk,enb->eak", body.kappa, pj, R)
-    return jnp.zeros_like(q_eq).at[idx].add(first + second)
+    out = jnp.zeros_like(q_eq)
+    for g in body.groups:
+        idx, kappa = g.elements, g.kappa
+        q0, pj, pi = q_eq[idx], phi_j[idx], phi_i[idx]
+        X = 0.5 * (jnp.einsum("emk,enk->emn", q0, pj) + jnp.einsum("emk,enk->emn", pj, q0))
+        first = jnp.einsum("eabmn,emn,ebk->eak", kappa, X, pi)
+        P = jnp.einsum("enk,ebk->enb", pj, pi)  # φ^j_ν·φ^i_β
+        R = jnp.einsum("enk,ebk->enb", q0, pi)  # q°_ν·φ^i_β
+        second = jnp.einsum("eambn,emk,enb->eak", kappa, q0, P) + jnp.einsum("eambn,emk,enb->eak", kappa, pj, R)
+        out = out.at[idx].add(first + second)
+    return out
 
 
 def dK_deta_times_autodiff(body: Body, q_eq, phi_j, phi_i):

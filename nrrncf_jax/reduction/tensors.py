@@ -106,11 +106,11 @@ def elastic_tensors(body: Body, q_eq: Float[Array, "n 3"], Psi: Float[Array, "nd
     """f, K, L, N of Appendix A-5 for the basis Ψ about q° (element-by-element accumulation)."""
     km = Psi.shape[1]
     P = Psi.reshape(body.n_vectors, 3, km)
-    ne = body.elements.shape[1]
 
-    def element(acc, e):
-        idx = body.elements[e]
-        kap = body.kappa[e].reshape(ne * ne, ne * ne)
+    def element(acc, x):
+        idx, kap = x
+        ne = idx.shape[0]
+        kap = kap.reshape(ne * ne, ne * ne)
         q0, qh, Pe = q_eq[idx], body.q_hat[idx], P[idx]  # (ne, 3), (ne, 3), (ne, 3, km)
         Q0 = 0.5 * (q0 @ q0.T - qh @ qh.T)  # Q°_μν
         theta = kap @ Q0.reshape(-1)  # Θ_αβ = κ^{αβμν} Q°_μν
@@ -126,8 +126,10 @@ def elastic_tensors(body: Body, q_eq: Float[Array, "n 3"], Psi: Float[Array, "nd
         N = 0.5 * ((Y @ kap) @ Y.T).reshape(km, km, km, km)  # N_ijkl = ½ Y^{ij}:κ:Y^{kl}
         return jax_tree_add(acc, (f, K, L, N)), None
 
-    zeros = (jnp.zeros(km), jnp.zeros((km, km)), jnp.zeros((km,) * 3), jnp.zeros((km,) * 4))
-    (f, K, L, N), _ = lax.scan(element, zeros, jnp.arange(body.n_elements))
+    acc = (jnp.zeros(km), jnp.zeros((km, km)), jnp.zeros((km,) * 3), jnp.zeros((km,) * 4))
+    for g in body.groups:  # one scan over the elements of each group
+        acc, _ = lax.scan(element, acc, (g.elements, g.kappa))
+    f, K, L, N = acc
     return ElasticTensors(f=f, K=K, L=_sym_jk(L), N=_sym_jkl(N))
 
 
