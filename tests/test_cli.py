@@ -6,7 +6,6 @@ import math
 import os
 import subprocess
 import sys
-import time
 from types import SimpleNamespace
 
 import jax.numpy as jnp
@@ -168,9 +167,7 @@ def test_bad_input_gets_one_line_before_any_work(argv, message, capsys, monkeypa
         raise AssertionError(f"the run started for bad input {argv}")
 
     monkeypatch.setattr(cli, "_run", trap)
-    t0 = time.perf_counter()
     assert main(argv) == 2
-    assert time.perf_counter() - t0 < 2.0
     out, err = capsys.readouterr()
     assert out == ""  # no header describing the run
     lines = err.splitlines()
@@ -212,11 +209,9 @@ def test_help_and_argument_errors_do_not_start_jax():
         print(sorted(m for m in sys.modules if m == "jax" or m.startswith(("jax.", "jaxlib"))))
     """
     env = {k: v for k, v in os.environ.items() if k != "JAX_ENABLE_X64"}
-    t0 = time.perf_counter()
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "[]"
-    assert time.perf_counter() - t0 < 10.0  # JAX alone takes seconds to import on a small CPU
+    assert out.stdout.strip() == "[]"  # so help and argument errors cost no JAX start-up (seconds)
 
 
 def test_every_option_has_help_and_shows_its_default():
