@@ -2,13 +2,15 @@
 arguments that run before any work (and before JAX starts), so that a bad argument gets one
 line and exit status 2 at once.
 
-Nothing here imports JAX or the library's numerical modules (``_validate`` needs NumPy alone, and
-only once a check runs): ``--help`` and argument errors are instant. A check raises
+Nothing here imports JAX or the library's numerical modules (``_validate``, whose checks the
+subcommands call directly, needs NumPy alone): ``--help`` and argument errors are instant. A check raises
 ``ValueError``; ``main`` prints it as ``nrrncf: error: ...``.
 """
 
 import argparse
 import os
+
+from .. import _validate
 
 BEAM_NAMES = ("classic", "curved-downwind", "curved-out-of-plane", "curved-upwind", "paper")
 """``sorted(nrrncf_jax.scenarios.BEAMS)``, spelt out so that building the parser imports no JAX
@@ -45,33 +47,18 @@ def output_path(flag: str, path: str | None) -> None:
         raise ValueError(f"{flag} {path}: the directory {folder} is not writable")
 
 
-def positive(label: str, value: float) -> None:
-    """A number that must be finite and > 0 (``label`` names the option, e.g. ``--ts (spin-up time T_s)``)."""
-    from .. import _validate
-
-    _validate.positive(label, value)
 
 
-def non_negative(label: str, value: float) -> None:
-    """A number that must be finite and >= 0."""
-    from .. import _validate
-
-    _validate.non_negative(label, value)
 
 
 def output_times(t_end: float, dt_out: float) -> None:
     """``--t-end`` and ``--dt-out``: positive, and at least one output interval in the run."""
-    positive("--t-end (end time)", t_end)
-    positive("--dt-out (output interval)", dt_out)
+    _validate.positive("--t-end (end time)", t_end)
+    _validate.positive("--dt-out (output interval)", dt_out)
     if dt_out > t_end:
         raise ValueError(f"--dt-out (output interval) must not exceed --t-end, got {dt_out:g} > {t_end:g}")
 
 
-def rtol(value: float) -> None:
-    """``--rtol``: a relative tolerance, 0 < rtol < 1."""
-    from .. import _validate
-
-    _validate.tolerances(value, rtol_name="--rtol (relative tolerance)")
 
 
 def at_least(flag: str, value: int | None, minimum: int) -> None:

@@ -1,5 +1,6 @@
 """``nrrncf identify --demo``: recover E and a damping ratio from a noisy spin-up record."""
 
+from .. import _validate
 from . import _common
 
 
@@ -10,8 +11,8 @@ def _check(args) -> None:
                          "nrrncf_jax.identify (the function) from Python for your own measurements")
     _common.at_least("--elements", args.elements, 1)
     _common.output_times(args.t_end, args.dt_out)
-    _common.non_negative("--noise (fraction of the record's std)", args.noise)
-    _common.positive("--start (starting guess / truth)", args.start)
+    _validate.non_negative("--noise (fraction of the record's std)", args.noise)
+    _validate.positive("--start (starting guess / truth)", args.start)
     _common.at_least("--seed", args.seed, 0)
     _common.at_least("--adam-steps", args.adam_steps, 0)
     _common.at_least("--lbfgs-steps", args.lbfgs_steps, 0)

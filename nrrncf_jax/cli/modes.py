@@ -6,6 +6,7 @@ Python API (``Selection.vms``, ``Selection.pairs``).
 
 import json
 
+from .. import _validate
 from . import _common
 
 
@@ -92,8 +93,8 @@ def _check(args) -> None:
     if args.mmi:
         if args.omega is None:
             raise ValueError("--mmi needs --omega (the steady spin rate of the spin-up)")
-        _common.positive("--omega (steady spin rate)", args.omega)
-        _common.positive("--ts (spin-up time T_s)", args.ts)
+        _validate.positive("--omega (steady spin rate)", args.omega)
+        _validate.positive("--ts (spin-up time T_s)", args.ts)
         _common.output_times(args.t_end, args.dt_out)
         _common.output_path("--plot", args.plot)
 

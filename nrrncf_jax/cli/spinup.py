@@ -1,17 +1,18 @@
 """``nrrncf spinup``: the paper's spin-up manoeuvre (Section 4.1, Eq. 43), full or reduced."""
 
+from .. import _validate
 from . import _common
 
 
 def _check(args) -> None:
     """Every argument, before anything runs (``_common``'s checks; no JAX)."""
-    _common.positive("--omega (steady spin rate)", args.omega)
-    _common.positive("--ts (spin-up time T_s)", args.ts)
+    _validate.positive("--omega (steady spin rate)", args.omega)
+    _validate.positive("--ts (spin-up time T_s)", args.ts)
     _common.output_times(args.t_end, args.dt_out)
     _common.at_least("--elements", args.elements, 1)
     if not 0.0 <= args.rho_inf <= 1.0:
         raise ValueError(f"--rho-inf (spectral radius) must lie in [0, 1], got {args.rho_inf:g}")
-    _common.rtol(args.rtol)
+    _validate.tolerances(args.rtol, rtol_name="--rtol (relative tolerance)")
     _common.at_least("--modes", args.modes, 1)
     _common.at_least("--max-dofs", args.max_dofs, 1)
     if isinstance(args.vms, int) and args.vms > args.modes:

@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 
+from .. import _validate
 from . import _common
 
 _FORCE = "--xla_force_host_platform_device_count"
@@ -49,7 +50,7 @@ def _check(args) -> None:
     _common.at_least("--elements", args.elements, 1)
     _common.at_least("--modes", args.modes, 1)
     _common.at_least("--max-dofs", args.max_dofs, 1)
-    _common.rtol(args.rtol)
+    _validate.tolerances(args.rtol, rtol_name="--rtol (relative tolerance)")
     _common.at_least("--devices", args.devices, 1)
     _common.output_path("--out", args.out)
     _common.output_path("--plot", args.plot)

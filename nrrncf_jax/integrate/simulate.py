@@ -23,6 +23,7 @@ import jax.tree_util as jtu
 import numpy as np
 from jax import lax
 
+from .. import _validate
 from .._types import Array, Float, Int
 from .generalized_alpha import GeneralizedAlpha, hermite_interpolate
 from .newton import newton as newton_iteration
@@ -211,8 +212,7 @@ def _prepare(model, ts, t0, y0, solver, rtol, atol, dt0, dt_min, dt_max, adaptiv
         raise ValueError("adaptive=False needs a step size dt0")
     if max_newton is None:
         max_newton = 10 if adaptive else 50
-    if isinstance(max_newton, bool) or not isinstance(max_newton, (int, np.integer)) or max_newton < 1:
-        raise ValueError(f"max_newton must be a positive integer, got max_newton={max_newton!r}")
+    max_newton = _validate.positive_int("max_newton", max_newton)
     if newton not in ("auto", "modified", "full"):
         raise ValueError(f"newton must be 'auto', 'modified' or 'full', got {newton!r}")
     if newton == "auto":

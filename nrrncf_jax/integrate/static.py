@@ -8,12 +8,12 @@ Jacobian.
 from typing import TYPE_CHECKING
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import jax.tree_util as jtu
 import numpy as np
 from jax import lax
 
+from .. import _validate
 from .newton import NewtonResult, newton
 from .simulate import SimulationError
 
@@ -59,19 +59,16 @@ def static_equilibrium(model: "AbstractModel", load_steps: int = 10, tol: float 
     ``1 + max|q|`` at the increment's start. Returns the coordinates q; raises
     ``SimulationError`` naming the increment and the ``NewtonResult`` if Newton does not
     converge at some increment."""
-    if isinstance(load_steps, bool) or not isinstance(load_steps, (int, np.integer)) or load_steps < 1:
-        raise ValueError(f"load_steps must be a positive integer, got {load_steps!r}")
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
-        raise ValueError(f"max_iter must be a positive integer, got {max_iter!r}")
-    if not float(tol) > 0.0:
-        raise ValueError(f"tol must be > 0, got tol={tol!r}")
-    q, iters, results = _static(model, int(load_steps), jnp.asarray(tol, dtype=float), int(max_iter), q0)
-    if not isinstance(iters, jax.core.Tracer):
-        for i in range(int(load_steps)):
-            r = jtu.tree_map(lambda x: x[i], results)
-            if not bool(r == NewtonResult.converged):
-                raise SimulationError(
-                    f"static Newton did not converge at load increment {i + 1}/{load_steps} "
-                    f"({NewtonResult[r]}); use more load_steps"
-                )
+    load_steps = _validate.positive_int("load_steps", load_steps)
+    max_iter = _validate.positive_int("max_iter", max_iter)
+    _validate.positive("tol", tol)
+    q, iters, results = _static(model, load_steps, jnp.asarray(tol, dtype=float), max_iter, q0)
+    if _validate.is_concrete(iters):
+        failed = np.flatnonzero(~np.asarray(results == NewtonResult.converged))
+        if failed.size:
+            i = int(failed[0])
+            raise SimulationError(
+                f"static Newton did not converge at load increment {i + 1}/{load_steps} "
+                f"({NewtonResult[jtu.tree_map(lambda x: x[i], results)]}); use more load_steps"
+            )
     return q
