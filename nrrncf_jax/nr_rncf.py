@@ -12,6 +12,7 @@ import numpy as np
 
 from .models.full_order import RotatingFrameModel
 from .models.reduced import ReducedRotatingModel, modal_loads, reduce_rotating_model
+from .motion import AbstractAxisMotion
 from .reduction.deflation import deflate
 from .reduction.modal_derivatives import modal_derivatives
 from .reduction.modes import vibration_modes
@@ -122,7 +123,9 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     phi, theta = np.asarray(modes.phi), None if theta is None else np.asarray(theta)
     rest = [phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
     extra, check = [], None
-    if spin_state is True or (spin_state == "auto" and sel.pairs):
+    # The spinning state is that of a steady spin about a fixed axis: "auto" checks it for such
+    # motions only.
+    if spin_state is True or (spin_state == "auto" and sel.pairs and isinstance(full.motion, AbstractAxisMotion)):
         if spin <= 0.0:
             raise ValueError("spin_state=True needs a manoeuvre that spins (its largest spin rate is 0)")
         t0 = time.perf_counter()
@@ -151,7 +154,7 @@ def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n
     body, free = full.body, full.free_mask()
     q_star, smodes = spinning_modes(full, spin, n_modes)
     sphi = np.asarray(smodes.phi)
-    match = match_modes(full.M, modes.phi, sphi)
+    match = match_modes(full.body.mass_matrix() if full.M is None else full.M, modes.phi, sphi)
     W = np.asarray(sel.W)
     by_weight = sorted(sel.vms, key=lambda i: -W[i, i])
     dominant = int(match[by_weight[0]])
@@ -180,10 +183,11 @@ def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n
 @eqx.filter_jit
 def _mmi_loads(full, phi, ts):
     """``modal_loads`` (the loads of the linear MMI model and their load vectors) and the
-    largest spin rate max|θ̇| over ``ts``: one compiled kernel (op by op, evaluating the
+    largest spin rate max|ω| over ``ts``: one compiled kernel (op by op, evaluating the
     motion on the time grid compiled a score of kernels on every cold start)."""
     history, vectors = modal_loads(full, phi, ts)
-    return history, vectors, jnp.max(jnp.abs(jax.vmap(lambda t: full.motion(t)[1])(ts)))
+    w = jax.vmap(full.motion.angular_velocity)(ts)
+    return history, vectors, jnp.max(jnp.sqrt(jnp.sum(w * w, axis=-1)))  # √(θ̇²) = |θ̇| exactly
 
 
 @eqx.filter_jit

@@ -6,16 +6,16 @@ steady spin rate ωs exactly at Ts (the end-speed constraint is built into the b
 imposed by a penalty). θ̇ and θ are the exact integrals, in closed form.
 """
 
-import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
 from . import _validate
 from ._types import Array, ArrayLike, Float, ScalarLike
+from .motion import AbstractAxisMotion, spin_up_angle, unit_axis
 
 
-class FourierSpinUp(eqx.Module):
-    """Spin-up about a fixed axis: Eq. 43's θ̈ plus a zero-mean Fourier correction.
+class FourierSpinUp(AbstractAxisMotion):
+    """Spin-up about a fixed ``axis`` (default Z): Eq. 43's θ̈ plus a zero-mean Fourier correction.
 
     With τ = 2πt/Ts and n terms, for 0 ≤ t ≤ Ts
 
@@ -35,9 +35,10 @@ class FourierSpinUp(eqx.Module):
     omega_s: Float[Array, ""]
     T_s: Float[Array, ""]
     coeffs: Float[Array, "2 n"]
+    axis: Float[Array, " 3"]
 
     def __init__(self, omega_s: ScalarLike, T_s: ScalarLike = 15.0, coeffs: Float[ArrayLike, "2 n"] | None = None,
-                 n_terms: int | None = None):
+                 n_terms: int | None = None, axis=(0.0, 0.0, 1.0)):
         _validate.positive("omega_s (steady spin rate)", omega_s)
         _validate.positive("T_s (spin-up time)", T_s)
         if coeffs is None:
@@ -50,6 +51,7 @@ class FourierSpinUp(eqx.Module):
         self.omega_s = jnp.asarray(omega_s, dtype=float)
         self.T_s = jnp.asarray(T_s, dtype=float)
         self.coeffs = jnp.asarray(coeffs, dtype=float)
+        self.axis = unit_axis(axis)
 
     @property
     def n_terms(self) -> int:
@@ -59,12 +61,8 @@ class FourierSpinUp(eqx.Module):
         """``(θ, θ̇, θ̈)`` at time t (any shape)."""
         w, T = self.omega_s, self.T_s
         t = jnp.asarray(t, dtype=float)
-        tc = jnp.minimum(t, T)
+        (th, dth, ddth), tc, spinning = spin_up_angle(w, T, t)  # Eq. 43
         c = 2.0 * jnp.pi / T
-        # Eq. 43
-        th = (w / T) * (0.5 * tc**2 + (jnp.cos(c * tc) - 1.0) / c**2)
-        dth = (w / T) * (tc - jnp.sin(c * tc) / c)
-        ddth = (w / T) * (1.0 - jnp.cos(c * tc))
         # The correction: sin kτ, and cos mτ with weight d_m = b_m − b_{m−1} (m = 1..n+1).
         a, d = self.sine_coeffs, self.cosine_coeffs
         ka = c * jnp.arange(1, a.shape[0] + 1, dtype=float)
@@ -75,7 +73,6 @@ class FourierSpinUp(eqx.Module):
         ddth = ddth + sa @ a + cd @ d
         dth = dth + ((1.0 - ca) / ka) @ a + (sd / kd) @ d
         th = th + ((tc[..., None] - sa / ka) / ka) @ a + ((1.0 - cd) / kd**2) @ d
-        spinning = t > T
         return (th + w * (t - tc), jnp.where(spinning, w, dth), jnp.where(spinning, 0.0, ddth))
 
     @property

@@ -1,4 +1,5 @@
-"""Static equilibrium ``F(q) = λ Q`` by Newton's method with load stepping.
+"""Static equilibrium ``F(q) = λ Q`` by the integrator's Newton (``integrate.newton``) with load
+stepping; ``newton_static`` is the one static Newton solve, shared with the spinning equilibrium.
 
 Hand-written rather than ``optimistix.root_find`` so that it reuses the model's own
 (block-tridiagonal) factorisation of the tangent stiffness instead of a dense autodiff
@@ -14,7 +15,7 @@ import numpy as np
 from jax import lax
 
 from .. import _validate
-from .newton import NewtonResult, newton
+from .newton import NewtonResult, NewtonSolution, newton
 from .simulate import SimulationError
 
 if TYPE_CHECKING:  # the models import the integrator's users; annotations only
@@ -27,23 +28,32 @@ def _scale_loads(model, lam):
     return eqx.tree_at(lambda m: m.loads, model, loads)
 
 
+def newton_static(model, q, tol, max_iter: int) -> NewtonSolution:
+    """One static Newton solve (no inertia, t = 0, q̇ = q̈ = 0) of ``model.residual`` from ``q``,
+    with the model's own factorisation of its tangent (``factor_iteration_matrix`` with
+    c_K = 1: K(q) plus, in a moving frame, M ⊗ (ω̇̃ + ω̃ω̃)), until the correction is below
+    ``tol`` relative to ``1 + max|q|`` at the start. Traceable; the static equilibrium and the
+    spinning equilibrium (``reduction.spin_state``) both use it."""
+    z = jnp.zeros_like(q)
+    free = model.free_mask()
+    scale = 1.0 + jnp.max(jnp.abs(q))
+
+    def update(q):
+        fac = model.factor_iteration_matrix(0.0, q, z, 0.0, 0.0, 1.0)
+        return jnp.where(free, fac.solve(model.residual(0.0, q, z, z)), 0.0)
+
+    return newton(update, lambda dq: jnp.max(jnp.abs(dq)) / scale, q, tol, max_iter)
+
+
 @eqx.filter_jit
 def _static(model, load_steps: int, tol, max_iter: int, q0=None):
     if q0 is None:
         q0, _ = model.initial_state(0.0)
     z = jnp.zeros_like(q0)
-    free = model.free_mask()
     q0, _, _ = model.constrain(0.0, q0, z, z)
 
     def solve_at(q, lam):
-        m = _scale_loads(model, lam)
-        scale = 1.0 + jnp.max(jnp.abs(q))  # the increment's start: corrections relative to it
-
-        def update(q):
-            fac = m.factor_iteration_matrix(0.0, q, z, 0.0, 0.0, 1.0)
-            return jnp.where(free, fac.solve(m.residual(0.0, q, z, z)), 0.0)
-
-        sol = newton(update, lambda dq: jnp.max(jnp.abs(dq)) / scale, q, tol, max_iter)
+        sol = newton_static(_scale_loads(model, lam), q, tol, max_iter)
         return sol.x, (sol.iterations, sol.result)
 
     lams = jnp.arange(1, load_steps + 1) / load_steps

@@ -1,11 +1,18 @@
-"""Full-order equations of one body under a prescribed rotation about a fixed axis.
+"""Full-order equations of one body whose reference frame follows a prescribed motion
+(``motion.AbstractMotion``: rotation A(t), angular velocity ω(t) and acceleration ω̇(t) in the
+reference frame, and the acceleration r̈₀ of its origin).
 
-- ``RotatingFrameModel`` (RNCF, Eq. 41): coordinates in the frame attached to the clamped
-  root, ``M_αβ [q̈_β + 2θ̇ E q̇_β + θ̈ E q_β + θ̇² E E q_β] + F^α(q) = Q_α`` with E = ẽ.
-  The reference conditions (the root's position and cross-section vectors) are eliminated as
-  fixed coordinates. Optional Rayleigh damping adds ``D q̇`` (``damping.RayleighDamping``).
+- ``RotatingFrameModel`` (RNCF, Eqs. 8 and 41): coordinates in the reference frame attached to
+  the clamped root, ``M_αβ [q̈_β + 2ω̃ q̇_β + (ω̇̃ + ω̃ω̃) q_β] + F^α(q) = Q_α``, where Q includes
+  the uniform load ``ϱ_α Aᵀ(g − r̈₀)`` of gravity and of the frame's translation. For a spin
+  θ(t) about a fixed axis e, ω = θ̇ e. The reference conditions (the root's position and
+  cross-section vectors) are eliminated as fixed coordinates. Optional Rayleigh damping adds
+  ``D q̇`` (``damping.RayleighDamping``).
 - ``InertialFrameModel`` (ANCF, THEORY §3): the same body with A = I; the root's clamped
-  vectors are driven by the rotation, ``q_root(t) = A(θ(t)) q̂_root``.
+  vectors are driven by the motion, ``q_root(t) = A(t) q̂_root (+ r₀(t) for positions)``.
+
+The mass products ``M q̈`` use the assembled scalar M_αβ for bodies up to
+``DENSE_MASS_MAX_VECTORS`` nodal vectors and element-wise products above (no n × n matrix).
 """
 
 import abc
@@ -16,10 +23,10 @@ import numpy as np
 
 from .._types import Array, Bool, Float, Int, Scalar
 from .._validate import is_concrete
-from ..body import Body
+from ..body import DENSE_MASS_MAX_VECTORS, Body
 from ..damping import RayleighDamping
 from ..linalg import SparsityPattern, assemble_and_factor, choose_solver
-from ..motion import SpinUp, Stationary, rotation_about, skew
+from ..motion import AbstractMotion, skew
 from .base import AbstractModel
 
 
@@ -48,26 +55,24 @@ class Loads(eqx.Module):
 
 class _FullOrderModel(AbstractModel):
     body: Body
-    motion: SpinUp | Stationary
-    axis: Float[Array, " 3"]
+    motion: AbstractMotion
     loads: Loads
     clamped: Int[Array, " c"]  # nodal vectors fixed in the reference frame
-    M: Float[Array, "n n"]  # scalar M_αβ, assembled once
+    M: Float[Array, "n n"] | None  # scalar M_αβ, assembled once; None for large bodies (see mass_times)
     damping: RayleighDamping | None
     D_e: tuple | None  # per group, (element blocks of D = αM + βK̂, their DOFs); None: undamped
 
     solver: str = eqx.field(static=True)  # linear solver of the iteration matrix, resolved at construction
     pattern: SparsityPattern | None = eqx.field(static=True)  # the sparse solver's pattern, built once
 
-    def __init__(self, body: Body, motion: SpinUp | Stationary, axis=(0.0, 0.0, 1.0), loads: Loads | None = None,
-                 clamped=None, damping: RayleighDamping | None = None, solver: str = "auto"):
+    def __init__(self, body: Body, motion: AbstractMotion, *, loads: Loads | None = None, clamped=None,
+                 damping: RayleighDamping | None = None, solver: str = "auto"):
+        if not isinstance(motion, AbstractMotion):
+            raise ValueError(f"motion must be a motion.AbstractMotion (e.g. SpinUp, Stationary), got "
+                             f"{type(motion).__name__}")
         self.body = body
         self.solver, self.pattern = _choose_solver(body, solver)
         self.motion = motion
-        axis = jnp.asarray(axis, dtype=float)
-        if axis.shape != (3,):
-            raise ValueError(f"axis must be a 3-vector, got shape {axis.shape}")
-        self.axis = axis / jnp.linalg.norm(axis)
         self.loads = Loads() if loads is None else loads
         # Default reference conditions: the root node's position and cross-section vectors
         # (r, r_y, r_z): the root section is clamped to the hub.
@@ -80,7 +85,7 @@ class _FullOrderModel(AbstractModel):
             if c.ndim != 1 or c.size == 0 or c.min() < 0 or c.max() >= body.n_vectors:
                 raise ValueError(f"clamped must list nodal vectors of the body (0..{body.n_vectors - 1}), got "
                                  f"{c.tolist()}")
-        self.M = body.mass_matrix()
+        self.M = body.mass_matrix() if body.n_vectors <= DENSE_MASS_MAX_VECTORS else None
         if damping is not None and not isinstance(damping, RayleighDamping):
             raise ValueError(f"damping must be a RayleighDamping or None, got {type(damping).__name__}")
         self.damping = damping
@@ -107,8 +112,18 @@ class _FullOrderModel(AbstractModel):
         fixed = jnp.zeros((self.body.n_vectors, 3), bool).at[self.clamped].set(True)
         return ~fixed.reshape(-1)
 
+    def with_motion(self, motion: AbstractMotion) -> "_FullOrderModel":
+        """This model under another prescribed motion."""
+        if not isinstance(motion, AbstractMotion):
+            raise ValueError(f"motion must be a motion.AbstractMotion, got {type(motion).__name__}")
+        return eqx.tree_at(lambda m: m.motion, self, motion)
+
     def rotation(self, t: Scalar) -> Float[Array, "3 3"]:
-        return rotation_about(self.axis, self.motion(t)[0])
+        return self.motion.rotation(t)
+
+    def mass_times(self, X: Float[Array, "n ..."]) -> Float[Array, "n ..."]:
+        """Σ_β M_αβ X_β: the assembled M for small bodies, element by element for large ones."""
+        return self.body.mass_product(X) if self.M is None else self.M @ X
 
     @abc.abstractmethod
     def displacements(self, t: Scalar, q: Float[Array, " n"]) -> Float[Array, "nv 3"]:
@@ -168,20 +183,19 @@ class RotatingFrameModel(_FullOrderModel):
         return q, jnp.where(free, v, 0.0), jnp.where(free, a, 0.0)
 
     def residual(self, t, q, v, a):
-        _, dth, ddth = self.motion(t)
-        e = self.axis
         Q, V, Acc = (x.reshape(-1, 3) for x in (q, v, a))
-        # a_α = q̈_α + 2ω×q̇_α + ω̇×q_α + ω×(ω×q_α)   (Eq. 8, ω = θ̇ e)
-        rel = Acc + 2.0 * dth * jnp.cross(e, V) + ddth * jnp.cross(e, Q) + dth**2 * jnp.cross(e, jnp.cross(e, Q))
-        A_T_g = self.rotation(t).T @ self.loads.gravity
-        r = self.M @ rel + self.body.elastic_force(Q) - self.loads.generalized(self.body, A_T_g)
+        # a_α = q̈_α + 2ω×q̇_α + ω̇×q_α + ω×(ω×q_α)   (Eq. 8)
+        coriolis, euler, centrifugal = self.motion.frame_terms(t, Q, V)
+        rel = Acc + coriolis + euler + centrifugal
+        # Gravity and the frame's translation act as one uniform acceleration, g − r̈₀ (Eq. 12).
+        A_T_g = self.rotation(t).T @ (self.loads.gravity - self.motion.origin_acceleration(t))
+        r = self.mass_times(rel) + self.body.elastic_force(Q) - self.loads.generalized(self.body, A_T_g)
         r = r.reshape(-1) + self.damping_force(v)
         return jnp.where(self.free_mask(), r, 0.0)
 
     def factor_iteration_matrix(self, t, q, v, c_M, c_C, c_K):
-        _, dth, ddth = self.motion(t)
-        E = skew(self.axis)
-        return self._factor(t, q, v, c_M, c_C, c_K, 2.0 * dth * E, ddth * E + dth**2 * (E @ E))
+        W, Wd, WW = self.motion.frame_matrices(t)
+        return self._factor(t, q, v, c_M, c_C, c_K, 2.0 * W, Wd + WW)
 
     def displacements(self, t, q):
         return q.reshape(-1, 3) - self.body.q_hat
@@ -194,26 +208,37 @@ class InertialFrameModel(_FullOrderModel):
     the inertial coordinates do not separate from the rigid spin (use ``RotatingFrameModel``).
     """
 
-    def __init__(self, body: Body, motion: SpinUp | Stationary, axis=(0.0, 0.0, 1.0), loads: Loads | None = None,
-                 clamped=None, damping: RayleighDamping | None = None, solver: str = "auto"):
+    def __init__(self, body: Body, motion: AbstractMotion, *, loads: Loads | None = None, clamped=None,
+                 damping: RayleighDamping | None = None, solver: str = "auto"):
         if damping is not None:
             raise ValueError("InertialFrameModel (ANCF) is undamped: Rayleigh damping acts on the velocity "
                              "relative to the rotating frame; use RotatingFrameModel (RNCF)")
-        super().__init__(body, motion, axis, loads, clamped, solver=solver)
+        super().__init__(body, motion, loads=loads, clamped=clamped, solver=solver)
+
+    def _rigid_motion(self, t, q_hat):
+        """Nodal vectors ``q_hat`` carried rigidly by the frame: ``(A q̂ (+ r₀), Ȧ q̂ (+ ṙ₀), Ä q̂ (+ r̈₀))``
+        as rows, the origin terms on position vectors only; Ȧ = (Aω)~ A and
+        Ä = ((Aω̇)~ + (Aω)~(Aω)~) A."""
+        A = self.rotation(t)
+        W = skew(A @ self.motion.angular_velocity(t))  # ω in the inertial frame
+        Wd = skew(A @ self.motion.angular_acceleration(t))
+        return q_hat @ A.T, W, Wd + W @ W
 
     def _root_motion(self, t):
-        _, dth, ddth = self.motion(t)
-        A = self.rotation(t)
-        E = skew(self.axis)
-        root = self.body.q_hat[self.clamped] @ A.T  # rows: A q̂
-        vel = root @ (dth * E).T
-        acc = root @ (ddth * E + dth**2 * (E @ E)).T
-        return root, vel, acc
+        root, W, W2 = self._rigid_motion(t, self.body.q_hat[self.clamped])
+        vel = root @ W.T
+        acc = root @ W2.T
+        pos = self.body.is_position[self.clamped][:, None]
+        r0, v0 = self.motion.origin(t)
+        a0 = self.motion.origin_acceleration(t)
+        return (jnp.where(pos, root + r0, root), jnp.where(pos, vel + v0, vel), jnp.where(pos, acc + a0, acc))
 
     def initial_state(self, t0):
-        _, dth, _ = self.motion(t0)
-        q0 = self.body.q_hat @ self.rotation(t0).T
-        v0 = q0 @ (dth * skew(self.axis)).T
+        q0, W, _ = self._rigid_motion(t0, self.body.q_hat)
+        v0 = q0 @ W.T
+        pos = self.body.is_position[:, None]
+        r0, rd0 = self.motion.origin(t0)
+        q0, v0 = jnp.where(pos, q0 + r0, q0), jnp.where(pos, v0 + rd0, v0)
         return q0.reshape(-1), v0.reshape(-1)
 
     def constrain(self, t, q, v, a):
@@ -227,7 +252,7 @@ class InertialFrameModel(_FullOrderModel):
         # Point forces are given in the rotating frame: rotate them with A; gravity is inertial.
         P = jnp.zeros_like(Q).at[self.loads.point_vectors].add(self.loads.point_forces @ A.T)
         ext = self.body.varrho()[:, None] * self.loads.gravity[None, :] + P
-        r = self.M @ Acc + self.body.elastic_force(Q) - ext
+        r = self.mass_times(Acc) + self.body.elastic_force(Q) - ext
         return jnp.where(self.free_mask(), r.reshape(-1), 0.0)
 
     def factor_iteration_matrix(self, t, q, v, c_M, c_C, c_K):
@@ -235,4 +260,6 @@ class InertialFrameModel(_FullOrderModel):
         return self._factor(t, q, v, c_M, c_C, c_K, z, z)
 
     def displacements(self, t, q):
-        return q.reshape(-1, 3) @ self.rotation(t) - self.body.q_hat
+        Q = q.reshape(-1, 3)
+        Q = jnp.where(self.body.is_position[:, None], Q - self.motion.origin(t)[0], Q)
+        return Q @ self.rotation(t) - self.body.q_hat

@@ -1,6 +1,10 @@
-"""The reduced NR-RNCF equations of a body under prescribed rotation (THEORY §4):
+"""The reduced NR-RNCF equations of a body under prescribed frame motion (THEORY §4); for a
+spin θ(t) about a fixed axis
 
-    Ī p̈ + (2θ̇ Ḡ + D̄) ṗ + θ̈(Ḡ p + ḡ) + θ̇²(C̄ p + c̄) + F(p) = Ψᵀ Q,   q = q° + Ψ p.
+    Ī p̈ + (2θ̇ Ḡ + D̄) ṗ + θ̈(Ḡ p + ḡ) + θ̇²(C̄ p + c̄) + F(p) = Ψᵀ Q,   q = q° + Ψ p,
+
+and in general, with ω = Σ_k w_k b_k on the motion's directions b_k, Ḡ and C̄ are the sums
+Σ_k w_k Ḡ_k and Σ_kl w_k w_l C̄_kl (``reduction.tensors.RotationInertia``).
 
 D̄ = α Ī + β K̄ is the projection of the full model's Rayleigh damping (zero unless given).
 
@@ -14,13 +18,15 @@ from typing import ClassVar
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
+from .. import _validate
 from .._types import Array, Bool, Float
 from ..body import Body
 from ..damping import RayleighDamping
 from ..linalg import DenseLU, solve_once
-from ..motion import SpinUp, Stationary, rotation_about
-from ..reduction.tensors import ElasticTensors, RotationInertia, elastic_tensors, rotation_inertia
+from ..motion import AbstractMotion
+from ..reduction.tensors import ElasticTensors, RotationInertia, elastic_tensors, rotation_inertia, sum_terms
 from .base import AbstractModel
 from .full_order import RotatingFrameModel
 
@@ -37,8 +43,8 @@ class ReducedRotatingModel(AbstractModel):
     point_load: Float[Array, " km"]  # Ψᵀ of the point forces
     gravity: Float[Array, " 3"]
     physical_mask: Bool[Array, " ndof"]  # the full model's free coordinates
-    motion: SpinUp | Stationary
-    axis: Float[Array, " 3"]
+    motion: AbstractMotion
+    directions: Float[Array, "3 d"]  # the directions b_k the rotation-inertia tensors are built for
     body: Body | None
     force: str = eqx.field(static=True)
     linear: bool = eqx.field(static=True)
@@ -96,9 +102,27 @@ class ReducedRotatingModel(AbstractModel):
             return None
         return self.damping.alpha * self.inertia.I + self.damping.beta * self.elastic.K
 
+    def rates(self, t):
+        """``(w, ẇ)``: ω(t) and ω̇(t) on the model's directions (ω = Σ_k w_k b_k)."""
+        B = self.directions
+        return B.T @ self.motion.angular_velocity(t), B.T @ self.motion.angular_acceleration(t)
+
+    def with_motion(self, motion: AbstractMotion) -> "ReducedRotatingModel":
+        """This model under another prescribed motion, whose ω(t) must stay in the span of the
+        directions the model's inertia tensors were built for (checked on concrete input)."""
+        if not isinstance(motion, AbstractMotion):
+            raise ValueError(f"motion must be a motion.AbstractMotion, got {type(motion).__name__}")
+        if _validate.is_concrete(motion.directions) and _validate.is_concrete(self.directions):
+            B, Bm = np.asarray(self.directions), np.asarray(motion.directions)
+            if np.linalg.norm(Bm - B @ (B.T @ Bm)) > 1e-12:
+                raise ValueError("the new motion rotates about directions the reduced model was not built for; "
+                                 "reduce the full model under that motion instead")
+        return eqx.tree_at(lambda m: m.motion, self, motion)
+
     def external(self, t):
-        A = rotation_about(self.axis, self.motion(t)[0])
-        return self.gravity_map @ (A.T @ self.gravity) + self.point_load
+        A = self.motion.rotation(t)
+        g = self.gravity - self.motion.origin_acceleration(t)
+        return self.gravity_map @ (A.T @ g) + self.point_load
 
     def residual(self, t, p, v, a):
         return self._residual(t, p, v, a, self.elastic_force(p))
@@ -115,27 +139,29 @@ class ReducedRotatingModel(AbstractModel):
         return solve_once(self._iteration_matrix(t, J, c_M, c_C, c_K), self._residual(t, p, v, a, F))
 
     def _residual(self, t, p, v, a, F):
-        _, dth, ddth = self.motion(t)
+        w, wd = self.rates(t)
         I = self.inertia
-        load = ddth * I.g + dth**2 * I.c - self.external(t)
+        mats, loads = I.forces(w, wd, p, v)
+        load = sum_terms(loads) - self.external(t)
         D = self.damping_matrix()
         if D is not None:
             load = load + D @ v
         if self.linear:  # the rotation acts only as the load it exerts (see ``linear``)
             return I.I @ a + F + load
-        # Ī a + Ḡ (2θ̇ v + θ̈ p) + C̄ θ̇² p as elementwise products and one sum, which XLA fuses
-        # with the rest of the residual: on a small model each separate kernel costs a dispatch.
-        inertial = I.I * a + I.G * (2.0 * dth * v + ddth * p) + I.C * (dth**2 * p)
+        # Ī a + Σ Ḡ_k (2w_k v + ẇ_k p) + Σ C̄_kl w_k w_l p as elementwise products and one sum, which
+        # XLA fuses with the rest of the residual: on a small model each separate kernel costs a
+        # dispatch.
+        inertial = sum_terms([I.I * a] + mats)
         return jnp.sum(inertial, axis=1) + F + load
 
     def _iteration_matrix(self, t, J, c_M, c_C, c_K):
         """S = c_M ∂r/∂a + c_C ∂r/∂v + c_K ∂r/∂p (Eq. 25 with the rotation terms)."""
-        _, dth, ddth = self.motion(t)
         I = self.inertia
         if self.linear:
             S = c_M * I.I + c_K * J
         else:
-            S = c_M * I.I + c_C * 2.0 * dth * I.G + c_K * (J + ddth * I.G + dth**2 * I.C)
+            vel, pos = I.tangent(*self.rates(t), c_C, c_K, J)
+            S = c_M * I.I + vel + pos
         D = self.damping_matrix()
         if D is not None:
             S = S + c_C * D
@@ -192,9 +218,9 @@ def reduce_rotating_model(full: RotatingFrameModel, Psi: Float[Array, "ndof km"]
     return ReducedRotatingModel(
         Psi=Psi, q_eq=q_eq, q_hat=body.q_hat,
         elastic=elastic_tensors(body, q_eq, Psi),
-        inertia=rotation_inertia(body, q_eq, Psi, full.axis),
+        inertia=rotation_inertia(body, q_eq, Psi, full.motion.directions),
         gravity_map=gravity_map, point_load=point_load, gravity=full.loads.gravity,
-        physical_mask=full.free_mask(), motion=full.motion, axis=full.axis,
+        physical_mask=full.free_mask(), motion=full.motion, directions=full.motion.directions,
         body=body if force == "projected" else None, force=force, linear=linear, damping=full.damping,
     )
 
@@ -211,15 +237,21 @@ def _load_maps(full: RotatingFrameModel, Psi):
 @eqx.filter_jit
 def modal_loads(full: RotatingFrameModel, Psi: Float[Array, "ndof km"], ts: Float[Array, " nt"]):
     """The loads of the linear MMI model (``linear=True``) on the basis Ψ about q̂:
-    ``l(t) = −θ̈ ḡ − θ̇² c̄ + Ψᵀ Q(t)`` at the times ``ts`` (nt × Km), and the constant load
-    vectors ``[ḡ, c̄, Ψᵀ ϱ g, Ψᵀ Q_point]`` (Km × 4) they combine."""
-    inertia = rotation_inertia(full.body, full.body.q_hat, Psi, full.axis)
+    ``l(t) = −θ̈ ḡ − θ̇² c̄ + Ψᵀ Q(t)`` at the times ``ts`` (nt × Km; for a general motion the sums
+    over its directions, ``RotationInertia``), and the constant load vectors
+    ``[ḡ_k..., c̄_kl..., Ψᵀ ϱ g, Ψᵀ Q_point]`` (Km × (d + d² + 2); d = 1 for a fixed axis) they
+    combine."""
+    B = full.motion.directions
+    inertia = rotation_inertia(full.body, full.body.q_hat, Psi, B)
     gravity_map, point_load = _load_maps(full, Psi)
 
     def at(t):
-        th, dth, ddth = full.motion(t)
-        A = rotation_about(full.axis, th)
-        return -ddth * inertia.g - dth**2 * inertia.c + gravity_map @ (A.T @ full.loads.gravity) + point_load
+        _, loads = inertia.forces(B.T @ full.motion.angular_velocity(t), B.T @ full.motion.angular_acceleration(t),
+                                  0.0, 0.0)
+        g = full.loads.gravity - full.motion.origin_acceleration(t)
+        return -sum_terms(loads) + gravity_map @ (full.motion.rotation(t).T @ g) + point_load
 
-    vectors = jnp.column_stack([inertia.g, inertia.c, gravity_map @ full.loads.gravity, point_load])
+    d = inertia.g.shape[0]
+    vectors = jnp.column_stack([*inertia.g, *inertia.c.reshape(d * d, -1), gravity_map @ full.loads.gravity,
+                                point_load])
     return jax.vmap(at)(ts), vectors

@@ -12,10 +12,13 @@ import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import numpy as np
+import scipy.sparse.linalg
 
 from .._types import Array, Bool, Float
 from .._validate import is_concrete
 from ..body import Body
+from ..linalg import DENSE_MAX_DOFS, assemble_sparse
+from ..linalg.sparse import DIAG_PIVOT_THRESH, PERMC_SPEC
 
 
 class ModalDerivatives(eqx.Module):
@@ -63,11 +66,15 @@ def modal_derivatives(
     q_eq: Float[Array, "n 3"] | None = None,
     method: str = "closed_form",
     pad_to: int | None = None,
+    solver: str = "auto",
 ) -> ModalDerivatives:
     """Static modal derivatives θ_ij of the modes ``phi`` (columns, zero on constrained
     coordinates) for ``pairs`` (default: all i ≤ j, k(k+1)/2 of them).
 
-    ``method`` is ``'closed_form'`` (Eq. 35) or ``'autodiff'``. ``pad_to`` solves for at least
+    ``method`` is ``'closed_form'`` (Eq. 35) or ``'autodiff'``. Above ``linalg.DENSE_MAX_DOFS``
+    free coordinates (or with ``solver="sparse"``) K|eq is factored once by SuperLU and every pair
+    solved with that factorisation on the host (concrete input; not differentiable); otherwise
+    by a dense Cholesky inside one compiled kernel. ``pad_to`` solves for at least
     that many pairs (the last one repeated, the surplus dropped): the compiled kernel depends
     on the number of pairs, so calls with different counts can share one compilation (each
     costs about half a second).
@@ -86,7 +93,12 @@ def modal_derivatives(
     padded = pairs + pairs[-1:] * max(0, (pad_to or 0) - len(pairs))
     ii = np.array([p[0] for p in padded], dtype=int)
     jj = np.array([p[1] for p in padded], dtype=int)
-    theta = _solve_modal_derivatives(body, q_eq, phi, idx, ii, jj, method)
+    if solver not in ("auto", "dense", "sparse"):
+        raise ValueError(f"solver must be 'auto', 'dense' or 'sparse', got {solver!r}")
+    if solver == "sparse" or (solver == "auto" and idx.size > DENSE_MAX_DOFS):
+        theta = _sparse_modal_derivatives(body, q_eq, phi, idx, ii, jj, method)
+    else:
+        theta = _solve_modal_derivatives(body, q_eq, phi, idx, ii, jj, method)
     if len(padded) > len(pairs):
         # Dropped in NumPy when concrete (an eager jnp slice compiles a kernel of its own).
         n = len(pairs)
@@ -106,3 +118,24 @@ def _solve_modal_derivatives(body, q_eq, phi, idx, ii, jj, method: str):
         return jnp.zeros(body.n_dof).at[idx].set(-jsl.cho_solve(chol, rhs))
 
     return jax.vmap(one)(ii, jj).T
+
+
+@eqx.filter_jit
+def _right_hand_sides(body, q_eq, phi, ii, jj, method: str):
+    """(∂K/∂η_j) φ_i for each pair, as rows (n_pairs × n_dof), and the element blocks of K|eq."""
+    apply = dK_deta_times if method == "closed_form" else dK_deta_times_autodiff
+    shape = q_eq.shape
+    rhs = jax.vmap(lambda i, j: apply(body, q_eq, phi[:, j].reshape(shape), phi[:, i].reshape(shape)).reshape(-1))
+    return rhs(ii, jj), body.tangent_parts(q_eq)
+
+
+def _sparse_modal_derivatives(body, q_eq, phi, idx, ii, jj, method: str):
+    """Eq. 35 with one SuperLU factorisation of K|eq on the free coordinates for all pairs."""
+    rhs, parts = _right_hand_sides(body, jnp.asarray(q_eq, dtype=float), jnp.asarray(phi), ii, jj, method)
+    K = assemble_sparse([(np.asarray(G), np.asarray(d)) for G, d in parts], body.n_dof)
+    Kf = K[idx][:, idx].tocsc()
+    lu = scipy.sparse.linalg.splu(Kf, permc_spec=PERMC_SPEC, diag_pivot_thresh=DIAG_PIVOT_THRESH,
+                                  options=dict(SymmetricMode=True))
+    theta = np.zeros((body.n_dof, len(ii)))
+    theta[idx] = -lu.solve(np.ascontiguousarray(np.asarray(rhs)[:, idx].T))
+    return jnp.asarray(theta)

@@ -14,6 +14,7 @@ import numpy as np
 from .._types import Array, Bool, Float
 from .._validate import is_concrete
 from ..body import Body
+from ..linalg import DENSE_MAX_DOFS, assemble_sparse, sparse_modes
 
 
 class VibrationModes(eqx.Module):
@@ -26,9 +27,14 @@ class VibrationModes(eqx.Module):
 
 def vibration_modes(
     body: Body, free: Bool[Array, " ndof"], k: int | None = None, q_eq: Float[Array, "n 3"] | None = None,
-    frame_stiffness: Float[Array, "3 3"] | None = None,
+    frame_stiffness: Float[Array, "3 3"] | None = None, solver: str = "auto",
 ) -> VibrationModes:
     """The ``k`` lowest modes of ``(K|eq, M ⊗ I3)`` restricted to the ``free`` coordinates.
+
+    ``solver``: ``"dense"`` (a Cholesky reduction and ``eigh``: every mode, differentiable),
+    ``"sparse"`` (shift-invert Lanczos on the assembled sparse matrices, ``linalg.sparse_modes``:
+    the ``k`` lowest only, on concrete input, not differentiable), or ``"auto"``: sparse above
+    ``linalg.DENSE_MAX_DOFS`` free coordinates.
 
     ``frame_stiffness`` (3 × 3) adds ``M ⊗ frame_stiffness`` to K|eq: for a body spinning at
     the constant rate ω about e, ``ω² ẽẽ`` is the spin softening of Eq. 8's centrifugal term,
@@ -53,6 +59,13 @@ def vibration_modes(
             f"the stiffness matrix K|eq is singular: {6 - rank} rigid-body mode(s) are not removed by the "
             "constrained coordinates (missing reference conditions, e.g. no clamped root)"
         )
+    if solver not in ("auto", "dense", "sparse"):
+        raise ValueError(f"solver must be 'auto', 'dense' or 'sparse', got {solver!r}")
+    if solver == "sparse" or (solver == "auto" and len(idx) > DENSE_MAX_DOFS):
+        if k is None:
+            raise ValueError(f"give the number of modes k: the sparse eigensolver ({len(idx)} free coordinates) "
+                             "finds the lowest k, not all of them")
+        return _sparse_modes(body, free_np, int(k), q_eq, frame_stiffness)
     k = len(idx) if k is None else min(int(k), len(idx))
     # NumPy constants and index arrays: jnp.zeros or jnp.asarray of an integer array outside a
     # jit each compile a small kernel.
@@ -64,6 +77,32 @@ def vibration_modes(
             "the configuration is not a stable equilibrium"
         )
     return VibrationModes(omega=omega, phi=phi)
+
+
+def _sparse_modes(body: Body, free: np.ndarray, k: int, q_eq, frame_stiffness) -> VibrationModes:
+    """The ``k`` lowest modes by ``linalg.sparse_modes`` (one sparse LU, shift-invert Lanczos)
+    from the element blocks of K|eq (+ M ⊗ frame_stiffness) and M ⊗ I3."""
+    K_parts, M_parts = _element_blocks(body, jnp.asarray(q_eq, dtype=float), frame_stiffness)
+    K = assemble_sparse([(np.asarray(G), np.asarray(d)) for G, d in K_parts], body.n_dof)
+    M = assemble_sparse([(np.asarray(G), np.asarray(d)) for G, d in M_parts], body.n_dof)
+    omega, phi = sparse_modes(K, M, k, free=free)
+    if not omega[0] > 0.0:
+        raise ValueError(f"K|eq is not positive definite on the free coordinates (lowest eigenvalue "
+                         f"{omega[0] ** 2:.3g}): the configuration is not a stable equilibrium")
+    return VibrationModes(omega=jnp.asarray(omega), phi=jnp.asarray(phi))
+
+
+@eqx.filter_jit
+def _element_blocks(body: Body, q_eq, frame_stiffness):
+    """Per group, the element blocks of K|eq + M ⊗ F and of M ⊗ I3 with their DOFs."""
+    F = jnp.zeros((3, 3)) if frame_stiffness is None else jnp.asarray(frame_stiffness, dtype=float)
+    K_parts, M_parts = [], []
+    for (Ke, dofs), (M_e, _) in zip(body.tangent_parts(q_eq), body.mass_parts()):
+        n_el, ne = M_e.shape[:2]
+        kron = lambda B: jnp.einsum("eab,ij->eaibj", M_e, B).reshape(n_el, 3 * ne, 3 * ne)  # noqa: E731
+        K_parts.append((Ke + kron(F), dofs))
+        M_parts.append((kron(jnp.eye(3)), dofs))
+    return K_parts, M_parts
 
 
 @eqx.filter_jit

@@ -22,11 +22,9 @@ the rest basis is enriched when it misses it by more than a tolerance.
   modal assurance criterion).
 
 All of it runs once per reduction on concrete arrays, and cold-start compilation dominates its
-cost: one compiled kernel (``_newton_step``) gives the Newton update and the tangent stiffness,
-the host loops over it, and the small projections and the matching are NumPy/SciPy (each jnp
-operation outside a jit compiles a kernel of its own). The library's static solver
-(``integrate.static``: a load-stepping ``while_loop`` over the block-tridiagonal factorisation)
-reaches the same equilibrium but took about twice as long to compile.
+cost: the equilibrium is one compiled Newton solve (``integrate.static.newton_static``) called
+once per ω² increment, and the small projections and the matching are NumPy/SciPy (each jnp
+operation outside a jit compiles a kernel of its own).
 """
 
 import dataclasses
@@ -37,60 +35,56 @@ import numpy as np
 import scipy.linalg
 
 from .._types import Array, Float
+from ..integrate.newton import NewtonResult
 from ..integrate.simulate import SimulationError
-from ..motion import SteadySpin, skew
+from ..integrate.static import newton_static
+from ..motion import AbstractAxisMotion, SteadySpin
 from .modes import VibrationModes, frame_stiffened, vibration_modes
 
 
 def spinning_equilibrium(full, omega: float, steps: int = 4, tol: float = 1e-10,
                          max_iter: int = 30) -> Float[Array, "n 3"]:
-    """The equilibrium q* of the RNCF model ``full`` spinning steadily at ``omega`` about its axis
-    (its own loads included; gravity is taken at θ = 0), by continuation in ω² over ``steps``
-    equal increments (a curved beam bends under its centrifugal load).
+    """The equilibrium q* of the RNCF model ``full`` spinning steadily at ``omega`` about its
+    motion's axis (its own loads included; gravity is taken at θ = 0), by continuation in ω² over
+    ``steps`` equal increments (a curved beam bends under its centrifugal load).
 
-    At each increment Newton's method solves ``r(q) = 0`` for the model's residual at rest in
+    At each increment the library's static Newton (``integrate.static.newton_static``, on the
+    one Newton of ``integrate.newton``) solves ``r(q) = 0`` for the model's residual at rest in
     the frame spinning steadily (``RotatingFrameModel.residual`` with q̇ = q̈ = 0: Eq. 41's
-    ``θ̇² M ẼẼ q + F(q) − Q``) with its exact tangent ``K(q) + θ̇² M ⊗ ẽẽ`` on the free
-    coordinates, until the update is below ``tol`` relative to ``1 + max|q|`` (the criterion of
-    ``integrate.static``). Raises ``SimulationError`` if Newton does not converge."""
-    q = np.asarray(full.body.q_hat, dtype=float).reshape(-1)  # the rigid reference; fixed entries stay
+    ``θ̇² M ẼẼ q + F(q) − Q``) with the model's own factorisation of its exact tangent
+    ``K(q) + θ̇² M ⊗ ẽẽ``, until the correction is below ``tol`` relative to ``1 + max|q|``.
+    Raises ``SimulationError`` naming the increment and the ``NewtonResult`` if Newton does not
+    converge."""
+    axis = _axis(full)
+    q = jnp.asarray(full.body.q_hat, dtype=float).reshape(-1)  # the rigid reference; fixed entries stay
     for k in range(1, steps + 1):
-        steady = eqx.tree_at(lambda m: m.motion, full, SteadySpin(omega * np.sqrt(k / steps)))
-        for _ in range(max_iter):
-            dq = np.asarray(_newton_step(steady, q)[0])  # zero on the constrained coordinates
-            q = q - dq
-            norm = np.max(np.abs(dq)) / (1.0 + np.max(np.abs(q)))
-            if not norm > tol:
-                break
-        if not norm <= tol:
+        steady = full.with_motion(SteadySpin(omega * np.sqrt(k / steps), axis=axis))
+        sol = _solve(steady, q, jnp.asarray(tol, dtype=float), max_iter)
+        if not bool(sol.converged):
             raise SimulationError(
                 f"spinning equilibrium: Newton did not converge at increment {k}/{steps} of ω² "
-                f"(last relative update {norm:.3g}); use more steps"
+                f"({NewtonResult[sol.result]}); use more steps"
             )
-    return jnp.asarray(q.reshape(-1, 3), dtype=float)
+        q = sol.x
+    return q.reshape(-1, 3)
 
 
 @eqx.filter_jit
-def _newton_step(model, q: Float[Array, " ndof"]):
-    """``(Δq, K_t)``: the Newton update ``K_t⁻¹ r`` for the residual r of ``model`` at t = 0 with
-    q̇ = q̈ = 0, and its tangent ``K_t = K(q) + M ⊗ (θ̈ ẽ + θ̇² ẽẽ)`` (all coordinates; the
-    constrained ones are identity rows, so Δq is zero there).
+def _solve(model, q, tol, max_iter: int):
+    return newton_static(model, q, tol, max_iter)
 
-    One compiled kernel for the Newton iterations and the Rayleigh-Ritz stiffness alike. The
-    solve is in here rather than in NumPy: next to XLA's threads, OpenBLAS's dense solve ran
-    tens of times slower than its flop count on a 2-core CPU (oversubscription)."""
-    z = jnp.zeros_like(q)
-    _, dth, ddth = model.motion(0.0)
-    E = skew(model.axis)
-    K = frame_stiffened(model.body, q.reshape(-1, 3), ddth * E + dth**2 * (E @ E))
-    f = model.free_mask().astype(q.dtype)
-    dq = jnp.linalg.solve(K * f[:, None] * f[None, :] + jnp.diag(1.0 - f), model.residual(0.0, q, z, z))
-    return dq, K
+
+def _axis(full) -> np.ndarray:
+    """The unit spin axis of ``full``'s motion (a rotation about a fixed axis)."""
+    if not isinstance(full.motion, AbstractAxisMotion):
+        raise ValueError("the spinning state needs a model whose motion is a rotation about a fixed axis "
+                         f"(motion.AbstractAxisMotion), got {type(full.motion).__name__}")
+    return np.asarray(full.motion.axis, dtype=float)
 
 
 def _spin_softening(full, omega: float) -> np.ndarray:
     """``ω² ẽẽ = ω² (eeᵀ − I)`` for the model's unit axis e (3 × 3, NumPy)."""
-    e = np.asarray(full.axis, dtype=float)
+    e = _axis(full)
     return omega**2 * (np.outer(e, e) - np.eye(3))
 
 
@@ -113,8 +107,7 @@ def match_modes(M: Float[Array, "n n"], phi_rest: Float[Array, "ndof k"],
 
 def spinning_stiffness(full, q_star: Float[Array, "n 3"], omega: float) -> Float[Array, "ndof ndof"]:
     """``K(q*) + ω² M ⊗ ẽẽ`` (all coordinates; restrict to the free ones)."""
-    steady = eqx.tree_at(lambda m: m.motion, full, SteadySpin(omega))
-    return _newton_step(steady, np.asarray(q_star, dtype=float).reshape(-1))[1]
+    return frame_stiffened(full.body, jnp.asarray(q_star, dtype=float).reshape(-1, 3), _spin_softening(full, omega))
 
 
 def ritz_frequencies(full, q_star: Float[Array, "n 3"], omega: float, Psi: Float[Array, "ndof km"]) -> np.ndarray:
@@ -122,7 +115,7 @@ def ritz_frequencies(full, q_star: Float[Array, "n 3"], omega: float, Psi: Float
     span of ``Psi``: the eigenvalues of ``(ΨᵀK*Ψ, ΨᵀMΨ)``, upper bounds of the exact ones."""
     free = np.flatnonzero(np.asarray(full.free_mask()))
     K = np.asarray(spinning_stiffness(full, q_star, omega))[np.ix_(free, free)]
-    M = np.kron(np.asarray(full.M), np.eye(3))[np.ix_(free, free)]  # the model's assembled M_αβ
+    M = np.kron(np.asarray(full.body.mass_matrix()), np.eye(3))[np.ix_(free, free)]  # M_αβ ⊗ I3
     P = np.asarray(Psi)[free]
     Kr = P.T @ K @ P
     return np.sqrt(np.clip(scipy.linalg.eigh(0.5 * (Kr + Kr.T), P.T @ M @ P, eigvals_only=True), 0.0, None))

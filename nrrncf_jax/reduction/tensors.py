@@ -15,7 +15,7 @@ import numpy as np
 from jax import lax
 
 from .._types import Array, Float, Int
-from ..body import Body
+from ..body import DENSE_MASS_MAX_VECTORS, Body
 
 
 class ElasticTensors(eqx.Module):
@@ -85,11 +85,55 @@ def _fact(counts):
 
 
 class RotationInertia(eqx.Module):
+    """The reduced inertia of a frame rotating with ω = Σ_k w_k b_k, for the directions b_k (the
+    columns of the motion's ``directions``; one for a fixed axis) (THEORY §4):
+
+        Ī = Ψᵀ(M⊗I)Ψ,  Ḡ_k = Ψᵀ(M⊗b̃_k)Ψ,  C̄_kl = Ψᵀ(M⊗b̃_k b̃_l)Ψ,
+        ḡ_k = Ψᵀ(M⊗b̃_k)q°,  c̄_kl = Ψᵀ(M⊗b̃_k b̃_l)q°,
+
+    so that Ψᵀ M (2ω̃ q̇ + (ω̇̃ + ω̃ω̃) q) = Σ_k Ḡ_k(2w_k ṗ + ẇ_k p) + Σ_kl w_k w_l C̄_kl p + ẇ_k ḡ_k + ..."""
+
     I: Float[Array, "km km"]
-    G: Float[Array, "km km"]
-    C: Float[Array, "km km"]
-    g: Float[Array, " km"]
-    c: Float[Array, " km"]
+    G: Float[Array, "d km km"]
+    C: Float[Array, "d d km km"]
+    g: Float[Array, "d km"]
+    c: Float[Array, "d d km"]
+
+    def forces(self, w, wd, p, v):
+        """``(Σ_k Ḡ_k ⊙ (2w_k v + ẇ_k p) + Σ_kl C̄_kl ⊙ (w_k w_l p),  Σ_k ẇ_k ḡ_k + Σ_kl w_k w_l c̄_kl)``:
+        the rotation's velocity-dependent inertia as (km × km) elementwise products, for the caller
+        to add to ``Ī ⊙ a`` and sum along rows (XLA fuses these with the rest of the residual; on
+        a small model each separate kernel costs a dispatch), and its constant load."""
+        d = self.G.shape[0]
+        mats, loads = [], []
+        for k in range(d):
+            mats.append(self.G[k] * (2.0 * w[k] * v + wd[k] * p))
+            loads.append(wd[k] * self.g[k])
+        for k in range(d):
+            for m in range(d):
+                ww = w[k] * w[m]
+                mats.append(self.C[k, m] * (ww * p))
+                loads.append(ww * self.c[k, m])
+        return mats, loads
+
+    def tangent(self, w, wd, c_C, c_K, J):
+        """``(c_C Σ_k 2w_k Ḡ_k,  c_K (J + Σ_k ẇ_k Ḡ_k + Σ_kl w_k w_l C̄_kl))``: the rotation's part of
+        the iteration matrix (the reduced 2ω̃ and ω̇̃ + ω̃ω̃ terms), with the elastic tangent J."""
+        d = self.G.shape[0]
+        vel = sum_terms([c_C * 2.0 * w[k] * self.G[k] for k in range(d)])
+        pos = [J] + [wd[k] * self.G[k] for k in range(d)]
+        pos += [(w[k] * w[m]) * self.C[k, m] for k in range(d) for m in range(d)]
+        return vel, c_K * sum_terms(pos)
+
+
+def sum_terms(terms):
+    """x₀ + x₁ + … left to right (0.0 for no terms)."""
+    if not terms:
+        return 0.0
+    out = terms[0]
+    for x in terms[1:]:
+        out = out + x
+    return out
 
 
 def _sym_jk(L):
@@ -139,19 +183,27 @@ def jax_tree_add(a, b):
 
 @eqx.filter_jit
 def rotation_inertia(body: Body, q_eq: Float[Array, "n 3"], Psi: Float[Array, "ndof km"],
-                     axis: Float[Array, " 3"]) -> RotationInertia:
-    """Ī, Ḡ, C̄, ḡ, c̄ for rotation about the fixed unit ``axis`` (THEORY §4)."""
+                     directions: Float[Array, "3 d"]) -> RotationInertia:
+    """Ī, Ḡ_k, C̄_kl, ḡ_k, c̄_kl for rotation about the unit ``directions`` b_k (3 × d; a fixed
+    axis e is ``e[:, None]``) (THEORY §4, ``RotationInertia``)."""
     km = Psi.shape[1]
-    M = body.mass_matrix()
     P = Psi.reshape(body.n_vectors, 3, km)
-    MP = jnp.einsum("ab,bkJ->akJ", M, P)  # (M ⊗ I3) Ψ
-    e = axis
-    EP = jnp.cross(e[None, :, None], P, axisa=1, axisb=1, axisc=1)  # e × ψ_β
-    EEP = jnp.cross(e[None, :, None], EP, axisa=1, axisb=1, axisc=1)
-    Eq = jnp.cross(e, q_eq)
-    EEq = jnp.cross(e, Eq)
-    inner = lambda A, B: jnp.einsum("akI,akJ->IJ", A, B)  # noqa: E731
+    if body.n_vectors <= DENSE_MASS_MAX_VECTORS:
+        MP = jnp.einsum("ab,bkJ->akJ", body.mass_matrix(), P)  # (M ⊗ I3) Ψ
+    else:
+        MP = body.mass_product(P)
+    B = jnp.asarray(directions, dtype=float).reshape(3, -1)
+    d = B.shape[1]
+    cross = lambda e, X: jnp.cross(e[None, :, None], X, axisa=1, axisb=1, axisc=1)  # noqa: E731
+    inner = lambda A, X: jnp.einsum("akI,akJ->IJ", A, X)  # noqa: E731
+    EP = [cross(B[:, k], P) for k in range(d)]  # b_k × ψ_β
+    Eq = [jnp.cross(B[:, k], q_eq) for k in range(d)]
+    stack = lambda xs, shape: jnp.stack(xs) if xs else jnp.zeros(shape)  # noqa: E731  (d = 0: no rotation)
     return RotationInertia(
-        I=inner(MP, P), G=inner(MP, EP), C=inner(MP, EEP),
-        g=jnp.einsum("akI,ak->I", MP, Eq), c=jnp.einsum("akI,ak->I", MP, EEq),
+        I=inner(MP, P),
+        G=stack([inner(MP, EP[k]) for k in range(d)], (0, km, km)),
+        C=stack([jnp.stack([inner(MP, cross(B[:, k], EP[m])) for m in range(d)]) for k in range(d)], (0, 0, km, km)),
+        g=stack([jnp.einsum("akI,ak->I", MP, Eq[k]) for k in range(d)], (0, km)),
+        c=stack([jnp.stack([jnp.einsum("akI,ak->I", MP, jnp.cross(B[:, k], Eq[m])) for m in range(d)])
+                 for k in range(d)], (0, 0, km)),
     )

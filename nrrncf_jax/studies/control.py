@@ -28,16 +28,12 @@ from ..profiles import FourierSpinUp
 from .optimize import lbfgs
 
 
-def _with_motion(model, motion):
-    return eqx.tree_at(lambda m: m.motion, model, motion)
-
-
 def tip_response(model, motion, ts, *, tip: int | None = None, observer: TipObserver | None = None,
                  **simulate_kwargs) -> Float[Array, "nt 3"]:
     """Tip displacement (rotating frame: ux axial, uy in-plane, uz) at ``ts`` of ``model`` driven
-    by ``motion`` (any object with ``motion(t) -> (θ, θ̇, θ̈)``); keywords go to ``simulate``."""
+    by ``motion`` (a ``motion.AbstractMotion``); keywords go to ``simulate``."""
     obs = tip_observer(model, tip) if observer is None else observer
-    return simulate(_with_motion(model, motion), ts, observe=obs, **simulate_kwargs).ys
+    return simulate(model.with_motion(motion), ts, observe=obs, **simulate_kwargs).ys
 
 
 def residual_mean_square(ts, uy, T_s) -> Float[Array, ""]:

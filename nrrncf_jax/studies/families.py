@@ -104,7 +104,8 @@ def _rayleigh(zeta, E, E0, omega_ref) -> RayleighDamping:
 
 def _with_motion(m: ReducedRotatingModel, params: dict) -> ReducedRotatingModel:
     if "omega_s" in params or "T_s" in params:
-        motion = type(m.motion)(params.get("omega_s", m.motion.omega_s), params.get("T_s", m.motion.T_s))
+        motion = type(m.motion)(params.get("omega_s", m.motion.omega_s), params.get("T_s", m.motion.T_s),
+                                axis=m.motion.axis)
         m = eqx.tree_at(lambda r: r.motion, m, motion)
     return m
 
@@ -166,7 +167,7 @@ class OfflineSpinupFamily(eqx.Module):
         damping = self.damping(params["zeta"], E) if "zeta" in params else m.damping
         if damping is not None and "zeta" not in params:
             damping = self.damping(damping.ratio(self.omega_ref[0]), E)
-        full = RotatingFrameModel(body, m.motion, m.axis, self.loads, damping=damping)
+        full = RotatingFrameModel(body, m.motion, loads=self.loads, damping=damping)
         Psi = self.basis(body, full.free_mask())
         red = reduce_rotating_model(full, Psi, force="tensor")
         return _with_motion(red, params)

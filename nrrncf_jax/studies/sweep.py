@@ -137,7 +137,7 @@ def case_model(model: ReducedRotatingModel, omega_s, T_s, E_scale=1.0) -> Reduce
     For ``E_scale`` ≠ 1 the inertia, rotation and external-load terms are divided by it rather
     than the elastic tensors multiplied (see the module docstring); works under ``vmap``.
     """
-    m = eqx.tree_at(lambda r: r.motion, model, SpinUp(omega_s, T_s))
+    m = eqx.tree_at(lambda r: r.motion, model, SpinUp(omega_s, T_s, axis=model.motion.axis))
     if isinstance(E_scale, (int, float)) and E_scale == 1.0:
         return m
     inv = 1.0 / jnp.asarray(E_scale, dtype=m.Psi.dtype)
