@@ -19,3 +19,6 @@ from .simulate import (
 from .simulate import (
     simulate_batch as simulate_batch,
 )
+from .state import AbstractStepper as AbstractStepper
+from .state import GeneralizedAlphaState as GeneralizedAlphaState
+from .state import NewtonOptions as NewtonOptions

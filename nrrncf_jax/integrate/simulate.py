@@ -1,15 +1,21 @@
 """Adaptive generalized-α time integration of a second-order model: one jit-compiled loop.
 
-Hand-written rather than a diffrax solver because the step must solve for the acceleration
-with prescribed coordinates, keep the auxiliary acceleration ā between steps, reuse a
-block-tridiagonal factorisation inside Newton, and (later) carry index-3 constraints, none of
-which diffrax's ODE-term interface expresses; see ``benchmarks/diffrax_galpha.py`` for the
-cost of the diffrax route. The loop is ``equinox.internal.while_loop``: ``adjoint="forward"``
-lowers to ``lax.while_loop`` (fastest; forward-mode differentiable, vmappable);
-``adjoint="reverse"`` lowers to a checkpointed loop that ``jax.grad`` can differentiate with
-memory O(√max_steps) checkpoints, and differentiates each step's Newton solve implicitly.
+The loop controls the step size, rejects and retries steps, writes the outputs (cubic Hermite
+dense output) and batches runs; the step itself is the stepping method's, diffrax-style
+``solver.init``/``solver.step`` (``state.AbstractStepper``; ``GeneralizedAlpha``, THEORY §8),
+and the loop carries the method's typed state (``state.GeneralizedAlphaState``) in its own
+typed carry, ``_LoopState``. Hand-written rather than a diffrax solver because the step must
+solve for the acceleration with prescribed coordinates, keep the auxiliary acceleration ā
+between steps, reuse a block-tridiagonal factorisation inside Newton, and (later) carry index-3
+constraints, none of which diffrax's ODE-term interface expresses; see
+``benchmarks/diffrax_galpha.py`` for the cost of the diffrax route. The loop is
+``equinox.internal.while_loop``: ``adjoint="forward"`` lowers to ``lax.while_loop`` (fastest;
+forward-mode differentiable, vmappable); ``adjoint="reverse"`` lowers to a checkpointed loop
+that ``jax.grad`` can differentiate with memory O(√max_steps) checkpoints, and differentiates
+each step's Newton solve implicitly (in the step, ``NewtonOptions.implicit``).
 """
 
+import dataclasses
 import inspect
 import sys
 from collections.abc import Callable
@@ -26,7 +32,7 @@ from jax import lax
 from .. import _validate
 from .._types import Array, Float, Int
 from .generalized_alpha import GeneralizedAlpha, hermite_interpolate
-from .newton import newton as newton_iteration
+from .state import AbstractStepper, NewtonOptions
 
 if TYPE_CHECKING:  # the models import the integrator's users; annotations only
     from ..models.base import AbstractModel
@@ -62,7 +68,7 @@ class Solution(eqx.Module):
 
 
 class _Config(eqx.Module):
-    solver: GeneralizedAlpha  # its ρ∞ is an array: traced, not static
+    solver: AbstractStepper  # GeneralizedAlpha: its ρ∞ is an array, traced, not static
     adaptive: bool
     max_steps: int
     max_newton: int
@@ -82,7 +88,7 @@ def simulate(
     *,
     t0: float = 0.0,
     y0: tuple | None = None,
-    solver: GeneralizedAlpha | None = None,
+    solver: AbstractStepper | None = None,
     rtol: float = 1e-4,
     atol: float = 1e-6,
     dt0: float | None = None,
@@ -252,14 +258,56 @@ def _check(sol: Solution, throw: bool) -> Solution:
     return sol
 
 
+class _Stacked(eqx.Module):
+    """A pytree of arrays (the stepping method's state) stored with its leaves of one shape and
+    dtype stacked: the generalized-α (q, v, a, ā) as one (4, n) array, one buffer in the loop's
+    carry rather than four, selected (accept/reject) in one operation. ``unstack`` slices the
+    rows back into the typed state at the start of a step; the new state is stacked where the
+    step's result is selected. (Carrying the four arrays apart changes XLA's fusion of the step,
+    and with it the round-off of the results.)"""
+
+    arrays: tuple[Array, ...]  # one stacked array per group
+    groups: tuple[tuple[int, ...], ...] = eqx.field(static=True)  # the leaves in each array's rows
+    treedef: Any = eqx.field(static=True)
+
+    @classmethod
+    def of(cls, tree) -> "_Stacked":
+        leaves, treedef = jtu.tree_flatten(tree)
+        groups: dict = {}
+        for i, x in enumerate(leaves):
+            groups.setdefault((jnp.shape(x), jnp.result_type(x)), []).append(i)
+        groups = tuple(tuple(g) for g in groups.values())
+        return cls(tuple(jnp.stack([leaves[i] for i in g]) for g in groups), groups, treedef)
+
+    def unstack(self):
+        leaves = [None] * sum(len(g) for g in self.groups)
+        for arr, g in zip(self.arrays, self.groups):
+            for i, row in zip(g, arr):
+                leaves[i] = row
+        return jtu.tree_unflatten(self.treedef, leaves)
+
+
+class _LoopState(eqx.Module):
+    """The adaptive loop's carry: time, next step size, the stepping method's state, the first
+    output slot not yet covered, statistics, status and the output buffer."""
+
+    t: Float[Array, ""]
+    h: Float[Array, ""]  # the next step's size
+    state: _Stacked  # the stepping method's (``GeneralizedAlphaState``), stacked
+    k: Int[Array, ""]  # the first output slot that no accepted step has covered
+    counts: Int[Array, "3"]  # accepted steps, rejected steps, Newton iterations
+    result: Int[Array, ""]  # 0 while running, else a key of RESULTS
+    ys: Any = None  # output buffer (n_out + K slots per leaf); None in batched runs (see step)
+
+
 class _Loop(NamedTuple):
     """One run's adaptive loop: its initial carry, step, condition and the Solution it ends in."""
 
-    init: Callable  # init(outputs=True) -> carry (with its output buffer "ys" unless outputs=False)
+    init: Callable  # init(outputs=True) -> _LoopState (with its output buffer unless outputs=False)
     outputs: Callable  # outputs(carry) -> the output buffer of a run starting from this carry
-    step: Callable  # step(carry, active=None) -> carry (see step)
+    step: Callable  # step(carry, active=None) -> (carry, window) (see step)
     cond: Callable  # cond(carry) -> bool
-    finish: Callable  # finish(final carry) -> Solution
+    finish: Callable  # finish(final carry, ys=None) -> Solution
 
 
 def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config: _Config) -> _Loop:
@@ -289,108 +337,55 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
     def initial_carry(outputs=True):
         """The loop's first carry; a function, so that tracing the step or the condition does not
         trace the initial solve too. ``outputs=False``: without the output buffer."""
-        # Initial state and consistent acceleration: M a0 = −g(t0, q0, v0).
         q0, v0 = model.initial_state(t0) if y0 is None else y0
-        q0, v0, _ = model.constrain(t0, q0, v0, jnp.zeros_like(q0))
-        z = jnp.zeros_like(q0)
-        fac0 = model.factor_iteration_matrix(t0, q0, v0, 1.0, 0.0, 0.0)
-        a0 = -fac0.solve(model.residual(t0, q0, v0, z))
-        _, _, a0 = model.constrain(t0, q0, v0, a0)
-
+        state = solver.init(model, t0, q0, v0)  # with the consistent acceleration M a0 = −g
         k0 = jnp.sum(ts_pad <= t0).astype(int)
         h0 = limit_step(t0, jnp.minimum(dt0, dt_max), k0)
-        c = dict(
-            t=t0, h=h0, y=jnp.stack([q0, v0, a0, a0]), k=k0,  # y = (q, v, a, ā): one carried array
-            counts=jnp.zeros(3, int), result=jnp.array(0),  # counts: accepted, rejected steps; Newton iterations
-        )
-        return dict(c, ys=initial_outputs(c)) if outputs else c
+        c = _LoopState(t=t0, h=h0, state=_Stacked.of(state), k=k0, counts=jnp.zeros(3, int), result=jnp.array(0))
+        return dataclasses.replace(c, ys=initial_outputs(c)) if outputs else c
 
     def initial_outputs(c):
         """The output buffer (n_out + K slots): the initial observation at the times ≤ t0."""
-        obs0 = config.observe(t0, c["y"][0], c["y"][1])
+        st = c.state.unstack()
+        obs0 = config.observe(t0, st.q, st.v)
         at_start = ts_pad <= t0
         return jtu.tree_map(
             lambda x: jnp.where(at_start.reshape((-1,) + (1,) * jnp.ndim(x)), x,
                                 jnp.zeros((n_out + K,) + jnp.shape(x), jnp.result_type(x))), obs0)
 
-    def make_stage(m, t1, h, q, v, a, abar):
-        """(q1, v1, a1, ā1) of the step as functions of the new acceleration a1."""
-
-        def stage(a1):
-            q1, v1, abar1 = solver.kinematics(h, q, v, a, abar, a1)
-            q1, v1, a1 = m.constrain(t1, q1, v1, a1)
-            return q1, v1, a1, abar1
-
-        return stage
-
-    def newton_solve(m, t1, h, q, v, a, abar, scale, mask):
-        """Solve r(a1) = 0 for the step's true acceleration by damped Newton (``newton.py``),
-        modified or full, from the predictor a1 = a.
-
-        Modified: the iteration matrix is factored once, at the predictor. Full: each
-        correction comes from one ``m.newton_update`` call (residual and factor at the iterate),
-        and the solve also stops on the error its last correction leaves, estimated from the
-        observed contraction (23-DOF reduced spin-up at 40 rad/s: fewer iterations, same steps).
-        Modified Newton keeps the plain test: its contraction from the predictor's large first
-        correction is no guide to the later ones. A correction's size is measured in the step's
-        error space, in units of the tolerance at the step's start (``scale``).
-        """
-        c_C, c_K = solver.derivatives(h)
-        stage = make_stage(m, t1, h, q, v, a, abar)
-        if config.newton == "modified":
-            q1, v1, _, _ = stage(a)
-            fac = m.factor_iteration_matrix(t1, q1, v1, 1.0, c_C, c_K)
-
-        def update(a1):
-            q1, v1, a1, _ = stage(a1)
-            if config.newton == "full":
-                return m.newton_update(t1, q1, v1, a1, 1.0, c_C, c_K)
-            return fac.solve(m.residual(t1, q1, v1, a1))
-
-        def norm(da):
-            return rms(m.error_space(q, c_K * da)[1], scale, mask)
-
-        sol = newton_iteration(update, norm, a, newton_tol, config.max_newton,
-                               contraction_test=config.newton == "full", divergence_test=config.adaptive)
-        return sol.x, sol.iterations, sol.converged, stage, c_C, c_K
+    newton_options = NewtonOptions(tol=newton_tol, max_iter=config.max_newton, variant=config.newton,
+                                   divergence_test=config.adaptive, implicit=config.adjoint == "reverse")
 
     def step(c, active=None):
-        """One attempted step. ``active`` (batched runs, see ``_simulate_batch``): a member that
-        is done steps at a harmless size and keeps its carry unchanged. A carry without the
-        output buffer ``ys`` (``init(outputs=False)``, as batched runs use) returns the step's
-        output window instead, ``"window"``: the K slots from ``c["k"]`` on, for the caller to
+        """One attempted step: ``(carry, window)``, the new carry and the step's output window
+        (its observations at the K output slots from ``c.k`` on). ``active`` (batched runs, see
+        ``_simulate_batch``): a member that is done steps at a harmless size and keeps its carry
+        unchanged. A carry with the output buffer ``ys`` gets the window written into it; a carry
+        without (``init(outputs=False)``, as batched runs use) leaves the window to the caller to
         write (or drop, for an inactive member)."""
-        t, h, k = c["t"], c["h"], c["k"]
-        q, v, a, abar = c["y"]
+        t, h, k, st = c.t, c.h, c.k, c.state.unstack()
         if active is not None:
             h = jnp.where(active, h, dt0)
         h = lax.stop_gradient(h)
         t1 = t + h
         ns = next_stop(k)
         t1 = jnp.where(jnp.abs(t1 - ns) <= 1e-12 * (1.0 + jnp.abs(ns)), ns, t1)
-        x0, mask = error_coords(q)
+        x0, mask = error_coords(st.q)
         x0 = lax.stop_gradient(x0)
         newton_scale = atol + rtol * jnp.abs(x0)
-        if config.adjoint == "reverse":
-            sg = lax.stop_gradient
-            a1, iters, done, _, c_C, c_K = newton_solve(sg(model), t1, h, sg(q), sg(v), sg(a), sg(abar),
-                                                          newton_scale, mask)
-            a1 = lax.stop_gradient(a1)
+        # Newton's corrections are measured in the step's error space, in units of the
+        # tolerance at the step's start; in reverse mode without derivatives (the step
+        # differentiates its solve implicitly).
+        m_n, q_n = lax.stop_gradient((model, st.q)) if newton_options.implicit else (model, st.q)
 
-            # Implicit derivative of the Newton solve: the tangent of one Newton update with the
-            # gradient of the residual with respect to the parameters and the previous state,
-            # and the iteration matrix at the solution (da1/dθ = −J⁻¹ ∂r/∂θ). Only its tangent
-            # is added (δ − sg(δ) is exactly zero), so the values equal the forward-mode run's.
-            stage = make_stage(model, t1, h, q, v, a, abar)
-            q1s, v1s, _, _ = stage(a1)
-            fac_star = sg(model).factor_iteration_matrix(t1, sg(q1s), sg(v1s), 1.0, c_C, c_K)
-            delta = fac_star.solve(model.residual(t1, q1s, v1s, a1))
-            a1 = a1 + (sg(delta) - delta)
-        else:
-            a1, iters, done, stage, c_C, c_K = newton_solve(model, t1, h, q, v, a, abar, newton_scale, mask)
-        q1, v1, a1, abar1 = stage(a1)
+        def norm(dq):
+            return rms(m_n.error_space(q_n, dq)[1], newton_scale, mask)
 
-        x1, ex, _ = model.error_space(q1, solver.error_estimate(h, a, a1))
+        st1, error, newton_sol = solver.step(model, t, t1, st, newton_options, norm, h=h)
+        iters, done = newton_sol.iterations, newton_sol.converged
+        q1, v1 = st1.q, st1.v
+
+        x1, ex, _ = model.error_space(q1, error)
         err = lax.stop_gradient(rms(ex, atol + rtol * jnp.maximum(jnp.abs(x0), jnp.abs(x1)), mask))
         finite = jnp.isfinite(err) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(v1))
         ok = done & finite
@@ -409,7 +404,7 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
         tau = ts_pad[idx]
         write = accept & (tau <= t1)
         s = jnp.clip((tau - t) / h, 0.0, 1.0)
-        qi, vi = hermite_interpolate(s[:, None], h, q, v, q1, v1)
+        qi, vi = hermite_interpolate(s[:, None], h, st.q, st.v, q1, v1)
         obs = jax.vmap(config.observe)(jnp.where(write, tau, t1), qi, vi)
 
         if config.adjoint == "reverse":
@@ -432,34 +427,34 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
 
         t_new = jnp.where(accept, t1, t)
         h_new = lax.stop_gradient(limit_step(t_new, h_new, k_new))
-        pick = lambda new, old: jnp.where(accept, new, old)  # noqa: E731
+        pick = lambda new, old: jnp.where(accept, new, old)  # noqa: E731, applied leaf by leaf
         result = jnp.where(~accept & (h_new < dt_min), jnp.where(finite, 2, 3), 0)
         if config.progress:
             lax.cond(
-                accept & (c["counts"][0] % 200 == 0),
-                lambda: jax.debug.callback(_print_progress, t_new, t_end, c["counts"][0]),
+                accept & (c.counts[0] % 200 == 0),
+                lambda: jax.debug.callback(_print_progress, t_new, t_end, c.counts[0]),
                 lambda: None,
             )
-        new = dict(
-            t=t_new, h=h_new, y=pick(jnp.stack([q1, v1, a1, abar1]), c["y"]), k=k_new,
-            counts=c["counts"] + jnp.stack([accept, ~accept, iters]).astype(int), result=result,
+        new = _LoopState(
+            t=t_new, h=h_new, state=jtu.tree_map(pick, _Stacked.of(st1), c.state), k=k_new,
+            counts=c.counts + jnp.stack([accept, ~accept, iters]).astype(int), result=result,
         )
         if active is not None:
-            new = {key: jnp.where(active, val, c[key]) for key, val in new.items()}
-        if "ys" in c:
-            new["ys"] = jtu.tree_map(write_window, obs, c["ys"])
-        else:
-            new["window"] = obs
-        return new
+            new = jtu.tree_map(lambda val, old: jnp.where(active, val, old), new, c)
+        if c.ys is not None:
+            new = dataclasses.replace(new, ys=jtu.tree_map(write_window, obs, c.ys))
+        return new, obs
 
     def cond(c):
-        return (c["t"] < t_end) & (c["result"] == 0)
+        return (c.t < t_end) & (c.result == 0)
 
-    def finish(final):
-        result = jnp.where((final["result"] == 0) & (final["t"] < t_end), 1, final["result"])
+    def finish(final, ys=None):
+        """The Solution of the final carry (``ys``: its output buffer, when it carries none)."""
+        ys = final.ys if ys is None else ys
+        result = jnp.where((final.result == 0) & (final.t < t_end), 1, final.result)
         return Solution(
-            ts=ts, ys=jtu.tree_map(lambda y: y[:n_out], final["ys"]), t_final=final["t"], result=result,
-            num_steps=final["counts"][0], num_rejected=final["counts"][1], num_newton=final["counts"][2],
+            ts=ts, ys=jtu.tree_map(lambda y: y[:n_out], ys), t_final=final.t, result=result,
+            num_steps=final.counts[0], num_rejected=final.counts[1], num_newton=final.counts[2],
         )
 
     return _Loop(init=initial_carry, outputs=initial_outputs, step=step, cond=cond, finish=finish)
@@ -469,12 +464,12 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
 def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config: _Config) -> Solution:
     loop = _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config)
     final = eqxi.while_loop(
-        loop.cond, loop.step, loop.init(), max_steps=config.max_steps,
-        buffers=(lambda c: c["ys"]) if config.adjoint == "reverse" else None,
+        loop.cond, lambda c: loop.step(c)[0], loop.init(), max_steps=config.max_steps,
+        buffers=(lambda c: c.ys) if config.adjoint == "reverse" else None,
         kind="checkpointed" if config.adjoint == "reverse" else "lax",
     )
     if config.progress:
-        jax.debug.callback(_print_progress, final["t"], ts[-1], final["counts"][0], True)
+        jax.debug.callback(_print_progress, final.t, ts[-1], final.counts[0], True)
     return loop.finish(final)
 
 
@@ -503,7 +498,7 @@ def _simulate_batch(model_fn, params, ts, t0, dt0, rtol, atol, dt_min, dt_max, n
         return _build_loop(model_fn(p), ts, t0, None, dt0, rtol, atol, dt_min, dt_max, newton_tol, config)
 
     def running(p, c):
-        return loop(p).cond(c) & (c["counts"][0] + c["counts"][1] < config.max_steps)
+        return loop(p).cond(c) & (c.counts[0] + c.counts[1] < config.max_steps)
 
     def take(tree, i):
         return jtu.tree_map(lambda x: x[jnp.clip(i, 0, n - 1)], tree)
@@ -517,13 +512,12 @@ def _simulate_batch(model_fn, params, ts, t0, dt0, rtol, atol, dt_min, dt_max, n
     def body(state):
         C, lane_p, member, queued, final, ys = state
         active = (member < n) & jax.vmap(running)(lane_p, C)
-        new = jax.vmap(lambda p, c, on: loop(p).step(c, active=on))(lane_p, C, active)
+        new, window = jax.vmap(lambda p, c, on: loop(p).step(c, active=on))(lane_p, C, active)
         # Each lane's window of outputs into its member's row, from the slot it started at (one
         # scatter); an idle lane's window is dropped.
         row = jnp.where(active, member, n)[:, None]  # out of range: dropped
-        col = C["k"][:, None] + jnp.arange(_WINDOW)
-        ys = jtu.tree_map(lambda buf, w: buf.at[row, col].set(w.astype(buf.dtype), mode="drop"), ys,
-                          new.pop("window"))
+        col = C.k[:, None] + jnp.arange(_WINDOW)
+        ys = jtu.tree_map(lambda buf, w: buf.at[row, col].set(w.astype(buf.dtype), mode="drop"), ys, window)
         # Members that end: store their carry, and hand their lanes to the next ones waiting.
         ended = active & ~jax.vmap(running)(lane_p, new)
         final = jtu.tree_map(lambda f, x: f.at[jnp.where(ended, member, n)].set(x, mode="drop"), final, new)
@@ -540,7 +534,7 @@ def _simulate_batch(model_fn, params, ts, t0, dt0, rtol, atol, dt_min, dt_max, n
 
     state = (take(first, lane), take(params, lane), lane, jnp.array(width), first, ys)
     _, _, _, _, final, ys = lax.while_loop(lambda s: jnp.any(s[2] < n), body, state)
-    return jax.vmap(lambda p, c, y: loop(p).finish(dict(c, ys=y)))(params, final, ys)
+    return jax.vmap(lambda p, c, y: loop(p).finish(c, ys=y))(params, final, ys)
 
 
 def _print_progress(t, t_end, steps, last=False):

@@ -1,0 +1,102 @@
+"""The adaptive loop's interface to its stepping method (THEORY §8): the typed state a method
+carries from step to step, the Newton options of a step, and the ``init``/``step`` contract.
+
+The loop (``simulate.py``) controls the step size, rejects and retries steps, interpolates the
+outputs and batches runs; the stepping method (``GeneralizedAlpha``, Arnold-Brüls form) owns
+the discrete equations: what it carries, how a step is solved, and its local error estimate.
+A constrained method (index-3 multibody joints, Lagrange multipliers λ) is written as another
+``AbstractStepper`` beside ``GeneralizedAlpha`` and runs in the same loop.
+"""
+
+import abc
+from collections.abc import Callable
+from typing import Literal
+
+import equinox as eqx
+import jax.numpy as jnp
+
+from .._types import Array, Float, Scalar
+from .newton import NewtonSolution
+
+
+class GeneralizedAlphaState(eqx.Module):
+    """The generalized-α state at the end of a step (THEORY §8): coordinates q, velocities v,
+    the true acceleration a, the auxiliary acceleration ā (``abar``), and the Lagrange
+    multipliers λ (``lam``; shape (0,) for an unconstrained model, the default).
+
+    The adaptive loop carries it with (q, v, a, ā) stacked into one (4, n) array, one buffer
+    in the ``while_loop`` rather than four (``simulate._Stacked``).
+    """
+
+    q: Float[Array, " n"]
+    v: Float[Array, " n"]
+    a: Float[Array, " n"]
+    abar: Float[Array, " n"]
+    lam: Float[Array, " m"]
+
+    def __init__(self, q, v, a, abar, lam=None):
+        self.q, self.v, self.a, self.abar = q, v, a, abar
+        self.lam = jnp.zeros((0,), jnp.result_type(q)) if lam is None else lam
+
+
+class NewtonOptions(eqx.Module):
+    """How a step solves its implicit equations (``integrate.newton``).
+
+    ``tol``: the stopping tolerance on a correction's size, as ``step``'s ``norm`` measures
+    it; ``max_iter``: the most corrections; ``variant``: ``"modified"`` (iteration matrix
+    factored once per step) or ``"full"`` (once per correction, with the contraction test);
+    ``divergence_test``: fail a solve whose corrections grow from the third on; ``implicit``:
+    the loop runs in reverse mode, so the step returns the solve's value with the tangent of
+    the implicit function theorem (the solve itself is not differentiated).
+    """
+
+    tol: Scalar
+    max_iter: int = eqx.field(static=True)
+    variant: Literal["modified", "full"] = eqx.field(static=True)
+    divergence_test: bool = eqx.field(static=True)
+    implicit: bool = eqx.field(static=True)
+
+
+class AbstractStepper(eqx.Module):
+    """A one-step method for ``M(q) a + g(t, q, v) = 0`` that the adaptive loop can drive.
+
+    The contract (``GeneralizedAlpha`` implements it; a constrained sibling would too):
+
+    - ``init(model, t0, q0, v0) -> state``: the state at ``t0`` from the initial coordinates
+      and velocities, with its accelerations (and multipliers) consistent with the equations
+      of motion at ``t0``. ``state`` is an ``equinox.Module`` of arrays whose shapes and
+      dtypes stay the same from step to step (the loop carries it in a ``while_loop``, its
+      leaves of one shape stacked into one array), with attributes ``q`` and ``v``: the loop
+      measures errors and interpolates outputs (cubic Hermite) from them alone. Multipliers
+      λ belong in the state (``GeneralizedAlphaState.lam``).
+    - ``step(model, t0, t1, state, newton, norm, *, h=None) -> (state1, error, solution)``:
+      one step from ``t0`` to ``t1`` of size ``h`` (default ``t1 − t0``; the loop passes its
+      own ``h``, which may differ from ``t1 − t0`` by round-off where ``t1`` was snapped onto
+      an output time). ``state1`` is the state at ``t1`` (prescribed coordinates imposed);
+      ``error`` is the local error estimate of ``q`` over the step, shape ``(n,)`` in the
+      model's coordinates: the Lagrange multipliers (and velocities, accelerations) are not in
+      the error norm, which the loop takes over ``model.error_space(state1.q, error)``;
+      ``solution`` is the ``NewtonSolution`` of the step's solve (the loop reads its
+      ``iterations`` and ``converged``; a step whose solve did not converge is rejected).
+      ``norm(dq)`` measures a correction of ``q`` in units of the error tolerance; a method
+      maps its Newton correction to one of ``q`` (multipliers excluded) before measuring it.
+      Under ``newton.implicit`` the loop builds ``norm`` from stop-gradient inputs and the
+      method must not differentiate through its Newton iteration: it solves with
+      stop-gradient inputs and adds the implicit-function tangent of the solution.
+
+    The step is a pure function of its inputs (``jit``, ``vmap`` and forward-mode
+    differentiation pass through); step-size control, rejection and dense output are the loop's.
+    """
+
+    @abc.abstractmethod
+    def init(self, model, t0: Scalar, q0: Float[Array, " n"], v0: Float[Array, " n"]):
+        """The state at ``t0`` (see the class docstring)."""
+
+    @abc.abstractmethod
+    def step(self, model, t0: Scalar, t1: Scalar, state, newton: NewtonOptions,
+             norm: Callable[[Float[Array, " n"]], Scalar], *, h: Scalar | None = None
+             ) -> tuple[eqx.Module, Float[Array, " n"], NewtonSolution]:
+        """``(state1, error, solution)`` of one step (see the class docstring)."""
+
+
+__all__ = ["AbstractStepper", "GeneralizedAlphaState", "NewtonOptions"]
