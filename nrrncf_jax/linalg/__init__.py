@@ -14,12 +14,13 @@ from .assembly import DENSE_MAX_DOFS, SOLVERS, assemble_and_factor, choose_solve
 from .base import AbstractFactorization, Parts
 from .block_tridiagonal import BlockTridiagonalLU, assemble_block_tridiagonal, factor_block_tridiagonal
 from .dense import DenseLU, _solve_augmented, _solve_factored, assemble_dense, solve_once
-from .sparse import CACHE_SIZE, SparseLU, SparsityPattern, assemble_sparse, factor_sparse, sparse_modes
+from .sparse import CACHE_SIZE, ScaledSuperLU, SparseLU, SparsityPattern, assemble_sparse, factor_sparse, sparse_modes
 
 __all__ = [
     "CACHE_SIZE",
     "DENSE_MAX_DOFS",
     "SOLVERS",
+    "ScaledSuperLU",
     "AbstractFactorization",
     "BlockTridiagonalLU",
     "DenseLU",

@@ -12,13 +12,11 @@ import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import numpy as np
-import scipy.sparse.linalg
 
 from .._types import Array, Bool, Float
 from .._validate import is_concrete
 from ..body import Body
-from ..linalg import DENSE_MAX_DOFS, assemble_sparse
-from ..linalg.sparse import DIAG_PIVOT_THRESH, PERMC_SPEC
+from ..linalg import DENSE_MAX_DOFS, ScaledSuperLU, assemble_sparse
 
 
 class ModalDerivatives(eqx.Module):
@@ -134,8 +132,7 @@ def _sparse_modal_derivatives(body, q_eq, phi, idx, ii, jj, method: str):
     rhs, parts = _right_hand_sides(body, jnp.asarray(q_eq, dtype=float), jnp.asarray(phi), ii, jj, method)
     K = assemble_sparse([(np.asarray(G), np.asarray(d)) for G, d in parts], body.n_dof)
     Kf = K[idx][:, idx].tocsc()
-    lu = scipy.sparse.linalg.splu(Kf, permc_spec=PERMC_SPEC, diag_pivot_thresh=DIAG_PIVOT_THRESH,
-                                  options=dict(SymmetricMode=True))
+    lu = ScaledSuperLU(Kf)
     theta = np.zeros((body.n_dof, len(ii)))
     theta[idx] = -lu.solve(np.ascontiguousarray(np.asarray(rhs)[:, idx].T))
     return jnp.asarray(theta)
