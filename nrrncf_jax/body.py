@@ -79,11 +79,21 @@ _integrals_vmap = eqx.filter_jit(lambda element, q_hat, length: jax.vmap(element
 _CHUNK = 64  # elements per vmapped call when integrating large meshes
 
 
-def element_group(element: AbstractElement, q_hat: Float[Array, "n 3"], elements, lengths=None) -> ElementGroup:
+def element_group(element: AbstractElement, q_hat: Float[Array, "n 3"], elements, lengths=None,
+                  transforms=None) -> ElementGroup:
     """The group of ``element``-type elements with connectivity ``elements`` (n_el × n_e indices
     into the nodal vectors ``q_hat``), integrals computed from the reference configuration.
     ``lengths``: each element's reference length (default: the distance between the position
-    vectors of its first and last node)."""
+    vectors of its first and last node).
+
+    ``transforms`` (n_el × n_e × n_e, optional): element e's own nodal vectors are the linear
+    combinations ``q^e_α = T_αA q_{elements[e, A]}`` of the body's, not the body's vectors
+    themselves: e.g. a beam whose end joins a joint node carrying the full position gradient
+    (``frame.frame_body``: its slope and section vectors are that gradient times its own
+    directions). Q is bilinear in the vectors, so ``Q^e = T Q Tᵀ`` and the integrals in the body's
+    vectors are ``κ^{ABCD} = T_αA T_βB T_μC T_νD κ^{αβμν}``, ``Tᵀ M T``, ``Tᵀ ϱ``: constant
+    still, and the group computes with them as with any other (Shabana & Mikkola's gradient
+    transformation for slope discontinuities, 2003)."""
     elements = np.asarray(elements) if not isinstance(elements, jax.core.Tracer) else elements
     ne = element.vectors
     if elements.ndim != 2 or elements.shape[1] != ne:
@@ -95,6 +105,12 @@ def element_group(element: AbstractElement, q_hat: Float[Array, "n 3"], elements
             raise ValueError(f"connectivity refers to nodal vector {int(elements.max())} (or a negative one); the "
                              f"body has {n}")
     q_e = jnp.asarray(q_hat)[elements]  # (n_el, ne, 3)
+    if transforms is not None:
+        transforms = jnp.asarray(transforms, dtype=float)
+        if transforms.shape != (elements.shape[0], ne, ne):
+            raise ValueError(f"transforms must have shape ({elements.shape[0]}, {ne}, {ne}), got "
+                             f"{tuple(transforms.shape)}")
+        q_e = jnp.einsum("eab,ebi->eai", transforms, q_e)  # the elements' own reference vectors
     if lengths is None:
         first, last = element.position_slots[0], (element.nodes - 1) * element.vectors_per_node
         lengths = jnp.linalg.norm(q_e[:, last] - q_e[:, first], axis=-1)
@@ -122,6 +138,11 @@ def element_group(element: AbstractElement, q_hat: Float[Array, "n 3"], elements
                   for i in range(0, n_el + pad, _CHUNK)]
         ints = [jnp.concatenate([np.asarray(c[k]) for c in chunks])[:n_el] for k in range(4)]
     kappa, M, varrho, m = ints
+    if transforms is not None:
+        T = transforms
+        kappa = jnp.einsum("eabmn,eaA,ebB,emC,enD->eABCD", kappa, T, T, T, T)
+        M = jnp.einsum("eab,eaA,ebB->eAB", M, T, T)
+        varrho = jnp.einsum("ea,eaA->eA", varrho, T)
     return ElementGroup(element=element, elements=jnp.asarray(elements), kappa=kappa, M_e=M, varrho_e=varrho, m_e=m)
 
 

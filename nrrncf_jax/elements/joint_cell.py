@@ -1,0 +1,64 @@
+"""The joint cell: the stiffness of a rigid joint's own small solid, on the joint's position gradient.
+
+A joint node of a frame (``frame.frame_body``) carries the full position gradient
+``F = [r_X, r_Y, r_Z]``, shared by every member that meets there. The members resist a distortion
+of F (a shear of r_X against r_Y, say) only through the transverse shear strain of the element
+next to the joint, and the energy of that resistance is proportional to the element's length: a
+point constraint on a shear-deformable beam's slope costs nothing in the continuum limit, so under
+mesh refinement two members at an angle would turn into a hinge (measured on a right-angle frame:
+the tip deflection 0.06 %, 0.12 %, …, 4.5 % above the rigid-joint solution at 1, 2, …, 128
+elements a member, doubling with each refinement).
+
+The joint cell is the elastic energy of the joint's own material, a small isotropic solid of
+volume V (default: a cube of the members' outer diameter, the size of a welded or bolted node)
+whose deformation gradient is F:
+
+    U = ½ V E_ij C_ijkl E_kl,   E_ij = ½(r_i·r_j − δ_ij) = Q_ij,
+
+so κ^{ijkl} = V C_ijkl (symmetrised), constant, with the three gradient vectors as the element's
+nodal vectors. It carries no mass (the issue's joints have none) and no position vector. A rigid
+rotation of F costs nothing; any distortion of the joint costs at least ``2μV`` per unit strain²,
+independent of the mesh, so the joint's stiffness converges under refinement.
+"""
+
+from typing import ClassVar
+
+import jax.numpy as jnp
+
+from .. import _validate
+from .._types import Array, Float, ScalarLike
+from ..material import Material
+from .base import AbstractElement, ElementIntegrals
+
+
+class JointCell(AbstractElement):
+    """A joint's solid of ``material`` and ``volume`` [m³] on its gradient vectors (r_X, r_Y, r_Z)."""
+
+    material: Material
+    volume: Float[Array, ""]
+
+    nodes: ClassVar[int] = 1
+    vectors_per_node: ClassVar[int] = 3
+    position_slots: ClassVar[tuple[int, ...]] = ()
+
+    def __init__(self, material: Material, volume: ScalarLike):
+        _validate.positive("volume (joint cell volume)", volume)
+        self.material = material
+        self.volume = jnp.asarray(volume, dtype=float)
+
+    def integrals(self, q_hat: Float[Array, "3 3"], length: Float[Array, ""]) -> ElementIntegrals:
+        E, nu = self.material.E, self.material.nu
+        lam = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+        mu = E / (2.0 * (1.0 + nu))
+        d = jnp.eye(3)
+        C = (lam * jnp.einsum("ij,kl->ijkl", d, d)
+             + mu * (jnp.einsum("ik,jl->ijkl", d, d) + jnp.einsum("il,jk->ijkl", d, d)))
+        # In the reference F̂ = I the gradient vectors are the global axes, so E_ij = Q_ij directly;
+        # for another reference F̂ (not used by frames) E = F̂⁻ᵀ Q F̂⁻¹.
+        Fi = jnp.linalg.inv(q_hat.T)
+        kappa = self.volume * jnp.einsum("ai,bj,ck,dl,ijkl->abcd", Fi, Fi, Fi, Fi, C)
+        z = jnp.zeros(())
+        return ElementIntegrals(kappa=kappa, M=jnp.zeros((3, 3)), varrho=jnp.zeros(3), m=z)
+
+
+__all__ = ["JointCell"]
