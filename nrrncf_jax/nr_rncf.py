@@ -124,8 +124,10 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     rest = [phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
     extra, check = [], None
     # The spinning state is that of a steady spin about a fixed axis: "auto" checks it for such
-    # motions only.
-    if spin_state is True or (spin_state == "auto" and sel.pairs and isinstance(full.motion, AbstractAxisMotion)):
+    # motions only, and only when they spin (a structure excited by loads in a stationary frame
+    # has no spinning state).
+    if spin_state is True or (spin_state == "auto" and sel.pairs and spin > 0.0
+                              and isinstance(full.motion, AbstractAxisMotion)):
         if spin <= 0.0:
             raise ValueError("spin_state=True needs a manoeuvre that spins (its largest spin rate is 0)")
         t0 = time.perf_counter()

@@ -2,6 +2,9 @@
 
 from .base import AbstractModel as AbstractModel
 from .full_order import (
+    Harmonic as Harmonic,
+)
+from .full_order import (
     InertialFrameModel as InertialFrameModel,
 )
 from .full_order import (

@@ -30,15 +30,31 @@ from ..motion import AbstractMotion, skew
 from .base import AbstractModel
 
 
+class Harmonic(eqx.Module):
+    """The time history ``sin(2π f t + phase)`` of a load (``Loads(point_history=...)``)."""
+
+    frequency: Float[Array, ""]  # [Hz]
+    phase: Float[Array, ""]  # [rad]
+
+    def __init__(self, frequency, phase=0.0):
+        self.frequency = jnp.asarray(frequency, dtype=float)
+        self.phase = jnp.asarray(phase, dtype=float)
+
+    def __call__(self, t: Scalar) -> Float[Array, ""]:
+        return jnp.sin(2.0 * jnp.pi * self.frequency * t + self.phase)
+
+
 class Loads(eqx.Module):
     """External loads. ``gravity`` is an acceleration in the inertial frame; point forces act
-    on nodal vectors (e.g. the tip's position vector) and are given in the reference frame."""
+    on nodal vectors (e.g. the tip's position vector) and are given in the reference frame,
+    constant, or ``point_forces × point_history(t)`` with a scalar history such as ``Harmonic``."""
 
     gravity: Float[Array, " 3"]
     point_vectors: Int[Array, " k"]
     point_forces: Float[Array, "k 3"]
+    point_history: eqx.Module | None
 
-    def __init__(self, gravity=None, point_vectors=(), point_forces=None):
+    def __init__(self, gravity=None, point_vectors=(), point_forces=None, point_history=None):
         self.gravity = jnp.zeros(3) if gravity is None else jnp.asarray(gravity, dtype=float).reshape(3)
         self.point_vectors = jnp.asarray(point_vectors, dtype=int).reshape(-1)
         k = self.point_vectors.shape[0]
@@ -46,11 +62,20 @@ class Loads(eqx.Module):
         if pf.shape != (k, 3):
             raise ValueError(f"point_forces must have shape ({k}, 3) to match point_vectors, got {pf.shape}")
         self.point_forces = pf
+        if point_history is not None and not callable(point_history):
+            raise ValueError(f"point_history must be a function of time (e.g. Harmonic), got {point_history!r}")
+        self.point_history = point_history
 
-    def generalized(self, body: Body, A_T_g: Float[Array, " 3"]) -> Float[Array, "n 3"]:
-        """Q_α = ∫ S_α f dV in the reference frame, for gravity ``Aᵀg`` there (Eq. 12)."""
+    def point_scale(self, t: Scalar) -> Float[Array, ""]:
+        """The point forces' factor at time t (1 without a history)."""
+        return jnp.ones(()) if self.point_history is None else self.point_history(t)
+
+    def generalized(self, body: Body, A_T_g: Float[Array, " 3"], t: Scalar = 0.0) -> Float[Array, "n 3"]:
+        """Q_α = ∫ S_α f dV in the reference frame at time t, for gravity ``Aᵀg`` there (Eq. 12)."""
         Q = body.varrho()[:, None] * A_T_g[None, :]
-        return Q.at[self.point_vectors].add(self.point_forces)
+        if self.point_history is None:  # the constant-load path as it was (same operations)
+            return Q.at[self.point_vectors].add(self.point_forces)
+        return Q.at[self.point_vectors].add(self.point_forces * self.point_scale(t))
 
 
 class _FullOrderModel(AbstractModel):
@@ -189,7 +214,7 @@ class RotatingFrameModel(_FullOrderModel):
         rel = Acc + coriolis + euler + centrifugal
         # Gravity and the frame's translation act as one uniform acceleration, g − r̈₀ (Eq. 12).
         A_T_g = self.rotation(t).T @ (self.loads.gravity - self.motion.origin_acceleration(t))
-        r = self.mass_times(rel) + self.body.elastic_force(Q) - self.loads.generalized(self.body, A_T_g)
+        r = self.mass_times(rel) + self.body.elastic_force(Q) - self.loads.generalized(self.body, A_T_g, t)
         r = r.reshape(-1) + self.damping_force(v)
         return jnp.where(self.free_mask(), r, 0.0)
 
@@ -251,6 +276,8 @@ class InertialFrameModel(_FullOrderModel):
         A = self.rotation(t)
         # Point forces are given in the rotating frame: rotate them with A; gravity is inertial.
         P = jnp.zeros_like(Q).at[self.loads.point_vectors].add(self.loads.point_forces @ A.T)
+        if self.loads.point_history is not None:
+            P = P * self.loads.point_scale(t)
         ext = self.body.varrho()[:, None] * self.loads.gravity[None, :] + P
         r = self.mass_times(Acc) + self.body.elastic_force(Q) - ext
         return jnp.where(self.free_mask(), r.reshape(-1), 0.0)

@@ -41,6 +41,7 @@ class ReducedRotatingModel(AbstractModel):
     inertia: RotationInertia
     gravity_map: Float[Array, "km 3"]  # Σ_α ϱ_α ψ^i_α: Ψᵀ of a uniform body-frame acceleration
     point_load: Float[Array, " km"]  # Ψᵀ of the point forces
+    point_history: eqx.Module | None  # their time history (``Loads.point_history``; None: constant)
     gravity: Float[Array, " 3"]
     physical_mask: Bool[Array, " ndof"]  # the full model's free coordinates
     motion: AbstractMotion
@@ -122,7 +123,8 @@ class ReducedRotatingModel(AbstractModel):
     def external(self, t):
         A = self.motion.rotation(t)
         g = self.gravity - self.motion.origin_acceleration(t)
-        return self.gravity_map @ (A.T @ g) + self.point_load
+        point = self.point_load if self.point_history is None else self.point_load * self.point_history(t)
+        return self.gravity_map @ (A.T @ g) + point
 
     def residual(self, t, p, v, a):
         return self._residual(t, p, v, a, self.elastic_force(p))
@@ -219,8 +221,9 @@ def reduce_rotating_model(full: RotatingFrameModel, Psi: Float[Array, "ndof km"]
         Psi=Psi, q_eq=q_eq, q_hat=body.q_hat,
         elastic=elastic_tensors(body, q_eq, Psi),
         inertia=rotation_inertia(body, q_eq, Psi, full.motion.directions),
-        gravity_map=gravity_map, point_load=point_load, gravity=full.loads.gravity,
-        physical_mask=full.free_mask(), motion=full.motion, directions=full.motion.directions,
+        gravity_map=gravity_map, point_load=point_load, point_history=full.loads.point_history,
+        gravity=full.loads.gravity, physical_mask=full.free_mask(), motion=full.motion,
+        directions=full.motion.directions,
         body=body if force == "projected" else None, force=force, linear=linear, damping=full.damping,
     )
 
@@ -249,7 +252,8 @@ def modal_loads(full: RotatingFrameModel, Psi: Float[Array, "ndof km"], ts: Floa
         _, loads = inertia.forces(B.T @ full.motion.angular_velocity(t), B.T @ full.motion.angular_acceleration(t),
                                   0.0, 0.0)
         g = full.loads.gravity - full.motion.origin_acceleration(t)
-        return -sum_terms(loads) + gravity_map @ (full.motion.rotation(t).T @ g) + point_load
+        point = point_load * full.loads.point_scale(t)
+        return -sum_terms(loads) + gravity_map @ (full.motion.rotation(t).T @ g) + point
 
     d = inertia.g.shape[0]
     vectors = jnp.column_stack([*inertia.g, *inertia.c.reshape(d * d, -1), gravity_map @ full.loads.gravity,
