@@ -20,6 +20,7 @@ import abc
 from typing import ClassVar, NamedTuple
 
 import equinox as eqx
+import jax.numpy as jnp
 
 from .._types import Array, Float
 
@@ -56,4 +57,16 @@ class AbstractElement(eqx.Module):
         reference length (the parameter length of its axis; for a bar |r̂₂ − r̂₁|) is ``length``."""
 
 
-__all__ = ["AbstractElement", "ElementIntegrals"]
+def local_frame(J: Float[Array, "3 3"]) -> Float[Array, "3 3"]:
+    """The orthonormal frame (columns) of a reference Jacobian's first two columns by Gram-Schmidt:
+    the first direction, the second made orthogonal to it, and their cross product (a beam's
+    axis and section; a plate's two in-plane directions and its normal). Elements map their
+    covariant strain to it at every quadrature point (``E_loc = Tᵀ E_cov T``, T = J⁻¹R), which
+    keeps κ constant for any reference geometry."""
+    t = J[:, 0] / jnp.linalg.norm(J[:, 0])
+    n1 = J[:, 1] - (J[:, 1] @ t) * t
+    n1 = n1 / jnp.linalg.norm(n1)
+    return jnp.stack([t, n1, jnp.cross(t, n1)], axis=1)
+
+
+__all__ = ["AbstractElement", "ElementIntegrals", "local_frame"]

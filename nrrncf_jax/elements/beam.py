@@ -35,7 +35,7 @@ import numpy as np
 from .._types import Array, Float
 from ..material import Material
 from ..section import TubeSection
-from .base import AbstractElement, ElementIntegrals
+from .base import AbstractElement, ElementIntegrals, local_frame
 
 NODAL_VECTORS_PER_NODE = 6
 """Per node: r, r_x, r_y, r_xy, r_z, r_xz."""
@@ -73,14 +73,6 @@ def beam_shape_functions(
             [z * dhx, zero, hx * one],
         ]
     return jnp.stack(S), jnp.stack([jnp.stack(row) for row in dS])
-
-
-def _local_frame(J: Float[Array, "3 3"]) -> Float[Array, "3 3"]:
-    """Orthonormal frame (columns: axis, section-y, section-z) from the reference Jacobian."""
-    t = J[:, 0] / jnp.linalg.norm(J[:, 0])
-    n1 = J[:, 1] - (J[:, 1] @ t) * t
-    n1 = n1 / jnp.linalg.norm(n1)
-    return jnp.stack([t, n1, jnp.cross(t, n1)], axis=1)
 
 
 def _voigt_B(g: Float[Array, "12 3"]) -> Float[Array, "6 12 12"]:
@@ -126,7 +118,7 @@ def beam_element_integrals(
     def at_point(s, y, z):
         S, dS = beam_shape_functions(s, y, z, length)
         J = q_hat.T @ dS  # J[a, i] = ∂r̂_a/∂ξ_i
-        T = jnp.linalg.solve(J, _local_frame(J))
+        T = jnp.linalg.solve(J, local_frame(J))
         return S, _voigt_B(dS @ T), jnp.linalg.det(J)
 
     pts = jax.vmap(lambda s: jax.vmap(lambda y, z: at_point(s, y, z))(ys, zs))
