@@ -139,3 +139,42 @@ def plot_mmi(path: str, W, selection: "Selection", omega=None, n_first: int = 8,
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
+
+
+def plot_truss_tip(path: str, runs, dpi: int = 120) -> None:
+    """The free end's midpoint y and z displacements against time, several runs overlaid (the
+    paper's Fig. 24); each run has ``formulation``, ``dofs``, ``ts`` and ``tip`` (nt × 3)."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    for k, run in enumerate(runs):
+        label = f"{run.formulation.upper()} ({run.dofs} DOFs)"
+        for ax, c in zip(axes, (1, 2)):
+            ax.plot(run.ts, run.tip[:, c], _STYLES[k % len(_STYLES)], label=label)
+    axes[0].set_ylabel("free end y [m]")
+    axes[1].set_ylabel("free end z [m]")
+    axes[1].set_xlabel("t [s]")
+    axes[0].legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+
+
+def plot_truss_modes(path: str, truss, phi: np.ndarray, frequencies, types, count: int = 6, dpi: int = 120) -> None:
+    """The first ``count`` mode shapes of a truss (``scenarios.truss.Truss``): the section-mean
+    transverse displacement of each station along the axis, y and z, with frequency and type."""
+    plt = _pyplot()
+    pos = truss.station_positions()
+    x = np.asarray(truss.body.q_hat)[pos[:, 0], 0]
+    P = np.asarray(phi).reshape(truss.body.n_vectors, 3, -1)
+    count = min(count, P.shape[-1])
+    fig, axes = plt.subplots(count, 1, figsize=(7, 1.6 * count), sharex=True)
+    for i, ax in enumerate(np.atleast_1d(axes)):
+        u = P[pos, :, i].mean(axis=1)
+        ax.plot(x, u[:, 1], "-", label="y")
+        ax.plot(x, u[:, 2], "--", label="z")
+        ax.set_ylabel(f"{i}: {frequencies[i]:.3f} Hz\n{types[i]}", fontsize=8)
+    np.atleast_1d(axes)[0].legend(fontsize=8)
+    np.atleast_1d(axes)[-1].set_xlabel("x [m]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)

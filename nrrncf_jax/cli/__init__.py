@@ -5,6 +5,8 @@
     nrrncf modes --beam paper --elements 8 --json
     nrrncf modes --beam curved-upwind --elements 8 --count 6 --mmi --omega 4 --plot mmi.png
     nrrncf identify --demo --json
+    nrrncf truss modes --count 10 --json
+    nrrncf truss dynamics --formulation nr-rncf --reference rncf --plot tip.png
 
 Each subcommand lives in its own module of this package, with a ``register(subparsers)`` that
 sets ``func`` (the run) and ``check`` (the checks of its arguments). ``main`` parses, runs the
@@ -26,7 +28,7 @@ import sys
 
 from ._common import HelpFormatter
 
-SUBCOMMANDS = ("spinup", "modes", "identify", "sweep")
+SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "truss")
 """Modules of this package, each with ``register(subparsers)``; their order is the help's."""
 
 

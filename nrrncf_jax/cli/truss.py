@@ -1,0 +1,160 @@
+"""``nrrncf truss``: the beamlike truss of the paper's Sec. 4.5 (``scenarios.truss``).
+
+    nrrncf truss modes [--count 10] [--plot F] [--vtk DIR] [--json] [--no-progress]
+    nrrncf truss dynamics --formulation {rncf,nr-rncf} [--vms 4] [--mds 6] [--reference rncf]
+                          [--plot F] [--vtk DIR] [--json]
+
+``--json`` prints one JSON object as the last line: for ``modes`` ``frequencies_hz`` (ascending)
+and ``mode_types``; for ``dynamics`` ``dofs, vms, mds, steps, compile_s, run_s, offline_s`` and
+with ``--reference rncf`` also ``reference_dofs, reference_run_s, chi_rel_percent, speedup``.
+Mode indices are 0-based.
+"""
+
+import json
+import sys
+
+from .. import _validate
+from . import _common
+
+
+def _spec(args):
+    from ..scenarios.truss import TrussSpec
+
+    return TrussSpec(bays=args.bays, longeron_elements=args.longeron_elements, batten_elements=args.batten_elements)
+
+
+def _say(args, text):
+    if not args.json and not args.no_progress:
+        print(text, file=sys.stderr, flush=True)
+
+
+def _modes(args) -> int:
+    import numpy as np
+
+    from ..models import RotatingFrameModel
+    from ..motion import Stationary
+    from ..reduction import vibration_modes
+    from ..scenarios.truss import build_truss, equivalent_beam, mode_types
+
+    spec = _spec(args)
+    _say(args, f"building the truss ({spec.bays} bays) ...")
+    truss = build_truss(spec)
+    model = RotatingFrameModel(truss.body, Stationary(), clamped=truss.clamped)
+    _say(args, f"{truss.body.n_dof} DOFs; the first {args.count} modes ...")
+    modes = vibration_modes(truss.body, model.free_mask(), args.count)
+    f = np.asarray(modes.omega) / (2 * np.pi)
+    phi = np.asarray(modes.phi)
+    types = mode_types(truss, phi)
+    eq = equivalent_beam(spec)
+    if args.plot:
+        from ..plotting import plot_truss_modes
+
+        plot_truss_modes(args.plot, truss, phi, f, types)
+    if args.vtk:
+        from ..vtk import write_frame_vtk
+
+        write_frame_vtk(args.vtk, truss.frame, {f"mode_{i:02d}": phi[:, i] for i in range(phi.shape[1])})
+    d = {"bays": spec.bays, "dofs": truss.body.n_dof, "beams": truss.frame.n_beams, "bars": truss.frame.n_bars,
+         "frequencies_hz": f.tolist(), "mode_types": types,
+         "equivalent_beam_hz": {"bending_euler_bernoulli": eq.f_bending_eb, "bending_with_shear": eq.f_bending,
+                                "torsion_quarter_wave": eq.f_torsion}}
+    if args.json:
+        print(json.dumps(d))
+        return 0
+    print(f"truss: {spec.bays} bays, {truss.frame.n_beams} beams, {truss.frame.n_bars} bars, {truss.body.n_dof} DOFs")
+    print("  mode   f [Hz]      type")
+    for i, (fi, t) in enumerate(zip(f, types)):
+        print(f"  {i:4d}  {fi:10.5f}  {t}")
+    print(f"  equivalent beam: first bending {eq.f_bending_eb:.5f} Hz (Euler-Bernoulli), {eq.f_bending:.5f} Hz "
+          f"(with shear); first torsion {eq.f_torsion:.5f} Hz (quarter-wave shaft)")
+    return 0
+
+
+def _dynamics(args) -> int:
+    import numpy as np
+
+    from ..scenarios.truss import run_truss
+
+    spec = _spec(args)
+    _say(args, f"truss ({spec.bays} bays), {args.formulation}, 0-{args.t_end:g} s ...")
+    kw = dict(t_end=args.t_end, dt_out=args.dt_out, progress=not (args.json or args.no_progress))
+    ref = run_truss("rncf", spec, **kw) if args.reference == "rncf" or args.formulation == "rncf" else None
+    if args.formulation == "rncf":
+        run = ref
+    else:
+        run = run_truss("nr-rncf", spec, vms=args.vms, mds=args.mds, n_modes=args.modes,
+                        reference=ref if ref is not None else False, **kw)
+    if args.plot:
+        from ..plotting import plot_truss_tip
+
+        plot_truss_tip(args.plot, [run] + ([ref] if ref is not None and ref is not run else []))
+    if args.vtk:
+        from ..scenarios.truss import build_truss
+        from ..vtk import write_frame_vtk
+
+        truss = build_truss(spec)
+        pos = np.flatnonzero(np.asarray(truss.body.is_position))
+        step = max(1, len(run.ts) // 50)
+        fields = {}
+        for k in range(0, len(run.ts), step):
+            u = np.zeros((truss.body.n_vectors, 3))
+            u[pos] = run.positions[k]
+            fields[f"t_{k:05d}"] = u
+        write_frame_vtk(args.vtk, truss.frame, fields)
+    s = run.summary()
+    keys = ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s"]
+    if run.chi_rel_percent is not None:
+        keys += ["reference_dofs", "reference_run_s", "chi_rel_percent", "speedup"]
+    out = {k: s[k] for k in keys}
+    out.update(formulation=run.formulation, tip_y_max_m=s["tip_y_max_m"], tip_z_max_m=s["tip_z_max_m"])
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    for k, v in out.items():
+        print(f"  {k}: {v}")
+    return 0
+
+
+def _check(args) -> None:
+    _common.at_least("--bays", args.bays, 1)
+    _common.at_least("--longeron-elements", args.longeron_elements, 1)
+    _common.at_least("--batten-elements", args.batten_elements, 1)
+    if args.vtk is not None and not str(args.vtk).strip():
+        raise ValueError("--vtk needs a folder name")
+    _common.output_path("--plot", args.plot)
+    if args.what == "modes":
+        _common.at_least("--count", args.count, 1)
+    else:
+        _common.output_times(args.t_end, args.dt_out)
+        if args.formulation == "rncf" and args.reference is not None:
+            raise ValueError("--reference goes with --formulation nr-rncf")
+        _common.at_least("--vms", args.vms, 1)
+        _common.at_least("--mds", args.mds, 0)
+        _common.at_least("--modes", args.modes, args.vms)
+        _validate.positive("--t-end", args.t_end)
+
+
+def register(sub) -> None:
+    t = sub.add_parser("truss", help="the beamlike truss (paper Sec. 4.5): modes and forced response",
+                       description="The cantilevered beamlike truss of the paper's Sec. 4.5 (36 bays, C1-beam "
+                                   "longerons and battens rigidly joined, pinned bar diagonals). "
+                                   f"{_common.MODE_INDICES}.",
+                       formatter_class=_common.HelpFormatter)
+    t.add_argument("what", choices=("modes", "dynamics"), help="modal analysis or forced response")
+    t.add_argument("--bays", type=int, default=36, help="bays of 1 m")
+    t.add_argument("--longeron-elements", type=int, default=6, help="beam elements per longeron bay")
+    t.add_argument("--batten-elements", type=int, default=4, help="beam elements per batten")
+    t.add_argument("--count", type=int, default=10, help="modes: how many")
+    t.add_argument("--formulation", choices=("rncf", "nr-rncf"), default="nr-rncf", help="dynamics: the model")
+    t.add_argument("--vms", type=int, default=4, help="dynamics, nr-rncf: vibration modes chosen by MMI")
+    t.add_argument("--mds", type=int, default=6, help="dynamics, nr-rncf: modal derivatives chosen by MMI")
+    t.add_argument("--modes", type=int, default=12, help="dynamics, nr-rncf: candidate modes for the MMI")
+    t.add_argument("--reference", choices=("rncf",), default=None,
+                   help="dynamics, nr-rncf: also run the full RNCF model and report chi_rel and the speed-up")
+    t.add_argument("--t-end", type=float, default=10.0, help="dynamics: end time [s]")
+    t.add_argument("--dt-out", type=float, default=0.02, help="dynamics: output interval [s]")
+    t.add_argument("--plot", help="write a plot (PNG) here: mode shapes, or the free end's y and z responses")
+    t.add_argument("--vtk", help="write VTK files (.vtu, one per mode or output time) into this folder")
+    t.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    t.add_argument("--no-progress", action="store_true", help="no progress messages on stderr")
+    t.set_defaults(func=lambda a: _modes(a) if a.what == "modes" else _dynamics(a), check=_check)
