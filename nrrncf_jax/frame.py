@@ -22,6 +22,14 @@ length, so under refinement the joint would become a hinge. Each joint therefore
 ``elements.JointCell``, the elastic energy of the joint's own small solid on F (constant κ too),
 which keeps F a rotation to within the joint's own compliance, independent of the mesh.
 
+**Its limit, measured**: F couples the members' strains at the joint point, not only their
+rotations (a batten's section strain along the truss axis is the longeron's axial strain there),
+and the element next to the joint carries that constraint over its length: an over-stiffening of
+O(element length) that refinement removes only slowly (the truss's bending frequencies drop
+0.35-0.6 % from 6/4 to 12/8 elements a member, its torsion 4e-5; ``benchmarks/results/truss.md``).
+Coupling the members to the joint by rotation only would need an element with a quadratic energy
+(a spring between each member end's own gradient triad and the joint's), which the body lacks.
+
 **Pins**: a bar (``elements.Bar``) joins the position vectors of two joints and nothing else, so
 it carries axial force only.
 

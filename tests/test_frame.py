@@ -6,6 +6,8 @@ neglected effects are the section's own deformation (Poisson) and the joint cell
 O((r/L)²) = 1e-4 and, for the stiff cell used, (P L)/(G V) · L / δ ≈ 1e-5 relative.
 """
 
+import functools
+
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -25,10 +27,17 @@ SECTION_EFFECTS = 1e-4  # O((r/L)^2), the frame theory's neglected section defor
 L_FRAME = ([[0, 0, 0], [L, 0, 0], [L, L, 0]], [[0, 1], [1, 2]])
 
 
-def tip_deflection(frame, comp, P=1.0):
+@functools.cache
+def l_frame(n: int, joint_volume: float | None = None):
+    """The right-angle frame with n elements a member, and its stiffness at the reference."""
+    frame = frame_body(*L_FRAME, C1Beam(MAT, SEC), n, joint_volume=joint_volume)
+    return frame, np.asarray(frame.body.stiffness_matrix(frame.body.q_hat))
+
+
+def tip_deflection(frame_and_K, comp, P=1.0):
     """Linear static tip deflection (K u = f at the reference) of joint 2, joint 0 clamped."""
+    frame, K = frame_and_K
     body = frame.body
-    K = np.asarray(body.stiffness_matrix(body.q_hat))
     fixed = np.zeros((body.n_vectors, 3), bool)
     fixed[frame.clamp([0])] = True
     free = ~fixed.reshape(-1)
@@ -48,7 +57,7 @@ def tip_deflection(frame, comp, P=1.0):
     (2, 2 * L**3 / (3 * E * I) + L**3 / (G * 2 * I) + 2 * L / (G * A)),
 ])
 def test_right_angle_frame_against_frame_theory(comp, closed_form):
-    frame = frame_body(*L_FRAME, C1Beam(MAT, SEC), 2, joint_volume=1e-3)  # a stiff joint cell
+    frame = l_frame(2, 1e-3)  # a stiff joint cell
     assert tip_deflection(frame, comp) / closed_form - 1 == pytest.approx(0.0, abs=SECTION_EFFECTS)
 
 
@@ -58,14 +67,14 @@ def test_joint_converges_under_refinement():
     ``elements.joint_cell``): successive differences shrink, and the limit lies within the joint's
     own compliance, (P L)/(G D³) · L / δ ≈ 1.2e-3, of the rigid-joint closed form."""
     closed = L**3 / (3 * E * I) + L**3 / (E * I) + L / (E * A) + L / (G * A)
-    d = [tip_deflection(frame_body(*L_FRAME, C1Beam(MAT, SEC), n), 0) for n in (2, 4, 8)]
+    d = [tip_deflection(l_frame(n), 0) for n in (2, 4, 8)]
     assert abs(d[2] - d[1]) < 0.8 * abs(d[1] - d[0])
     assert 0.0 < d[2] / closed - 1 < 2e-3
 
 
 def test_rigid_motion_gives_zero_force():
     """A large rigid rotation and translation of a frame with an oblique member and a bar: zero
-    elastic force, to round-off of the force scale (κ entries times |q|², eps 2e-16)."""
+    elastic force and energy, to round-off of the force of a unit strain (eps 2.2e-16)."""
     joints = [[0, 0, 0], [1, 0, 0], [1, 0.7, 0.2], [0, 0.5, 0.9]]
     frame = frame_body(joints, [[0, 1], [1, 2], [2, 3]], C1Beam(MAT, SEC), 2, bars=[[0, 2], [1, 3]],
                        bar=Bar(E, 2700.0, 3e-6))
@@ -73,7 +82,11 @@ def test_rigid_motion_gives_zero_force():
     R = Rotation.from_rotvec([0.3, -1.1, 0.7]).as_matrix()
     q = body.q_hat @ R.T + np.where(np.asarray(body.is_position)[:, None], [1.0, 2.0, 3.0], 0.0)
     F = np.asarray(body.elastic_force(jnp.asarray(q)))
-    scale = float(np.abs(np.asarray(body.stiffness_matrix(body.q_hat))).max()) * 4.0  # |K| |q|
+    # The elements' own forces (before assembly) under a unit strain, from a uniform 1 % stretch,
+    # times |q|²: Q = ½(q·q − q̂·q̂) cancels products of size |q|² (here |q| ≤ 4.6), so its
+    # round-off is eps |q|², and the force's that times the unit-strain force.
+    unit = max(float(np.abs(np.asarray(g.forces(1.01 * body.q_hat, body.q_hat))).max()) for g in body.groups) / 0.01
+    scale = unit * float(np.abs(q).max()) ** 2
     assert np.abs(F).max() < 100 * 2.2e-16 * scale
     assert abs(float(body.strain_energy(jnp.asarray(q)))) < 100 * 2.2e-16 * scale
 
