@@ -67,7 +67,7 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
             band: float = 6.0, vm_tol: float = 1e-6, md_tol: float = 0.01, max_mds: int | None = None,
             max_dofs: int | None = 25, md_method: str = "closed_form", deflation_tol: float = 1e-6,
             force: str = "auto", spin_state: bool | str = "auto", spin_vms: int = 1, spin_mds: int = 4,
-            spin_tol: float = 2e-3) -> Reduction:
+            spin_tol: float = 2e-3, error_rows=None) -> Reduction:
     """Build the NR-RNCF reduced model of ``full`` for its load case.
 
     ``n_modes`` candidate vibration modes enter the linear MMI simulation over ``ts_mmi``;
@@ -85,7 +85,7 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     enrichment is ``spin_vms`` spinning modes and the ``spin_mds`` modal derivatives (at rest)
     of spinning-mode pairs, both ranked by the MMI weight of the rest modes they continue; the
     rest MDs give way so that the total stays within ``max_dofs``. Returns a ``Reduction``
-    (``spin`` holds the check).
+    (``spin`` holds the check). ``error_rows``: see ``reduce_rotating_model``.
     """
     if not isinstance(full, RotatingFrameModel):
         raise ValueError("nr_rncf reduces a RotatingFrameModel (RNCF); got " + type(full).__name__)
@@ -142,6 +142,8 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     t0 = time.perf_counter()
     Psi = deflate(np.concatenate(rest + extra, axis=1), deflation_tol)
     model = _reduce(full, Psi, force=force)
+    if error_rows is not None:
+        model = model.with_error_rows(error_rows)
     jax.block_until_ready(model.elastic.N)
     times["tensors"] = time.perf_counter() - t0
     times["total"] = sum(times.values())

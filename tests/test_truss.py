@@ -69,6 +69,16 @@ def test_harmonic_point_load_in_the_residuals(paper4):
     red = reduce_rotating_model(full, Psi)
     rr = np.asarray(red.residual(t, jnp.zeros(3), jnp.zeros(3), jnp.zeros(3)))
     np.testing.assert_allclose(rr, Psi.T @ np.asarray(full.residual(t, q0, v0, v0)), rtol=0, atol=1e-12)
+    # The step error measured on chosen rows of the physical coordinates: the same rows of q and Ψe.
+    rows = np.arange(3, 3 * body.n_vectors, 7)
+    p, e = jnp.array([0.1, -0.2, 0.3]), jnp.array([1.0, 2.0, -1.0])
+    x_all, e_all, m_all = red.error_space(p, e)
+    x_r, e_r, m_r = red.with_error_rows(rows).error_space(p, e)
+    np.testing.assert_array_equal(np.asarray(x_r), np.asarray(x_all)[rows])
+    np.testing.assert_allclose(np.asarray(e_r), np.asarray(e_all)[rows], rtol=1e-15, atol=0)
+    np.testing.assert_array_equal(np.asarray(m_r), np.asarray(m_all)[rows])
+    with pytest.raises(ValueError, match="error_rows"):
+        red.with_error_rows([body.n_dof])
     with pytest.raises(ValueError, match="function of time"):
         Loads(point_vectors=[tip], point_forces=P, point_history=3.0)
 
