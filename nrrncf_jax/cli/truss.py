@@ -13,7 +13,6 @@ Mode indices are 0-based.
 import json
 import sys
 
-from .. import _validate
 from . import _common
 
 
@@ -131,7 +130,6 @@ def _check(args) -> None:
         _common.at_least("--vms", args.vms, 1)
         _common.at_least("--mds", args.mds, 0)
         _common.at_least("--modes", args.modes, args.vms)
-        _validate.positive("--t-end", args.t_end)
 
 
 def register(sub) -> None:
