@@ -63,11 +63,11 @@ def _modal_damping_ratio(full, omega):
     return float(full.damping.alpha) / (2.0 * omega) + float(full.damping.beta) * omega / 2.0
 
 
-def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | str = "auto", mds="auto",
+def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", mds="auto",
             band: float = 6.0, vm_tol: float = 1e-6, md_tol: float = 0.01, max_mds: int | None = None,
             max_dofs: int | None = 25, md_method: str = "closed_form", deflation_tol: float = 1e-6,
             force: str = "auto", spin_state: bool | str = "auto", spin_vms: int = 1, spin_mds: int = 4,
-            spin_tol: float = 2e-3, error_rows=None) -> Reduction:
+            spin_tol: float = 2e-3, error_rows=None, modes=None) -> Reduction:
     """Build the NR-RNCF reduced model of ``full`` for its load case.
 
     ``n_modes`` candidate vibration modes enter the linear MMI simulation over ``ts_mmi``;
@@ -85,7 +85,10 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     enrichment is ``spin_vms`` spinning modes and the ``spin_mds`` modal derivatives (at rest)
     of spinning-mode pairs, both ranked by the MMI weight of the rest modes they continue; the
     rest MDs give way so that the total stays within ``max_dofs``. Returns a ``Reduction``
-    (``spin`` holds the check). ``error_rows``: see ``reduce_rotating_model``.
+    (``spin`` holds the check). ``error_rows``: see ``reduce_rotating_model``. ``modes``: the
+    full model's vibration modes at rest (``vibration_modes`` on its free coordinates, at least
+    ``n_modes`` of them), when the caller has computed them already; their time is then not in
+    ``offline_s``.
     """
     if not isinstance(full, RotatingFrameModel):
         raise ValueError("nr_rncf reduces a RotatingFrameModel (RNCF); got " + type(full).__name__)
@@ -95,7 +98,13 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms: int | s
     body, free = full.body, full.free_mask()
 
     t0 = time.perf_counter()
-    modes = vibration_modes(body, free, n_modes)
+    if modes is None:
+        modes = vibration_modes(body, free, n_modes)
+    else:
+        if modes.phi.shape[0] != body.n_dof or modes.omega.shape[0] < n_modes:
+            raise ValueError(f"modes must hold at least n_modes={n_modes} modes of the full model's {body.n_dof} "
+                             f"coordinates, got phi of shape {tuple(modes.phi.shape)}")
+        modes = eqx.tree_at(lambda m: (m.omega, m.phi), modes, (modes.omega[:n_modes], modes.phi[:, :n_modes]))
     jax.block_until_ready(modes.phi)
     times["modes"] = time.perf_counter() - t0
 

@@ -4,6 +4,9 @@
   (paper Figs. 6 and 9: full RNCF against NR-RNCF).
 - ``plot_mmi``: the maximum-modal-interaction matrix as upper-triangle 3-D bars,
   ``(W_ij / max W)^(1/4)``, the selected modal derivatives highlighted (paper Figs. 5 and 8).
+- ``plot_point_history``, ``plot_truss_tip``, ``plot_membrane_rim``: an observed point of a large
+  body against time, several runs overlaid (paper Figs. 12, 14 and 24).
+- ``plot_plate_shapes``, ``plot_truss_modes``: mode shapes and modal derivatives (Figs. 11, 13).
 """
 
 from typing import TYPE_CHECKING, Protocol
@@ -141,22 +144,70 @@ def plot_mmi(path: str, W, selection: "Selection", omega=None, n_first: int = 8,
     plt.close(fig)
 
 
-def plot_truss_tip(path: str, runs, dpi: int = 120) -> None:
-    """The free end's midpoint y and z displacements against time, several runs overlaid (the
-    paper's Fig. 24); each run has ``formulation``, ``dofs``, ``ts`` and ``tip`` (nt × 3)."""
+def plot_point_history(path: str, runs, components=(1, 2), names=("y", "z"), what: str = "free end",
+                       dpi: int = 120) -> None:
+    """An observed point's displacement components against time, several runs overlaid; each run
+    (``scenarios.forced_run.ForcedRun``) has ``formulation``, ``dofs``, ``ts`` and ``point``
+    (nt × 3)."""
     plt = _pyplot()
-    fig, axes = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    fig, axes = plt.subplots(len(components), 1, figsize=(7, 2.5 * len(components)), sharex=True)
+    axes = np.atleast_1d(axes)
     for k, run in enumerate(runs):
-        label = f"{run.formulation.upper()} ({run.dofs} DOFs)"
-        for ax, c in zip(axes, (1, 2)):
-            ax.plot(run.ts, run.tip[:, c], _STYLES[k % len(_STYLES)], label=label)
-    axes[0].set_ylabel("free end y [m]")
-    axes[1].set_ylabel("free end z [m]")
-    axes[1].set_xlabel("t [s]")
-    axes[0].legend()
+        for ax, c in zip(axes, components):
+            ax.plot(run.ts, run.point[:, c], _STYLES[k % len(_STYLES)], label=_label(run))
+    for ax, name in zip(axes, names):
+        ax.set_ylabel(f"{what} {name} [m]")
+    axes[-1].set_xlabel("t [s]")
+    axes[0].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
+
+
+def plot_truss_tip(path: str, runs, dpi: int = 120) -> None:
+    """The free end's midpoint y and z displacements against time, several runs overlaid (the
+    paper's Fig. 24)."""
+    plot_point_history(path, runs, (1, 2), ("y", "z"), "free end", dpi)
+
+
+def plot_membrane_rim(path: str, runs, dpi: int = 120) -> None:
+    """The rim point's deflections in the reference frame against time, radial X, tangential Y and
+    axial Z, several runs overlaid (the paper's Figs. 12 and 14)."""
+    plot_point_history(path, runs, (0, 1, 2), ("X (radial)", "Y (tangential)", "Z (axial)"), "rim", dpi)
+
+
+def plot_plate_shapes(path: str | None, plate, shapes: dict, dpi: int = 120):
+    """Shapes of a plate (``plate_mesh.PlateBody``) side by side, the paper's Figs. 11 and 13:
+    ``shapes[title]`` a displacement of every nodal vector (a mode, a modal derivative, w = q − q̂).
+    A mostly out-of-plane shape is drawn as its deflection w (colour); an in-plane one as the
+    deformed mesh, scaled to a tenth of the plate's size, coloured by |u|. Returns the figure when
+    ``path`` is None (a notebook shows it), else writes the PNG."""
+    plt = _pyplot()
+    from matplotlib.tri import Triangulation
+
+    V, T = plate.vertices, plate.triangles
+    rows = plate.layout.vertex_vectors[:, 0]
+    size = float(np.ptp(V, axis=0).max())
+    fig, axes = plt.subplots(1, len(shapes), figsize=(3.4 * len(shapes), 3.4), squeeze=False)
+    for ax, (title, u) in zip(axes[0], shapes.items()):
+        u = np.asarray(u, dtype=float).reshape(plate.body.n_vectors, 3)[rows]
+        if np.sum(u[:, 2] ** 2) >= np.sum(u[:, :2] ** 2):
+            ax.tripcolor(Triangulation(V[:, 0], V[:, 1], T), u[:, 2], shading="gouraud", cmap="RdBu_r")
+        else:
+            scale = 0.1 * size / max(float(np.abs(u[:, :2]).max()), 1e-300)
+            X = V + scale * u[:, :2]
+            ax.triplot(Triangulation(V[:, 0], V[:, 1], T), color="0.8", lw=0.3)
+            ax.tripcolor(Triangulation(X[:, 0], X[:, 1], T), np.linalg.norm(u[:, :2], axis=1), shading="gouraud",
+                         cmap="viridis", alpha=0.9)
+        ax.set_title(title, fontsize=9)
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+    fig.tight_layout()
+    if path is None:
+        return fig
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return None
 
 
 def plot_truss_modes(path: str, truss, phi: np.ndarray, frequencies, types, count: int = 6, dpi: int = 120) -> None:

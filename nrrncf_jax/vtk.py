@@ -1,8 +1,9 @@
-"""VTK output of frames (beams and bars) for ParaView, through meshio.
+"""VTK output of frames (beams and bars) and plates for ParaView, through meshio.
 
-The mesh is the frame's position vectors as points and its members as polylines of line cells
-(each member's consecutive nodes) plus one line per bar; displacement fields go along as point
-data (ParaView's "Warp By Vector" shows the deformed shape).
+A frame's mesh is its position vectors as points and its members as polylines of line cells
+(each member's consecutive nodes) plus one line per bar; a plate's is its vertices and triangles.
+Displacement fields go along as point data (ParaView's "Warp By Vector" shows the deformed
+shape); a time series also gets a ``.pvd`` collection that ParaView opens as one animated set.
 """
 
 import os
@@ -42,4 +43,39 @@ def write_frame_vtk(folder: str, frame: Frame, fields: dict[str, np.ndarray]) ->
     return paths
 
 
-__all__ = ["frame_mesh", "write_frame_vtk"]
+def write_plate_vtk(folder: str, plate, fields: dict[str, np.ndarray], times=None) -> list[str]:
+    """One ``.vtu`` file per field in ``folder`` (made if missing) for a ``plate_mesh.PlateBody``:
+    the vertices and triangles with ``fields[name]`` (a displacement of every nodal vector, n × 3)
+    at the vertices. With ``times`` (one per field) also ``series.pvd``, the time series. Returns
+    the paths of the ``.vtu`` files."""
+    import meshio
+
+    points = np.asarray(plate.body.q_hat)[plate.layout.vertex_vectors[:, 0]]
+    os.makedirs(folder, exist_ok=True)
+    paths = []
+    for name, u in fields.items():
+        u = np.asarray(u, dtype=float).reshape(plate.body.n_vectors, 3)
+        path = os.path.join(folder, f"{name}.vtu")
+        meshio.write_points_cells(path, points, [("triangle", np.asarray(plate.triangles, dtype=np.int64))],
+                                  point_data={"displacement": u[plate.layout.vertex_vectors[:, 0]]})
+        paths.append(path)
+    if times is not None:
+        write_pvd(os.path.join(folder, "series.pvd"), paths, times)
+    return paths
+
+
+def write_pvd(path: str, files, times) -> None:
+    """A ParaView collection (``.pvd``) of ``files`` at ``times``. Written by hand: meshio has no
+    PVD writer (its XDMF time series would need h5py), and the format is three XML tags."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    if len(times) != len(files):
+        raise ValueError(f"one time per file: {len(files)} files, {len(times)} times")
+    folder = os.path.dirname(os.path.abspath(path))
+    rows = "\n".join(f'    <DataSet timestep="{t:.9g}" part="0" file="{os.path.relpath(os.path.abspath(f), folder)}"/>'
+                     for t, f in zip(times, files))
+    with open(path, "w") as fh:
+        fh.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
+                 f"{rows}\n  </Collection>\n</VTKFile>\n")
+
+
+__all__ = ["frame_mesh", "write_frame_vtk", "write_plate_vtk", "write_pvd"]

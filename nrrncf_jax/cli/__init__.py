@@ -7,6 +7,7 @@
     nrrncf identify --demo --json
     nrrncf truss modes --count 10 --json
     nrrncf truss dynamics --formulation nr-rncf --reference rncf --plot tip.png
+    nrrncf membrane --case bending-torsion --formulation nr-rncf --reference rncf --plot rim.png
 
 Each subcommand lives in its own module of this package, with a ``register(subparsers)`` that
 sets ``func`` (the run) and ``check`` (the checks of its arguments). ``main`` parses, runs the
@@ -28,7 +29,7 @@ import sys
 
 from ._common import HelpFormatter
 
-SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "truss")
+SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "truss", "membrane")
 """Modules of this package, each with ``register(subparsers)``; their order is the help's."""
 
 

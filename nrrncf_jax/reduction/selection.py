@@ -92,7 +92,8 @@ def select(W, n_vms: int | str = "auto", n_mds: int | str = "auto", vm_tol: floa
       Coriolis and centrifugal coupling reach), only modes inside the band are kept, except
       strongly loaded ones (amplitude ratio ≥ ``vm_strong``, e.g. the axial mode under
       centrifugal load, which responds quasi-statically far above the band). An integer keeps
-      that many of the most active modes. ``max_dofs`` caps VMs + MDs (before deflation).
+      that many of the most active modes; a list of mode indices keeps those. ``max_dofs`` caps
+      VMs + MDs (before deflation).
     - MDs among the kept VMs, ranked by W_ij: ``'auto'`` keeps those with
       ``(W_ij / max W)^(1/4) ≥ md_tol`` (the fourth root as in the paper's bar plots), at most
       ``max_mds`` of them; an integer keeps that many; a list of (i, j) pairs is taken as given.
@@ -106,8 +107,12 @@ def select(W, n_vms: int | str = "auto", n_mds: int | str = "auto", vm_tol: floa
         if omega is not None and omega_band is not None:
             keep &= (np.asarray(omega) <= omega_band) | (amp >= vm_strong)
         vms = sorted(int(i) for i in np.flatnonzero(keep))
-    else:
+    elif isinstance(n_vms, (int, np.integer)):
         vms = sorted(int(i) for i in order[: int(n_vms)])
+    else:  # the modes given, e.g. the paper's choice by mode shape
+        vms = sorted({int(i) for i in n_vms})
+        if not vms or vms[0] < 0 or vms[-1] >= len(d):
+            raise ValueError(f"the VMs given must be mode indices in 0..{len(d) - 1}, got {list(n_vms)}")
     cand = [(i, j) for a, i in enumerate(vms) for j in vms[a:]]
     w = np.array([W[i, j] for i, j in cand])
     rank = np.argsort(-w, kind="stable")

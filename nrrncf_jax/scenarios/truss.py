@@ -30,19 +30,16 @@ f_s = √(GA/m)/(4L)); the first torsion frequency as the quarter-wave shaft,
 import dataclasses
 import functools
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
 from ..elements import Bar, C1Beam
 from ..frame import Frame, frame_body
-from ..integrate import GeneralizedAlpha
-from ..integrate.simulate import simulate_timed
 from ..material import Material
 from ..models import Harmonic, Loads, RotatingFrameModel
 from ..motion import Stationary
 from ..section import TubeSection
+from .forced_run import FORMULATIONS, ForcedRun, run_forced
 
 
 @dataclasses.dataclass(frozen=True)
@@ -207,8 +204,6 @@ def mode_types(truss: Truss, phi: np.ndarray) -> list[str]:
 
 # --- dynamics: the tip excitation at the first bending frequency -------------------------------
 
-FORMULATIONS = ("rncf", "nr-rncf")
-
 
 def truss_model(truss: Truss, F0: float, frequency: float, solver: str = "auto") -> RotatingFrameModel:
     """The full RNCF model of the cantilevered truss in a stationary frame, with the transverse force
@@ -247,42 +242,17 @@ def resonant_force(truss: Truss, deflection: float, t_end: float) -> tuple[float
 
 
 @dataclasses.dataclass
-class TrussRun:
-    """One forced-response run: the free end's midpoint (centroid of the tip joints) in the
-    reference frame, integrator statistics and timings; for NR-RNCF also the basis, the offline
-    time and, against a reference run, χ_rel (THEORY §9, on the displacements of every position
-    vector over all output times) and the speed-up."""
+class TrussRun(ForcedRun):
+    """One forced-response run (``ForcedRun``); its observed point is the free end's midpoint
+    (the centroid of the tip joints), ``tip``."""
 
-    formulation: str
-    dofs: int
-    ts: np.ndarray
-    tip: np.ndarray  # (nt, 3) displacement of the free end's midpoint
-    positions: np.ndarray  # (nt, n_positions, 3) displacements of all position vectors
-    steps: int
-    rejected: int
-    newton_iters: int
-    compile_s: float
-    run_s: float
-    vms: tuple | None = None
-    mds: tuple | None = None
-    offline_s: float | None = None
-    reduction: object = None
-    reference_dofs: int | None = None
-    reference_run_s: float | None = None
-    chi_rel_percent: float | None = None
-    speedup: float | None = None
+    @property
+    def tip(self) -> np.ndarray:
+        return self.point
 
     def summary(self) -> dict:
-        d = {"formulation": self.formulation, "dofs": self.dofs,
-             "vms": None if self.vms is None else list(self.vms),
-             "mds": None if self.mds is None else [list(p) for p in self.mds],
-             "steps": self.steps, "rejected": self.rejected, "newton_iterations": self.newton_iters,
-             "compile_s": round(self.compile_s, 3), "run_s": round(self.run_s, 4),
-             "offline_s": None if self.offline_s is None else round(self.offline_s, 2),
-             "tip_y_max_m": float(np.abs(self.tip[:, 1]).max()), "tip_z_max_m": float(np.abs(self.tip[:, 2]).max())}
-        if self.chi_rel_percent is not None:
-            d.update(reference_dofs=self.reference_dofs, reference_run_s=round(self.reference_run_s, 3),
-                     chi_rel_percent=self.chi_rel_percent, speedup=self.speedup)
+        d = super().summary()
+        d.update(tip_y_max_m=float(np.abs(self.tip[:, 1]).max()), tip_z_max_m=float(np.abs(self.tip[:, 2]).max()))
         return d
 
 
@@ -297,8 +267,6 @@ def run_truss(formulation: str = "nr-rncf", spec: TrussSpec = TrussSpec(), F0: f
     (``'nr-rncf'``: ``vms`` VMs and ``mds`` MDs chosen by MMI among ``n_modes`` candidates over the
     output times). With ``reference`` (True, or a full ``TrussRun`` on the same output times)
     χ_rel and the speed-up are filled in."""
-    from ..metrics import chi_rel
-    from ..nr_rncf import nr_rncf
     from .spinup import _check_run_args
 
     if formulation not in FORMULATIONS:
@@ -309,47 +277,14 @@ def run_truss(formulation: str = "nr-rncf", spec: TrussSpec = TrussSpec(), F0: f
         F0_auto, f_auto = resonant_force(truss, deflection * spec.length, t_end)
         F0 = F0_auto if F0 is None else F0
         frequency = f_auto if frequency is None else frequency
-    full = truss_model(truss, F0, frequency)
-    pos = np.flatnonzero(np.asarray(truss.body.is_position))
-    tip = truss.tip_positions
-    red = None
-    if formulation == "rncf":
-        model = full
-    else:
-        # The step error on the position vectors' coordinates (what χ_rel measures): mapping it to
-        # all 19,674 coordinates every step cost five times the reduced step itself.
-        rows = (3 * pos[:, None] + np.arange(3)).reshape(-1)
-        red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=None, error_rows=rows)
-        model = red.model
-
-    def observe(t, q, v):
-        # The reduced model's p alone keeps the loop's carry small (the output buffer is carried
-        # through every step); its displacements are rebuilt afterwards.
-        return q if red is not None else model.displacements(t, q)[pos]
-
-    sol, compile_s, run_s = simulate_timed(model, jnp.asarray(ts), solver=GeneralizedAlpha(rho_inf), rtol=rtol,
-                                           atol=atol, observe=observe, progress=progress, max_steps=max_steps)
-    w = np.asarray(jax.device_get(sol.ys))
-    if red is not None:
-        w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p)[pos])(jnp.asarray(w)))
-    where = {int(p): i for i, p in enumerate(pos)}
-    run = TrussRun(formulation=formulation, dofs=int(np.sum(np.asarray(full.free_mask()))) if red is None else red.dofs,
-                   ts=ts, tip=w[:, [where[int(p)] for p in tip]].mean(axis=1), positions=w, steps=int(sol.num_steps),
-                   rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton), compile_s=compile_s,
-                   run_s=run_s)
-    if red is not None:
-        run.vms, run.mds, run.reduction = red.selection.vms, red.selection.pairs, red
-        run.offline_s = red.offline_s["total"]  # nr_rncf's own timing of its stages
+    run = run_forced(truss_model(truss, F0, frequency), formulation, ts, truss.tip_positions, vms=vms, mds=mds,
+                     n_modes=n_modes, rho_inf=rho_inf, rtol=rtol, atol=atol, progress=progress, max_steps=max_steps,
+                     cls=TrussRun)
     if reference is False or reference is None:
         return run
     ref = run_truss("rncf", spec, F0, frequency, t_end=t_end, dt_out=dt_out, rho_inf=rho_inf, rtol=rtol, atol=atol,
                     progress=progress, max_steps=max_steps) if reference is True else reference
-    if ref.positions.shape != w.shape:
-        raise ValueError("reference must be a full RNCF TrussRun of the same truss and output times")
-    run.reference_dofs, run.reference_run_s = ref.dofs, ref.run_s
-    run.chi_rel_percent = float(chi_rel(ref.positions, w))
-    run.speedup = ref.run_s / run_s
-    return run
+    return run.compare(ref)
 
 
 __all__ = ["FORMULATIONS", "EquivalentBeam", "Truss", "TrussRun", "TrussSpec", "build_truss", "equivalent_beam",

@@ -1,0 +1,139 @@
+"""``nrrncf membrane``: the rotating membrane of the paper's Sec. 4.3 (``scenarios.membrane``).
+
+    nrrncf membrane --case {in-plane,bending-torsion} [--omega W] --formulation {rncf,nr-rncf}
+                    [--vms I ...] [--mds I,J ...] [--reference rncf] [--plot F] [--vtk DIR] [--json]
+
+The defaults reproduce the paper's bases: VM 19 + θ19,19 in-plane, VMs 3, 8, 19 and their six
+MDs in bending-torsion, found by mode shape. ``--json`` prints one JSON object as the last line
+with ``dofs, vms, mds, steps, compile_s, run_s, offline_s`` and with ``--reference rncf`` also
+``reference_dofs, reference_run_s, chi_rel_percent, speedup``. Mode indices are 0-based (the
+paper's 19th mode is 18).
+"""
+
+import json
+import sys
+
+from .. import _validate
+from . import _common
+
+
+def _pair(s: str) -> tuple[int, int]:
+    import argparse
+
+    try:
+        i, j = (int(x) for x in s.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a modal derivative is a pair of mode indices 'i,j', got {s!r}") from None
+    if i < 0 or j < 0:
+        raise argparse.ArgumentTypeError(f"mode indices are >= 0, got {s!r}")
+    return i, j
+
+
+def _say(args, text):
+    if not args.json and not args.no_progress:
+        print(text, file=sys.stderr, flush=True)
+
+
+def _run(args) -> int:
+    import numpy as np
+
+    from ..scenarios.membrane import DEFAULT_OMEGA, MembraneSpec, build_membrane, run_membrane
+
+    spec = MembraneSpec(rings=args.rings, thickness=args.thickness)
+    omega = DEFAULT_OMEGA[args.case] if args.omega is None else args.omega
+    _say(args, f"rotating membrane ({spec.rings} rings), {args.case}, omega_s = {omega:g} rad/s, {args.formulation}, "
+               f"0-{args.t_end:g} s ...")
+    kw = dict(T_s=args.ts, t_end=args.t_end, dt_out=args.dt_out, rtol=args.rtol, atol=args.atol,
+              progress=not (args.json or args.no_progress))
+    ref = run_membrane(args.case, omega, "rncf", spec, **kw) \
+        if args.reference == "rncf" or args.formulation == "rncf" else None
+    if args.formulation == "rncf":
+        run = ref
+    else:
+        mds = None if args.mds is None else ([] if args.mds == ["none"] else args.mds)
+        run = run_membrane(args.case, omega, "nr-rncf", spec, vms=args.vms, mds=mds, n_modes=args.modes,
+                           reference=ref if ref is not None else False, **kw)
+    if args.plot:
+        from ..plotting import plot_membrane_rim
+
+        plot_membrane_rim(args.plot, [run] + ([ref] if ref is not None and ref is not run else []))
+    if args.vtk:
+        from ..vtk import write_plate_vtk
+
+        m = build_membrane(spec)
+        pos = np.flatnonzero(np.asarray(m.body.is_position))
+        step = max(1, len(run.ts) // 50)
+        fields = {}
+        for k in range(0, len(run.ts), step):
+            u = np.zeros((m.body.n_vectors, 3))
+            u[pos] = run.positions[k]
+            fields[f"t_{k:05d}"] = u
+        write_plate_vtk(args.vtk, m.plate, fields, times=run.ts[::step])
+    s = run.summary()
+    keys = ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s"]
+    if run.chi_rel_percent is not None:
+        keys += ["reference_dofs", "reference_run_s", "chi_rel_percent", "speedup"]
+    out = {k: s[k] for k in keys}
+    out.update(formulation=run.formulation, case=args.case, omega_s=omega, rim_max_m=s["rim_max_m"])
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    for k, v in out.items():
+        print(f"  {k}: {v}")
+    return 0
+
+
+def _check(args) -> None:
+    _common.at_least("--rings", args.rings, 2)
+    _validate.positive("--thickness", args.thickness)
+    _validate.positive("--ts (spin-up time)", args.ts)
+    if args.omega is not None:
+        _validate.positive("--omega (steady spin rate)", args.omega)
+    if args.vtk is not None and not str(args.vtk).strip():
+        raise ValueError("--vtk needs a folder name")
+    _common.output_path("--plot", args.plot)
+    _common.output_times(args.t_end, args.dt_out)
+    _validate.tolerances(args.rtol, args.atol)
+    if args.formulation == "rncf":
+        if args.reference is not None:
+            raise ValueError("--reference goes with --formulation nr-rncf")
+        if args.vms is not None or args.mds is not None:
+            raise ValueError("--vms and --mds go with --formulation nr-rncf")
+    if args.mds is not None and "none" in args.mds and len(args.mds) > 1:
+        raise ValueError("--mds none stands alone")
+    highest = max([*(args.vms or []), *(i for p in (args.mds or []) if p != "none" for i in p)], default=-1)
+    if highest >= args.modes:
+        raise ValueError(f"mode index {highest} is not among the --modes {args.modes} candidates")
+
+
+def register(sub) -> None:
+    t = sub.add_parser("membrane", help="the rotating membrane (paper Sec. 4.3): full RNCF and NR-RNCF",
+                       description="The rotating membrane of the paper's Sec. 4.3: an aluminium disk (b = 1 m, "
+                                   "h = 1.36 mm) clamped at its centre, 1350 plate elements, 18,912 DOFs, spun up "
+                                   "about Z (Eq. 43), in bending-torsion also with its hub oscillating along Z. "
+                                   f"{_common.MODE_INDICES}; the paper's 19th mode is 18.",
+                       formatter_class=_common.HelpFormatter)
+    t.add_argument("--case", choices=("in-plane", "bending-torsion"), default="in-plane",
+                   help="in-plane: spin-up alone (case A); bending-torsion: with w_z = 0.012 sin(0.5 pi t) (case B)")
+    t.add_argument("--omega", type=float, default=None,
+                   help="steady spin rate [rad/s] (default: 7 in-plane, 4 bending-torsion)")
+    t.add_argument("--ts", type=float, default=2.0, help="spin-up time T_s of Eq. 43 [s]")
+    t.add_argument("--formulation", choices=("rncf", "nr-rncf"), default="nr-rncf", help="the model")
+    t.add_argument("--vms", type=int, nargs="+", default=None,
+                   help="nr-rncf: the vibration modes (0-based; default the paper's, found by mode shape)")
+    t.add_argument("--mds", type=lambda s: s if s == "none" else _pair(s), nargs="+", default=None,
+                   help="nr-rncf: modal derivatives as pairs i,j, or 'none' (default: all pairs of the VMs)")
+    t.add_argument("--modes", type=int, default=24, help="nr-rncf: candidate modes (the MMI's)")
+    t.add_argument("--reference", choices=("rncf",), default=None,
+                   help="nr-rncf: also run the full RNCF model and report chi_rel and the speed-up")
+    t.add_argument("--rings", type=int, default=15, help="rings of the hexagonal disk mesh (15: 1350 triangles)")
+    t.add_argument("--thickness", type=float, default=1.36e-3, help="plate thickness [m]")
+    t.add_argument("--t-end", type=float, default=3.0, help="end time [s]")
+    t.add_argument("--dt-out", type=float, default=0.01, help="output interval [s]")
+    t.add_argument("--rtol", type=float, default=1e-5, help="the step error's relative tolerance")
+    t.add_argument("--atol", type=float, default=1e-7, help="the step error's absolute tolerance")
+    t.add_argument("--plot", help="write a plot (PNG) of the rim deflections in the reference frame here")
+    t.add_argument("--vtk", help="write the deformed mesh over time into this folder (.vtu files and a .pvd series)")
+    t.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    t.add_argument("--no-progress", action="store_true", help="no progress messages on stderr")
+    t.set_defaults(func=_run, check=_check)
