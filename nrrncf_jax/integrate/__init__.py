@@ -1,6 +1,8 @@
-"""Time integration: adaptive generalized-α for second-order models."""
+"""Time integration: adaptive generalized-α for second-order models, and its index-3 form for
+constrained (multibody) models."""
 
 from .generalized_alpha import GeneralizedAlpha as GeneralizedAlpha
+from .index3 import GeneralizedAlphaIndex3 as GeneralizedAlphaIndex3
 from .newton import NewtonResult as NewtonResult
 from .newton import NewtonSolution as NewtonSolution
 from .newton import newton as newton

@@ -227,8 +227,16 @@ def _prepare(model, ts, t0, y0, solver, rtol, atol, dt0, dt_min, dt_max, adaptiv
         raise ValueError(f"adjoint must be 'forward' or 'reverse', got {adjoint!r}")
     if ts_np is not None and dt0 is None:
         dt0 = 1e-3 * (ts_np[-1] - t0)
+    constrained = getattr(model, "n_constraints", 0) > 0
+    if solver is None:
+        from .index3 import GeneralizedAlphaIndex3
+
+        solver = GeneralizedAlphaIndex3(0.9) if constrained else GeneralizedAlpha(0.9)
+    elif constrained and type(solver) is GeneralizedAlpha:
+        raise ValueError("a model with joint constraints needs a constrained stepper (GeneralizedAlphaIndex3); "
+                         "GeneralizedAlpha would ignore its joints")
     config = _Config(
-        solver=GeneralizedAlpha(0.9) if solver is None else solver,
+        solver=solver,
         adaptive=bool(adaptive),
         max_steps=int(max_steps),
         max_newton=int(max_newton),

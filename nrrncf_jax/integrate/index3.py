@@ -1,0 +1,89 @@
+"""Generalized-α for constrained systems, index 3 (Arnold & Brüls 2007): the step of
+``GeneralizedAlpha`` with the joints' equations C(q) = 0 imposed at the end of every step and
+their multipliers λ in the state (THEORY §7-8).
+
+The unknowns of a step are the new acceleration a_{n+1} and λ_{n+1}; q_{n+1} and v_{n+1} follow
+from a_{n+1} by the generalized-α kinematics (∂q/∂a = c_K, ∂v/∂a = c_C). Newton solves
+
+    [S + c_K H_λ   C_qᵀ] [Δa]   [r(a, λ) = M a + g(q, v) + C_qᵀ λ]
+    [C_q           0   ] [Δλ] = [C(q) / c_K                       ]
+
+with S = M + c_C ∂g/∂v + c_K ∂g/∂q the unconstrained iteration matrix and H_λ = ∂(C_qᵀλ)/∂q.
+Taking a (not q) as the unknown and dividing the constraint rows by c_K = βh²(1−α_f)/(1−α_m)
+is the scaling of Bottasso, Dopico & Trainelli (2008): the matrix's condition number no longer
+grows like h⁻⁴ as the step shrinks.
+
+The step error estimate and the Newton stopping test measure q alone: the multipliers carry a
+damped O(h) transient after every change of step size (which ρ∞ < 1 damps; index-3 constraints
+with ρ∞ = 1 leave it undamped), and are out of the error norm, as MULTIBODY.md says. Exact
+reactions at any state come from ``MultibodySystem.reactions``.
+"""
+
+from collections.abc import Callable
+
+import jax.numpy as jnp
+
+from .._types import Array, Float, Scalar
+from ..linalg import DenseLU
+from .generalized_alpha import GeneralizedAlpha
+from .newton import NewtonSolution
+from .newton import newton as newton_iteration
+from .state import GeneralizedAlphaState, NewtonOptions
+
+
+class GeneralizedAlphaIndex3(GeneralizedAlpha):
+    """Generalized-α (``GeneralizedAlpha``'s coefficients from ρ∞) for a model with joint
+    constraints: a ``multibody.MultibodySystem`` (``constraints``, ``constraint_jacobian``,
+    ``constraint_hessian``, ``iteration_matrix``, ``consistent_accelerations``). Forward mode
+    only: differentiating a run goes through the Newton iterations (``jax.jacfwd``/``jvp``)."""
+
+    def init(self, model, t0: Scalar, q0: Float[Array, " n"], v0: Float[Array, " n"]) -> GeneralizedAlphaState:
+        """The state at ``t0`` with the consistent (a0, λ0) (``consistent_accelerations``)."""
+        if not hasattr(model, "consistent_accelerations"):
+            raise ValueError("GeneralizedAlphaIndex3 runs constrained models (a multibody.MultibodySystem); got "
+                             f"{type(model).__name__}")
+        a0, lam0 = model.consistent_accelerations(t0, q0, v0)
+        return GeneralizedAlphaState(q0, v0, a0, a0, lam0)
+
+    def step(self, model, t0: Scalar, t1: Scalar, state: GeneralizedAlphaState, newton: NewtonOptions,
+             norm: Callable[[Float[Array, " n"]], Scalar], *, h: Scalar | None = None
+             ) -> tuple[GeneralizedAlphaState, Float[Array, " n"], NewtonSolution]:
+        """One step to ``t1`` (see the module docstring and ``state.AbstractStepper``)."""
+        if newton.implicit:
+            raise ValueError("constrained runs are differentiated in forward mode (adjoint='forward')")
+        h = t1 - t0 if h is None else h
+        c_C, c_K = self.derivatives(h)
+        stage = self._stage(model, t1, h, state)
+        n = state.q.shape[0]
+
+        def equations(z):
+            a1, lam = z[:n], z[n:]
+            q1, v1, a1, _ = stage(a1)
+            B = model.constraint_jacobian(q1)
+            r = model.residual(t1, q1, v1, a1) + B.T @ lam
+            return jnp.concatenate([r, model.constraints(q1) / c_K]), q1, v1, B
+
+        def matrix(z, q1, v1, B):
+            m = B.shape[0]
+            S = model.iteration_matrix(t1, q1, v1, 1.0, c_C, c_K) + c_K * model.constraint_hessian(q1, z[n:])
+            return jnp.block([[S, B.T], [B, jnp.zeros((m, m), S.dtype)]])
+
+        z0 = jnp.concatenate([state.a, state.lam])
+        if newton.variant == "modified":
+            _, q1p, v1p, Bp = equations(z0)
+            fac = DenseLU.factor(matrix(z0, q1p, v1p, Bp))
+
+        def update(z):
+            F, q1, v1, B = equations(z)
+            if newton.variant == "full":
+                return DenseLU.factor(matrix(z, q1, v1, B)).solve(F)
+            return fac.solve(F)
+
+        sol = newton_iteration(update, lambda dz: norm(c_K * dz[:n]), z0, newton.tol, newton.max_iter,
+                               contraction_test=newton.variant == "full", divergence_test=newton.divergence_test)
+        a1, lam1 = sol.x[:n], sol.x[n:]
+        q1, v1, a1, abar1 = stage(a1)
+        return GeneralizedAlphaState(q1, v1, a1, abar1, lam1), self.error_estimate(h, state.a, a1), sol
+
+
+__all__ = ["GeneralizedAlphaIndex3"]

@@ -1,0 +1,226 @@
+"""A multibody system: flexible bodies in the inertial frame (ANCF, THEORY §3 with A = I, r = 0)
+joined by joints (``multibody.joints``), under gravity: the index-3 DAE
+
+    M a + F(x) − Q + C_x(x)ᵀ λ = 0,    C(x) = 0,
+
+with x the bodies' nodal vectors stacked (body by body), M the block-diagonal mass matrix
+``M_αβ ⊗ I3`` of each body, F their elastic forces (Eqs. 9-11), Q the gravity load ``ϱ_α g``,
+C the joints' equations and λ their multipliers (the reactions, see ``joints``). It runs with
+``integrate.GeneralizedAlphaIndex3``, which carries λ in its state.
+
+Why inertial-frame bodies first: every body's motion lives in its nodal vectors, so the system is
+one vector space (no rotation parameters), its mass matrix is constant, and any joint is a
+quadratic polynomial in the nodal vectors. It is the full-order reference of a jointed system;
+floating-frame (RNCF) bodies with their reduced models are the next step (issue 17).
+
+The iteration matrix is assembled dense (O(n²) memory): systems of a few bodies and a few
+hundred to a few thousand coordinates.
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._types import Array, Bool, Float, Scalar
+from .._validate import is_concrete
+from ..body import Body
+from ..linalg import DenseLU
+from ..models.base import AbstractModel
+from .joints import AbstractJoint
+
+
+def placed(body: Body, rotation=None, translation=(0.0, 0.0, 0.0)) -> Body:
+    """``body`` moved rigidly in space: every nodal vector rotated by ``rotation`` (3 × 3, proper),
+    the position vectors then translated by ``translation``. Its stress-free state moves along
+    (the element integrals depend on the reference through dot products of its gradients, which a
+    rigid motion keeps): the way to put bodies built about the origin where the system needs them."""
+    R = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
+    if R.shape != (3, 3) or not np.allclose(R.T @ R, np.eye(3), atol=1e-12) or np.linalg.det(R) < 0:
+        raise ValueError("rotation must be a proper 3 × 3 rotation matrix")
+    p = np.asarray(translation, dtype=float).reshape(3)
+    q = np.asarray(body.q_hat) @ R.T + np.where(np.asarray(body.is_position)[:, None], p[None, :], 0.0)
+    return eqx.tree_at(lambda b: b.q_hat, body, jnp.asarray(q))
+
+
+class MultibodySystem(AbstractModel):
+    """Bodies (``Body``, placed in space: their ``q_hat`` is the initial, stress-free state), joints
+    and ``gravity`` (an acceleration, 3-vector). See the module docstring for the equations.
+
+    Raises ``ValueError`` before anything is traced for: a joint that refers to a body or nodal
+    vector that does not exist, a body that no joint holds, joint equations that the initial
+    state does not satisfy, and redundant joint equations (a rank-deficient C_x, which would make
+    the iteration matrix singular).
+    """
+
+    bodies: tuple[Body, ...]
+    joints: tuple[AbstractJoint, ...]
+    gravity: Float[Array, " 3"]
+    M: Float[Array, "n n"]  # the block-diagonal mass matrix, all coordinates
+    offsets: tuple[int, ...] = eqx.field(static=True)  # first coordinate of each body
+
+    preferred_newton = "full"
+
+    def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0)):
+        self.bodies = tuple(bodies)
+        self.joints = tuple(joints)
+        if not self.bodies or not all(isinstance(b, Body) for b in self.bodies):
+            raise ValueError("bodies must be a non-empty sequence of Body")
+        if not all(isinstance(j, AbstractJoint) for j in self.joints):
+            raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...)")
+        self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
+        sizes = [b.n_dof for b in self.bodies]
+        self.offsets = tuple(int(o) for o in np.concatenate([[0], np.cumsum(sizes)[:-1]]))
+        n = sum(sizes)
+        M = np.zeros((n, n))
+        for b, o in zip(self.bodies, self.offsets):
+            M[o:o + b.n_dof, o:o + b.n_dof] = np.kron(np.asarray(b.mass_matrix()), np.eye(3))
+        self.M = jnp.asarray(M)
+        self._check()
+
+    # --- checks before any tracing -----------------------------------------------------------
+    def _check(self) -> None:
+        nb = len(self.bodies)
+        held = set()
+        for k, joint in enumerate(self.joints):
+            for b, v in joint.references():
+                if not 0 <= b < nb:
+                    raise ValueError(f"joint {k} ({type(joint).__name__}) refers to body {b}; the system has bodies "
+                                     f"0..{nb - 1}")
+                if not 0 <= v < self.bodies[b].n_vectors:
+                    raise ValueError(f"joint {k} ({type(joint).__name__}) refers to nodal vector {v} of body {b}, "
+                                     f"which has vectors 0..{self.bodies[b].n_vectors - 1}")
+            held |= joint.bodies()
+        loose = sorted(set(range(nb)) - held)
+        if loose:
+            raise ValueError(f"bodies {loose} are held by no joint: each body of a system needs a joint (a body "
+                             "on its own is a single-body model)")
+        if not self.joints or not all(is_concrete(x) for x in jax.tree_util.tree_leaves(self)):
+            return
+        x0 = self.reference()
+        C0 = np.asarray(self.constraints(x0))
+        scale = max(1.0, float(np.abs(x0).max()))
+        bad = np.flatnonzero(np.abs(C0) > 1e-9 * scale)
+        if bad.size:
+            raise ValueError(f"the initial state violates joint equations {bad[:10].tolist()} (largest "
+                             f"{np.abs(C0).max():.3g}): place the bodies so that their joints fit")
+        B = np.asarray(self.constraint_jacobian(x0))
+        s = np.linalg.svd(B, compute_uv=False)
+        rank = int(np.sum(s > 1e-10 * s.max()))
+        if rank < B.shape[0]:
+            raise ValueError(f"the joints' {B.shape[0]} equations are redundant (rank {rank}): remove the "
+                             "duplicated constraints, or the iteration matrix is singular")
+
+    # --- coordinates ------------------------------------------------------------------------------
+    @property
+    def n_dof(self) -> int:
+        return int(self.M.shape[0])
+
+    @property
+    def n_constraints(self) -> int:
+        return sum(j.n_equations for j in self.joints)
+
+    def split(self, x: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
+        """The bodies' nodal vectors (one (n_vectors, 3) array a body) from the stacked x."""
+        return tuple(x[o:o + b.n_dof].reshape(-1, 3) for b, o in zip(self.bodies, self.offsets))
+
+    def reference(self) -> Float[Array, " n"]:
+        """The stacked stress-free (initial) state."""
+        return jnp.concatenate([b.q_hat.reshape(-1) for b in self.bodies])
+
+    def free_mask(self) -> Bool[Array, " n"]:
+        return jnp.ones(self.n_dof, bool)
+
+    def initial_state(self, t0: Scalar):
+        x0 = self.reference()
+        return x0, jnp.zeros_like(x0)
+
+    def constrain(self, t, q, v, a):
+        return q, v, a
+
+    def displacements(self, t: Scalar, x: Float[Array, " n"]) -> Float[Array, "nv 3"]:
+        """All nodal vectors' displacements from the initial state, stacked body by body."""
+        return (x - self.reference()).reshape(-1, 3)
+
+    # --- the equations ----------------------------------------------------------------------------
+    def constraints(self, x: Float[Array, " n"]) -> Float[Array, " m"]:
+        """C(x): the joints' equations, joint by joint."""
+        xs = self.split(x)
+        if not self.joints:
+            return jnp.zeros((0,), x.dtype)
+        return jnp.concatenate([j(xs) for j in self.joints])
+
+    def constraint_jacobian(self, x: Float[Array, " n"]) -> Float[Array, "m n"]:
+        """C_x = ∂C/∂x (dense)."""
+        return jax.jacfwd(self.constraints)(x)
+
+    def constraint_hessian(self, x: Float[Array, " n"], lam: Float[Array, " m"]) -> Float[Array, "n n"]:
+        """∂(C_xᵀ λ)/∂x: the joints' contribution to the tangent stiffness (constant: the
+        equations are quadratic)."""
+        return jax.hessian(lambda y: jnp.dot(lam, self.constraints(y)))(x)
+
+    def constraint_acceleration(self, x, v) -> Float[Array, " m"]:
+        """(C_x v)_x v: the part of C̈ = C_x a + (C_x v)_x v that does not hold a."""
+        def rate(y):
+            return jax.jvp(self.constraints, (y,), (v,))[1]
+
+        return jax.jvp(rate, (x,), (v,))[1]
+
+    def residual(self, t: Scalar, x, v, a) -> Float[Array, " n"]:
+        """M a + F(x) − Q, without the joints' forces (the stepper adds C_xᵀ λ)."""
+        xs = self.split(x)
+        parts = [(b.elastic_force(q) - b.varrho()[:, None] * self.gravity[None, :]).reshape(-1)
+                 for b, q in zip(self.bodies, xs)]
+        return self.M @ a + jnp.concatenate(parts)
+
+    def stiffness(self, x) -> Float[Array, "n n"]:
+        """The block-diagonal tangent stiffness ∂F/∂x of the bodies."""
+        n = self.n_dof
+        K = jnp.zeros((n, n), x.dtype)
+        for b, o, q in zip(self.bodies, self.offsets, self.split(x)):
+            K = K.at[o:o + b.n_dof, o:o + b.n_dof].set(b.stiffness_matrix(q))
+        return K
+
+    def iteration_matrix(self, t, x, v, c_M, c_C, c_K) -> Float[Array, "n n"]:
+        """c_M ∂r/∂a + c_C ∂r/∂v + c_K ∂r/∂x of ``residual`` (no velocity terms: c_C unused)."""
+        return c_M * self.M + c_K * self.stiffness(x)
+
+    def factor_iteration_matrix(self, t, x, v, c_M, c_C, c_K):
+        return DenseLU.factor(self.iteration_matrix(t, x, v, c_M, c_C, c_K))
+
+    def consistent_accelerations(self, t: Scalar, x, v) -> tuple[Float[Array, " n"], Float[Array, " m"]]:
+        """``(a, λ)`` that satisfy the equations of motion and C̈ = 0 at (x, v):
+
+            [M   C_xᵀ] [a]   [−(F − Q)       ]
+            [C_x  0  ] [λ] = [−(C_x v)_x v   ]
+        """
+        B = self.constraint_jacobian(x)
+        n, m = self.n_dof, B.shape[0]
+        A = jnp.block([[self.M, B.T], [B, jnp.zeros((m, m), x.dtype)]])
+        rhs = jnp.concatenate([-self.residual(t, x, v, jnp.zeros_like(x)), -self.constraint_acceleration(x, v)])
+        z = DenseLU.factor(A).solve(rhs)
+        return z[:n], z[n:]
+
+    def reactions(self, t: Scalar, x, v) -> Float[Array, " m"]:
+        """λ at (x, v): the joints' multipliers of the DAE's solution through that state (see
+        ``joints`` for their sign). They are functions of the state, so this is what an output
+        at any time should report; the integrator's own λ carries an O(h) transient."""
+        return self.consistent_accelerations(t, x, v)[1]
+
+    def joint_slices(self) -> list[slice]:
+        """Where each joint's equations (and multipliers) sit in C and λ."""
+        out, k = [], 0
+        for j in self.joints:
+            out.append(slice(k, k + j.n_equations))
+            k += j.n_equations
+        return out
+
+    def energy(self, x, v) -> Float[Array, ""]:
+        """Kinetic + strain + gravity potential energy (conserved without damping)."""
+        xs = self.split(x)
+        U = sum(b.strain_energy(q) for b, q in zip(self.bodies, xs))
+        V = -sum(jnp.sum(b.varrho()[:, None] * q * self.gravity[None, :]) for b, q in zip(self.bodies, xs))
+        return 0.5 * v @ (self.M @ v) + U + V
+
+
+__all__ = ["MultibodySystem", "placed"]
