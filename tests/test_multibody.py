@@ -120,3 +120,29 @@ def test_bad_systems_are_refused():
     system = MultibodySystem([beam], [Fixed(0, [0, 1, 2, 4], values=np.asarray(beam.q_hat)[[0, 1, 2, 4]])])
     with pytest.raises(ValueError, match="needs a constrained stepper"):
         simulate(system, jnp.array([0.0, 0.1]), solver=GeneralizedAlpha(0.9))
+
+
+def test_body_by_body_solver_matches_the_dense_one():
+    """``factor_augmented``: each body's S factored apart (block-tridiagonal) and the joints by
+    their Schur complement solve the same system as one dense LU of ``[[S, C_xᵀ], [C_x, 0]]``
+    (the Schur form leaves the joints' Hessian out, so the dense matrix here does too), to
+    round-off: ε times the condition number of the augmented matrix."""
+    system = build_pendulum(PendulumSpec(elements=2))
+    assert system.solver == "bodies"
+    x = system.reference() + 1e-3 * jax.random.normal(jax.random.PRNGKey(1), (system.n_dof,))
+    m = system.n_constraints
+    F = jax.random.normal(jax.random.PRNGKey(2), (system.n_dof + m,))
+    c_C, c_K = 0.01, 2.5e-5  # a step of about 0.01 s
+    @jax.jit
+    def both(x, F):
+        v = jnp.zeros_like(x)
+        z = system.factor_augmented(0.0, x, v, jnp.zeros(m), c_C, c_K).solve(F)
+        B = system.constraint_jacobian(x)
+        S = system.iteration_matrix(0.0, x, v, 1.0, c_C, c_K)
+        return z, jnp.block([[S, B.T], [B, jnp.zeros((m, m))]])
+
+    z, A = both(x, F)
+    A = np.asarray(A)
+    z_dense = np.linalg.solve(A, np.asarray(F))
+    bound = 10 * np.finfo(float).eps * np.linalg.cond(A) * np.abs(z_dense).max()
+    assert np.abs(np.asarray(z) - z_dense).max() < bound

@@ -24,7 +24,6 @@ from collections.abc import Callable
 import jax.numpy as jnp
 
 from .._types import Array, Float, Scalar
-from ..linalg import DenseLU
 from .generalized_alpha import GeneralizedAlpha
 from .newton import NewtonSolution
 from .newton import newton as newton_iteration
@@ -34,7 +33,7 @@ from .state import GeneralizedAlphaState, NewtonOptions
 class GeneralizedAlphaIndex3(GeneralizedAlpha):
     """Generalized-α (``GeneralizedAlpha``'s coefficients from ρ∞) for a model with joint
     constraints: a ``multibody.MultibodySystem`` (``constraints``, ``constraint_jacobian``,
-    ``constraint_hessian``, ``iteration_matrix``, ``consistent_accelerations``). Forward mode
+    ``factor_augmented``, ``consistent_accelerations``). Forward mode
     only: differentiating a run goes through the Newton iterations (``jax.jacfwd``/``jvp``)."""
 
     def init(self, model, t0: Scalar, q0: Float[Array, " n"], v0: Float[Array, " n"]) -> GeneralizedAlphaState:
@@ -59,24 +58,18 @@ class GeneralizedAlphaIndex3(GeneralizedAlpha):
         def equations(z):
             a1, lam = z[:n], z[n:]
             q1, v1, a1, _ = stage(a1)
-            B = model.constraint_jacobian(q1)
-            r = model.residual(t1, q1, v1, a1) + B.T @ lam
-            return jnp.concatenate([r, model.constraints(q1) / c_K]), q1, v1, B
-
-        def matrix(z, q1, v1, B):
-            m = B.shape[0]
-            S = model.iteration_matrix(t1, q1, v1, 1.0, c_C, c_K) + c_K * model.constraint_hessian(q1, z[n:])
-            return jnp.block([[S, B.T], [B, jnp.zeros((m, m), S.dtype)]])
+            r = model.residual(t1, q1, v1, a1) + model.constraint_jacobian(q1).T @ lam
+            return jnp.concatenate([r, model.constraints(q1) / c_K]), q1, v1
 
         z0 = jnp.concatenate([state.a, state.lam])
         if newton.variant == "modified":
-            _, q1p, v1p, Bp = equations(z0)
-            fac = DenseLU.factor(matrix(z0, q1p, v1p, Bp))
+            _, q1p, v1p = equations(z0)
+            fac = model.factor_augmented(t1, q1p, v1p, state.lam, c_C, c_K)
 
         def update(z):
-            F, q1, v1, B = equations(z)
+            F, q1, v1 = equations(z)
             if newton.variant == "full":
-                return DenseLU.factor(matrix(z, q1, v1, B)).solve(F)
+                return model.factor_augmented(t1, q1, v1, z[n:], c_C, c_K).solve(F)
             return fac.solve(F)
 
         sol = newton_iteration(update, lambda dz: norm(c_K * dz[:n]), z0, newton.tol, newton.max_iter,

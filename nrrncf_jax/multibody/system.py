@@ -13,8 +13,8 @@ one vector space (no rotation parameters), its mass matrix is constant, and any 
 quadratic polynomial in the nodal vectors. It is the full-order reference of a jointed system;
 floating-frame (RNCF) bodies with their reduced models are the next step (issue 17).
 
-The iteration matrix is assembled dense (O(n²) memory): systems of a few bodies and a few
-hundred to a few thousand coordinates.
+The constrained iteration matrix is factored body by body with the joints' Schur complement
+when the bodies are beam chains (``factor_augmented``), else dense.
 """
 
 import equinox as eqx
@@ -25,7 +25,7 @@ import numpy as np
 from .._types import Array, Bool, Float, Scalar
 from .._validate import is_concrete
 from ..body import Body
-from ..linalg import DenseLU
+from ..linalg import DenseLU, assemble_and_factor
 from ..models.base import AbstractModel
 from .joints import AbstractJoint
 
@@ -58,11 +58,16 @@ class MultibodySystem(AbstractModel):
     gravity: Float[Array, " 3"]
     M: Float[Array, "n n"]  # the block-diagonal mass matrix, all coordinates
     offsets: tuple[int, ...] = eqx.field(static=True)  # first coordinate of each body
+    solver: str = eqx.field(static=True)  # the constrained iteration matrix's solver (factor_augmented)
 
     preferred_newton = "full"
 
-    def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0)):
+    def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0), solver: str = "auto"):
+        if solver not in ("auto", "dense", "bodies"):
+            raise ValueError(f"solver must be 'auto', 'dense' or 'bodies', got {solver!r}")
         self.bodies = tuple(bodies)
+        self.solver = ("bodies" if all(getattr(b, "chain", False) for b in self.bodies) else "dense") \
+            if solver == "auto" else solver
         self.joints = tuple(joints)
         if not self.bodies or not all(isinstance(b, Body) for b in self.bodies):
             raise ValueError("bodies must be a non-empty sequence of Body")
@@ -188,6 +193,32 @@ class MultibodySystem(AbstractModel):
     def factor_iteration_matrix(self, t, x, v, c_M, c_C, c_K):
         return DenseLU.factor(self.iteration_matrix(t, x, v, c_M, c_C, c_K))
 
+    def factor_augmented(self, t, x, v, lam, c_C, c_K) -> "AugmentedFactor":
+        """The step's constrained iteration matrix ``[[S + c_K H_λ, C_xᵀ], [C_x, 0]]`` factored
+        (``integrate.GeneralizedAlphaIndex3``), S = M + c_K K(x). ``solver="dense"``: one dense LU
+        of the whole matrix, with the joints' Hessian H_λ = ∂(C_xᵀλ)/∂x. ``"bodies"`` (the default
+        when every body is a beam chain): each body's S factored on its own (block-tridiagonal for
+        chains) and the joints by the m × m Schur complement C_x S⁻¹ C_xᵀ: O(n) instead of
+        O(n³). It leaves H_λ out, which couples the bodies at their joints: Newton then converges
+        linearly, at a rate of about c_K |H_λ| / |M| (the reactions times h²β against the nodal
+        masses: small), to the same solution."""
+        B = self.constraint_jacobian(x)
+        if self.solver == "dense":
+            S = self.iteration_matrix(t, x, v, 1.0, c_C, c_K) + c_K * self.constraint_hessian(x, lam)
+            m = B.shape[0]
+            return AugmentedFactor(dense=DenseLU.factor(jnp.block([[S, B.T], [B, jnp.zeros((m, m), S.dtype)]])))
+        factors = []
+        for b, q in zip(self.bodies, self.split(x)):
+            parts = [(c_K * Kt + jnp.einsum("eab,ij->eaibj", M_e, jnp.eye(3)).reshape(Kt.shape), dofs)
+                     for (Kt, dofs), (M_e, _) in zip(b.tangent_parts(q), b.mass_parts())]
+            factors.append(assemble_and_factor(parts, jnp.ones(b.n_dof, bool),
+                                               chain_block=3 * b.vectors_per_node if b.chain else None))
+        sizes = [b.n_dof for b in self.bodies]
+        S_inv_Bt = _solve_bodies(factors, self.offsets, sizes, B.T)
+        schur = DenseLU.factor(B @ S_inv_Bt)
+        return AugmentedFactor(bodies=tuple(factors), offsets=self.offsets, sizes=tuple(sizes), B=B,
+                               S_inv_Bt=S_inv_Bt, schur=schur)
+
     def consistent_accelerations(self, t: Scalar, x, v) -> tuple[Float[Array, " n"], Float[Array, " m"]]:
         """``(a, λ)`` that satisfy the equations of motion and C̈ = 0 at (x, v):
 
@@ -223,4 +254,36 @@ class MultibodySystem(AbstractModel):
         return 0.5 * v @ (self.M @ v) + U + V
 
 
-__all__ = ["MultibodySystem", "placed"]
+def _solve_bodies(factors, offsets, sizes, X):
+    """S⁻¹ X for the block-diagonal S of the bodies' factors (X: n or n × k)."""
+    out = []
+    for fac, o, n in zip(factors, offsets, sizes):
+        Xb = X[o:o + n]
+        out.append(fac.solve(Xb) if Xb.ndim == 1 else jax.vmap(fac.solve, in_axes=1, out_axes=1)(Xb))
+    return jnp.concatenate(out)
+
+
+class AugmentedFactor(eqx.Module):
+    """A factored constrained iteration matrix (``MultibodySystem.factor_augmented``): ``solve``
+    takes ``[r; c]`` (n + m) and returns ``[Δa; Δλ]``."""
+
+    dense: DenseLU | None = None
+    bodies: tuple | None = None
+    offsets: tuple[int, ...] | None = eqx.field(static=True, default=None)
+    sizes: tuple[int, ...] | None = eqx.field(static=True, default=None)
+    B: Float[Array, "m n"] | None = None
+    S_inv_Bt: Float[Array, "n m"] | None = None
+    schur: DenseLU | None = None
+
+    def solve(self, F: Float[Array, " nm"]) -> Float[Array, " nm"]:
+        if self.dense is not None:
+            return self.dense.solve(F)
+        n = self.B.shape[1]
+        r, c = F[:n], F[n:]
+        # [S Bᵀ; B 0][z; μ] = [r; c]:  (B S⁻¹ Bᵀ) μ = B S⁻¹ r − c,  z = S⁻¹ r − S⁻¹ Bᵀ μ
+        y = _solve_bodies(self.bodies, self.offsets, self.sizes, r)
+        mu = self.schur.solve(self.B @ y - c)
+        return jnp.concatenate([y - self.S_inv_Bt @ mu, mu])
+
+
+__all__ = ["AugmentedFactor", "MultibodySystem", "placed"]
