@@ -299,3 +299,21 @@ def test_bad_solver_choices_raise():
         assert isinstance(old, cls)
         np.testing.assert_array_equal(x_old, x_new)
     assert isinstance(jax.jit(lambda G: assemble_and_factor([(G, dofs)], free, solver="sparse"))(Ge), SparseLU)
+
+
+def test_sparse_cache_keeps_to_its_memory_budget(monkeypatch):
+    """With a budget smaller than one factorisation only the newest is kept, and solves whose
+    factors were dropped factor again: the same results as the dense solver (a vmapped batch, each
+    member's factors dropped by the next member's before its solve)."""
+    from nrrncf_jax.linalg import sparse
+
+    monkeypatch.setattr(sparse, "CACHE_BYTES", 1)
+    m, nb = 3, 12
+    Ge, dofs = chain_parts(nb, m, seed=5)
+    free = jnp.asarray(np.arange(m * nb) >= m)
+    b = jnp.asarray(np.random.default_rng(4).normal(size=m * nb))
+    scales = 1.0 + 0.1 * jnp.arange(4)
+    out = {s: jax.jit(jax.vmap(lambda c: assemble_and_factor([(c * Ge, dofs)], free, solver=s).solve(b)))(scales)
+           for s in ("dense", "sparse")}
+    np.testing.assert_allclose(out["sparse"], out["dense"], rtol=1e-11, atol=1e-11)
+    assert len(sparse._factors) == 1

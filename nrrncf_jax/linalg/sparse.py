@@ -58,6 +58,11 @@ from .base import AbstractFactorization, Parts
 CACHE_SIZE = 8
 """SuperLU factorisations kept on the host for later solves (least recently used dropped first)."""
 
+CACHE_BYTES = 1 << 30
+"""...and at most this much memory in their factors (the newest is always kept). A plate mesh's
+factors are large (a 2-D mesh fills far more than a chain): eight of the 18,912-DOF rotating
+membrane's held several GB, and a full run's process grew past the 24 GB of the CI machine."""
+
 PERMC_SPEC = "MMD_AT_PLUS_A"
 """SuperLU's fill-reducing column ordering. The iteration matrix is structurally symmetric and
 nearly symmetric in value, so a minimum-degree ordering of Aᵀ + A with a preference for diagonal
@@ -218,6 +223,8 @@ class ScaledSuperLU:
         D = sp.diags(self.d)
         self.lu = spla.splu((D @ A @ D).tocsc(), permc_spec=PERMC_SPEC, diag_pivot_thresh=DIAG_PIVOT_THRESH,
                             options=dict(SymmetricMode=True))
+        # the factors' memory: values and row indices of L and U, and the permutations
+        self.nbytes = 12 * self.lu.nnz + 16 * A.shape[0]
 
     @property
     def shape(self):
@@ -228,11 +235,16 @@ class ScaledSuperLU:
         return d * self.lu.solve(d * b, trans=trans)
 
 
+def _nbytes(lu) -> int:
+    return 0 if lu is None else lu.nbytes
+
+
 def _store(handle: int, lu, limit: int) -> None:
     with _lock:
         _factors[handle] = lu
         _factors.move_to_end(handle)
-        while len(_factors) > limit:
+        while len(_factors) > 1 and (len(_factors) > limit or
+                                     sum(_nbytes(f) for f in _factors.values()) > CACHE_BYTES):
             _factors.popitem(last=False)
 
 
