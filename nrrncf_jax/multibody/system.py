@@ -103,13 +103,13 @@ class MultibodySystem(AbstractModel):
         if not self.joints or not all(is_concrete(x) for x in jax.tree_util.tree_leaves(self)):
             return
         x0 = self.reference()
-        C0 = np.asarray(self.constraints(x0))
+        # one compiled function, not dozens of small kernels compiled op by op on a cold start
+        C0, B = (np.asarray(y) for y in jax.jit(lambda x: (self.constraints(x), self.constraint_jacobian(x)))(x0))
         scale = max(1.0, float(np.abs(x0).max()))
         bad = np.flatnonzero(np.abs(C0) > 1e-9 * scale)
         if bad.size:
             raise ValueError(f"the initial state violates joint equations {bad[:10].tolist()} (largest "
                              f"{np.abs(C0).max():.3g}): place the bodies so that their joints fit")
-        B = np.asarray(self.constraint_jacobian(x0))
         s = np.linalg.svd(B, compute_uv=False)
         rank = int(np.sum(s > 1e-10 * s.max()))
         if rank < B.shape[0]:
