@@ -138,9 +138,9 @@ def main(argv=None):
               "displacements of all position vectors; rim: the rim point on +X in the reference frame "
               "(radial X, tangential Y, axial Z); its error: the largest difference from the full run over the "
               "run, relative to the full run's largest value, per component.", ""] + header
-    # Each case runs in a process of its own: the full model's process grows by about one sparse
-    # factorisation's size per step (a leak not found yet, outside SuperLU; see the stop note), and
-    # three full runs in one process outgrew the machine's 24 GB.
+    # Each case runs in a process of its own, so that each reports its own peak memory. (Before
+    # linalg.sparse made and freed all SuperLU factors on one thread, scipy#15921 leaked one
+    # factorisation a step, and three full runs in one process outgrew the machine's 24 GB.)
     peak = rss_gb()
     for case, omega, t_end in CASES:
         out = subprocess.run([sys.executable, __file__, "--rings", str(a.rings), "--modes", str(a.modes), "--thickness",

@@ -2,6 +2,8 @@
 against each other and NumPy, constrained DOFs, the sparse solver inside ``jit`` and loops, its
 derivatives against the dense one's, a 20,000-DOF chain and its modes against the closed form."""
 
+import threading
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -317,3 +319,24 @@ def test_sparse_cache_keeps_to_its_memory_budget(monkeypatch):
            for s in ("dense", "sparse")}
     np.testing.assert_allclose(out["sparse"], out["dense"], rtol=1e-11, atol=1e-11)
     assert len(sparse._factors) == 1
+
+
+def test_sparse_factors_live_on_one_host_thread():
+    """SciPy frees a SuperLU object's memory only on the thread that made it (scipy#15921), and
+    XLA runs callbacks on threads of its own: every cached factorisation, made, solved and
+    dropped inside a compiled loop, belongs to the one SuperLU thread, so none leaks."""
+    from nrrncf_jax.linalg import sparse
+
+    m, nb = 3, 6
+    Ge, dofs = chain_parts(nb, m, seed=7)
+    free = jnp.asarray(np.arange(m * nb) >= m)
+    b = jnp.ones(m * nb)
+
+    def body(i, x):
+        return assemble_and_factor([((1.0 + 0.01 * i) * Ge, dofs)], free, solver="sparse").solve(b + x)
+
+    x = jax.jit(lambda: jax.lax.fori_loop(0, 2 * sparse.CACHE_SIZE + 3, body, jnp.zeros(m * nb)))()
+    assert np.all(np.isfinite(x))
+    worker = sparse._superlu_thread.submit(threading.get_ident).result()
+    threads = {lu.thread for lu in sparse._factors.values() if lu is not None}
+    assert threads == {worker}

@@ -42,6 +42,7 @@ import itertools
 import threading
 from collections import OrderedDict
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 import equinox as eqx
 import jax
@@ -191,6 +192,19 @@ _factors: "OrderedDict[int, object]" = OrderedDict()
 _lock = threading.Lock()
 _handles = itertools.count(1)
 
+# Every SuperLU object is made, used and freed on this one thread. SciPy's SuperLU wrapper keeps
+# the memory SuperLU allocates in a per-thread registry and frees only what the freeing thread's
+# registry holds, so factors made on one thread and dropped on another are never freed
+# (scipy/scipy#15921). XLA runs host callbacks on threads of its own, so a full membrane run,
+# factoring on one and evicting from the cache on another, grew by one factorisation a step
+# (about 30 MB/s). Solves go through it too: a solve may hold the last reference to factors
+# another callback has just evicted.
+_superlu_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="nrrncf-superlu")
+
+
+def _on_superlu_thread(fn, *args):
+    return _superlu_thread.submit(fn, *args).result()
+
 
 def _splu(pattern: SparsityPattern, data: np.ndarray):
     """SuperLU factors of the pattern's matrix with these values, or None if it is singular or
@@ -225,6 +239,7 @@ class ScaledSuperLU:
                             options=dict(SymmetricMode=True))
         # the factors' memory: values and row indices of L and U, and the permutations
         self.nbytes = 12 * self.lu.nnz + 16 * A.shape[0]
+        self.thread = threading.get_ident()  # SciPy frees SuperLU's memory only on this thread
 
     @property
     def shape(self):
@@ -250,7 +265,7 @@ def _store(handle: int, lu, limit: int) -> None:
 
 def _host_factor(pattern: SparsityPattern, data: np.ndarray) -> np.ndarray:
     handle = next(_handles) % (2**31 - 1) + 1
-    _store(handle, _splu(pattern, np.asarray(data)), CACHE_SIZE)
+    _on_superlu_thread(lambda: _store(handle, _splu(pattern, np.asarray(data)), CACHE_SIZE))
     return np.asarray(handle, np.int32)
 
 
@@ -272,21 +287,29 @@ def _apply(lu, trans: str, b: np.ndarray) -> np.ndarray:
 def _host_solve(trans: str, handle: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The solve with the cached factors, and whether they were there (zeros if not)."""
     b = np.asarray(b)
-    found, lu = _lookup(int(handle))
-    return (_apply(lu, trans, b) if found else np.zeros_like(b)), np.asarray(found)
+
+    def solve():
+        found, lu = _lookup(int(handle))
+        return (_apply(lu, trans, b) if found else np.zeros_like(b)), np.asarray(found)
+
+    return _on_superlu_thread(solve)
 
 
 def _host_refactor_solve(pattern: SparsityPattern, trans: str, data: np.ndarray, handle: np.ndarray,
                          b: np.ndarray) -> np.ndarray:
     """The solve after factoring again from the values (the factors were dropped from the cache)."""
     handle = int(handle)
-    found, lu = _lookup(handle)
-    if not found:
-        # Kept without pushing out the CACHE_SIZE newest (up to twice as many in all): members of a
-        # batch solved in turn after all were factored would otherwise push each other out.
-        lu = _splu(pattern, np.asarray(data))
-        _store(handle, lu, 2 * CACHE_SIZE)
-    return _apply(lu, trans, np.asarray(b))
+
+    def refactor_solve():
+        found, lu = _lookup(handle)
+        if not found:
+            # Kept without pushing out the CACHE_SIZE newest (up to twice as many in all): members of a
+            # batch solved in turn after all were factored would otherwise push each other out.
+            lu = _splu(pattern, np.asarray(data))
+            _store(handle, lu, 2 * CACHE_SIZE)
+        return _apply(lu, trans, np.asarray(b))
+
+    return _on_superlu_thread(refactor_solve)
 
 
 def _solve(pattern: SparsityPattern, trans: str, data, handle, b):
