@@ -9,6 +9,7 @@ subcommands call directly, needs NumPy alone): ``--help`` and argument errors ar
 
 import argparse
 import os
+import sys
 
 from .. import _validate
 
@@ -29,6 +30,12 @@ class HelpFormatter(argparse.HelpFormatter):
         if "default" in text or action.default in (None, False, argparse.SUPPRESS) or not action.option_strings:
             return text
         return text + " (default: %(default)s)"
+
+
+def say(args, text: str) -> None:
+    """A progress message on stderr, unless the command prints JSON or was told ``--no-progress``."""
+    if not args.json and not args.no_progress:
+        print(text, file=sys.stderr, flush=True)
 
 
 def output_path(flag: str, path: str | None) -> None:

@@ -11,7 +11,6 @@ paper's 19th mode is 18).
 """
 
 import json
-import sys
 
 from .. import _validate
 from . import _common
@@ -29,20 +28,13 @@ def _pair(s: str) -> tuple[int, int]:
     return i, j
 
 
-def _say(args, text):
-    if not args.json and not args.no_progress:
-        print(text, file=sys.stderr, flush=True)
-
-
 def _run(args) -> int:
-    import numpy as np
-
     from ..scenarios.membrane import DEFAULT_OMEGA, MembraneSpec, build_membrane, run_membrane
 
     spec = MembraneSpec(rings=args.rings, thickness=args.thickness)
     omega = DEFAULT_OMEGA[args.case] if args.omega is None else args.omega
-    _say(args, f"rotating membrane ({spec.rings} rings), {args.case}, omega_s = {omega:g} rad/s, {args.formulation}, "
-               f"0-{args.t_end:g} s ...")
+    _common.say(args, f"rotating membrane ({spec.rings} rings), {args.case}, omega_s = {omega:g} rad/s, "
+                      f"{args.formulation}, 0-{args.t_end:g} s ...")
     kw = dict(T_s=args.ts, t_end=args.t_end, dt_out=args.dt_out, rtol=args.rtol, atol=args.atol,
               progress=not (args.json or args.no_progress))
     ref = run_membrane(args.case, omega, "rncf", spec, **kw) \
@@ -61,20 +53,9 @@ def _run(args) -> int:
         from ..vtk import write_plate_vtk
 
         m = build_membrane(spec)
-        pos = np.flatnonzero(np.asarray(m.body.is_position))
-        step = max(1, len(run.ts) // 50)
-        fields = {}
-        for k in range(0, len(run.ts), step):
-            u = np.zeros((m.body.n_vectors, 3))
-            u[pos] = run.positions[k]
-            fields[f"t_{k:05d}"] = u
-        write_plate_vtk(args.vtk, m.plate, fields, times=run.ts[::step])
-    s = run.summary()
-    keys = ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s"]
-    if run.chi_rel_percent is not None:
-        keys += ["reference_dofs", "reference_run_s", "chi_rel_percent", "speedup"]
-    out = {k: s[k] for k in keys}
-    out.update(formulation=run.formulation, case=args.case, omega_s=omega, rim_max_m=s["rim_max_m"])
+        fields, times = run.displacement_fields(m.body)
+        write_plate_vtk(args.vtk, m.plate, fields, times=times)
+    out = run.command_record(case=args.case, omega_s=omega, rim_max_m=run.summary()["rim_max_m"])
     if args.json:
         print(json.dumps(out))
         return 0

@@ -11,7 +11,6 @@ Mode indices are 0-based.
 """
 
 import json
-import sys
 
 from . import _common
 
@@ -20,11 +19,6 @@ def _spec(args):
     from ..scenarios.truss import TrussSpec
 
     return TrussSpec(bays=args.bays, longeron_elements=args.longeron_elements, batten_elements=args.batten_elements)
-
-
-def _say(args, text):
-    if not args.json and not args.no_progress:
-        print(text, file=sys.stderr, flush=True)
 
 
 def _modes(args) -> int:
@@ -36,10 +30,10 @@ def _modes(args) -> int:
     from ..scenarios.truss import build_truss, equivalent_beam, mode_types
 
     spec = _spec(args)
-    _say(args, f"building the truss ({spec.bays} bays) ...")
+    _common.say(args, f"building the truss ({spec.bays} bays) ...")
     truss = build_truss(spec)
     model = RotatingFrameModel(truss.body, Stationary(), clamped=truss.clamped)
-    _say(args, f"{truss.body.n_dof} DOFs; the first {args.count} modes ...")
+    _common.say(args, f"{truss.body.n_dof} DOFs; the first {args.count} modes ...")
     modes = vibration_modes(truss.body, model.free_mask(), args.count)
     f = np.asarray(modes.omega) / (2 * np.pi)
     phi = np.asarray(modes.phi)
@@ -70,12 +64,11 @@ def _modes(args) -> int:
 
 
 def _dynamics(args) -> int:
-    import numpy as np
 
     from ..scenarios.truss import run_truss
 
     spec = _spec(args)
-    _say(args, f"truss ({spec.bays} bays), {args.formulation}, 0-{args.t_end:g} s ...")
+    _common.say(args, f"truss ({spec.bays} bays), {args.formulation}, 0-{args.t_end:g} s ...")
     kw = dict(t_end=args.t_end, dt_out=args.dt_out, progress=not (args.json or args.no_progress))
     ref = run_truss("rncf", spec, **kw) if args.reference == "rncf" or args.formulation == "rncf" else None
     if args.formulation == "rncf":
@@ -92,20 +85,9 @@ def _dynamics(args) -> int:
         from ..vtk import write_frame_vtk
 
         truss = build_truss(spec)
-        pos = np.flatnonzero(np.asarray(truss.body.is_position))
-        step = max(1, len(run.ts) // 50)
-        fields = {}
-        for k in range(0, len(run.ts), step):
-            u = np.zeros((truss.body.n_vectors, 3))
-            u[pos] = run.positions[k]
-            fields[f"t_{k:05d}"] = u
-        write_frame_vtk(args.vtk, truss.frame, fields)
+        write_frame_vtk(args.vtk, truss.frame, run.displacement_fields(truss.body)[0])
     s = run.summary()
-    keys = ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s"]
-    if run.chi_rel_percent is not None:
-        keys += ["reference_dofs", "reference_run_s", "chi_rel_percent", "speedup"]
-    out = {k: s[k] for k in keys}
-    out.update(formulation=run.formulation, tip_y_max_m=s["tip_y_max_m"], tip_z_max_m=s["tip_z_max_m"])
+    out = run.command_record(tip_y_max_m=s["tip_y_max_m"], tip_z_max_m=s["tip_z_max_m"])
     if args.json:
         print(json.dumps(out))
         return 0

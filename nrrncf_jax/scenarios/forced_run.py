@@ -58,6 +58,29 @@ class ForcedRun:
                      chi_rel_percent=self.chi_rel_percent, speedup=self.speedup)
         return d
 
+    def command_record(self, **extra) -> dict:
+        """What the commands' ``--json`` prints: ``dofs, vms, mds, steps, compile_s, run_s,
+        offline_s``, after a comparison also ``reference_dofs, reference_run_s, chi_rel_percent,
+        speedup``, the formulation, and ``extra``."""
+        s = self.summary()
+        keys = ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s"]
+        if self.chi_rel_percent is not None:
+            keys += ["reference_dofs", "reference_run_s", "chi_rel_percent", "speedup"]
+        return {**{k: s[k] for k in keys}, "formulation": self.formulation, **extra}
+
+    def displacement_fields(self, body, count: int = 50) -> tuple[dict, np.ndarray]:
+        """The displacements of every nodal vector of ``body`` (n_vectors × 3, zero on the
+        gradient vectors) at about ``count`` evenly spaced output times, for VTK output:
+        ``({"t_00000": u, ...}, times)``."""
+        pos = np.flatnonzero(np.asarray(body.is_position))
+        every = max(1, len(self.ts) // count)
+        fields = {}
+        for k in range(0, len(self.ts), every):
+            u = np.zeros((body.n_vectors, 3))
+            u[pos] = self.positions[k]
+            fields[f"t_{k:05d}"] = u
+        return fields, self.ts[::every]
+
     def compare(self, reference: "ForcedRun") -> "ForcedRun":
         """Fill in χ_rel and the speed-up against a full run on the same body and output times."""
         from ..metrics import chi_rel
