@@ -7,6 +7,8 @@
 - ``plot_point_history``, ``plot_truss_tip``, ``plot_membrane_rim``: an observed point of a large
   body against time, several runs overlaid (paper Figs. 12, 14 and 24).
 - ``plot_plate_shapes``, ``plot_truss_modes``: mode shapes and modal derivatives (Figs. 11, 13).
+- ``plot_pendulum``, ``animate_pendulum``: a chain of beams' shapes and tips (Figs. 17 and 18), and
+  a GIF of its motion.
 """
 
 from typing import TYPE_CHECKING, Protocol
@@ -229,3 +231,75 @@ def plot_truss_modes(path: str, truss, phi: np.ndarray, frequencies, types, coun
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
+
+
+def plot_pendulum(path: str | None, runs, times=(0.0, 0.5, 1.0, 1.5, 2.0), dpi: int = 120):
+    """A jointed chain of beams (``scenarios.pendulum.PendulumRun``: ``ts``, ``nodes`` (nt, beams,
+    nodes, 3), ``tip_displacements``, ``transverse_deflections``), several runs overlaid: (a) the
+    shapes at ``times`` (those within the run; the paper's Fig. 17), (b) each beam's right-end
+    displacement x and y, (c) each right end's transverse deflection in the frame of its beam's
+    left end (Fig. 18). Returns the figure when ``path`` is None, else writes the PNG."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for k, run in enumerate(runs):
+        style = _STYLES[k % len(_STYLES)]
+        label = f"{run.formulation.upper()} ({run.dofs} DOF)"
+        for j, t in enumerate(t for t in times if run.ts[0] - 1e-12 <= t <= run.ts[-1] + 1e-12):
+            i = int(np.argmin(np.abs(run.ts - t)))
+            chain = run.nodes[i, :, :, :2].reshape(-1, 2)
+            axes[0].plot(chain[:, 0], chain[:, 1], style, color=colours[j % len(colours)],
+                         label=f"t = {run.ts[i]:.2f} s" if k == 0 else None)
+        u, w = run.tip_displacements, run.transverse_deflections
+        for b in range(u.shape[1]):
+            c = colours[b % len(colours)]
+            axes[1].plot(run.ts, u[:, b, 0], style, color=c, lw=1.0, label=f"{label}" if b == 0 else None)
+            axes[1].plot(run.ts, u[:, b, 1], style, color=c, lw=2.0, label=f"tip {b + 1}" if k == 0 else None)
+            axes[2].plot(run.ts, w[:, b], style, color=c, label=f"{label}, beam {b + 1}")
+    axes[0].set_aspect("equal")
+    axes[0].set_xlabel("x [m]")
+    axes[0].set_ylabel("y [m]")
+    axes[0].set_title("shapes (Fig. 17)", fontsize=9)
+    axes[1].set_xlabel("t [s]")
+    axes[1].set_ylabel("right-end displacement [m] (thin x, thick y)")
+    axes[2].set_xlabel("t [s]")
+    axes[2].set_ylabel("transverse deflection in the left end's frame [m]")
+    for ax in axes:
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    if path is None:
+        return fig
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return None
+
+
+def animate_pendulum(path: str, run, fps: int = 25, dpi: int = 80) -> int:
+    """An animated GIF of a chain of beams (``PendulumRun``) in its plane, in real time at
+    ``fps`` frames a second (output times picked to match; Pillow, which matplotlib ships with).
+    Returns the number of frames."""
+    plt = _pyplot()
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    dt = float(np.mean(np.diff(run.ts))) if len(run.ts) > 1 else 1.0
+    every = max(1, int(round(1.0 / (fps * dt))))
+    frames = list(range(0, len(run.ts), every))
+    xy = run.nodes[..., :2]
+    reach = float(np.abs(xy).max()) * 1.05
+    fig, ax = plt.subplots(figsize=(5, 5))
+    ax.set_xlim(-reach, reach)
+    ax.set_ylim(-reach, reach)
+    ax.set_aspect("equal")
+    ax.plot([0.0], [0.0], "k^")
+    lines = [ax.plot([], [], "-", lw=2)[0] for _ in range(xy.shape[1])]
+    label = ax.set_title("")
+
+    def draw(i):
+        for b, line in enumerate(lines):
+            line.set_data(xy[i, b, :, 0], xy[i, b, :, 1])
+        label.set_text(f"{run.formulation.upper()}, t = {run.ts[i]:.2f} s")
+        return (*lines, label)
+
+    FuncAnimation(fig, draw, frames=frames, blit=False).save(path, writer=PillowWriter(fps=fps), dpi=dpi)
+    plt.close(fig)
+    return len(frames)

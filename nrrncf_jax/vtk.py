@@ -4,6 +4,7 @@ A frame's mesh is its position vectors as points and its members as polylines of
 (each member's consecutive nodes) plus one line per bar; a plate's is its vertices and triangles.
 Displacement fields go along as point data (ParaView's "Warp By Vector" shows the deformed
 shape); a time series also gets a ``.pvd`` collection that ParaView opens as one animated set.
+A moving chain of beams (``write_polyline_series``) is written with its current positions.
 """
 
 import os
@@ -61,6 +62,29 @@ def write_plate_vtk(folder: str, plate, fields: dict[str, np.ndarray], times=Non
         paths.append(path)
     if times is not None:
         write_pvd(os.path.join(folder, "series.pvd"), paths, times)
+    return paths
+
+
+def write_polyline_series(folder: str, points, lines, times, name: str = "t") -> list[str]:
+    """A moving set of polylines (a chain of beams) as a time series in ``folder`` (made if
+    missing): ``points[k]`` (nt × p × 3) are the points' current positions at ``times[k]``, ``lines``
+    (l × 2) the line cells; one ``.vtu`` file per time plus ``series.pvd``, each point with its
+    displacement from the first time. Returns the paths of the ``.vtu`` files."""
+    import meshio
+
+    points = np.asarray(points, dtype=float)
+    times = np.asarray(times, dtype=float).reshape(-1)
+    if points.ndim != 3 or points.shape[2] != 3 or len(points) != len(times):
+        raise ValueError(f"points must be (nt, p, 3) with one time per frame, got {points.shape} and {len(times)} "
+                         "times")
+    os.makedirs(folder, exist_ok=True)
+    paths = []
+    for k, (x, t) in enumerate(zip(points, times)):
+        path = os.path.join(folder, f"{name}_{k:05d}.vtu")
+        meshio.write_points_cells(path, x, [("line", np.asarray(lines, dtype=np.int64))],
+                                  point_data={"displacement": x - points[0]})
+        paths.append(path)
+    write_pvd(os.path.join(folder, "series.pvd"), paths, times)
     return paths
 
 

@@ -4,7 +4,8 @@ joints, index-3 generalized-α.
 - A stiff beam hinged at one end, released horizontally, swings with the compound pendulum's
   exact large-amplitude period (elliptic integral).
 - The three-beam pendulum of the paper (coarse) conserves energy with ρ∞ = 1 and keeps its
-  joints closed.
+  joints closed; its run's views (tips, transverse deflections) and the ``nrrncf pendulum``
+  command.
 - The multipliers are the joints' reactions: the momentum balance of the whole chain.
 - Bad systems are refused before anything is traced.
 """
@@ -20,7 +21,7 @@ from nrrncf_jax.integrate import GeneralizedAlpha, GeneralizedAlphaIndex3, simul
 from nrrncf_jax.material import Material
 from nrrncf_jax.mesh import straight_reference
 from nrrncf_jax.multibody import Fixed, MultibodySystem, Revolute, Spherical, placed
-from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum, tip_vectors
+from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum, run_pendulum
 from nrrncf_jax.section import TubeSection
 
 G = 9.81
@@ -53,32 +54,85 @@ def test_stiff_hinged_beam_has_the_compound_pendulums_exact_period():
 @pytest.fixture(scope="module")
 def pendulum_run():
     """The paper's three-beam pendulum, 2 elements a beam, 0-0.4 s, ρ∞ = 1."""
-    spec = PendulumSpec(elements=2)
-    system = build_pendulum(spec)
-    tips = tip_vectors(spec)
+    return run_pendulum(PendulumSpec(elements=2), **PENDULUM_RUN)
 
-    def observe(t, x, v):
-        xs = system.split(x)
-        return (jnp.stack([xs[b][k] for b, k in tips]), system.energy(x, v), 0.5 * v @ (system.M @ v),
-                jnp.abs(system.constraints(x)).max())
 
-    ts = jnp.linspace(0.0, 0.4, 41)
-    sol = simulate(system, ts, solver=GeneralizedAlphaIndex3(1.0), rtol=1e-5, atol=1e-6, observe=observe)
-    return spec, system, sol
+PENDULUM_RUN = dict(t_end=0.4, dt_out=0.01, rho_inf=1.0, rtol=1e-5, atol=1e-6)
 
 
 def test_pendulum_conserves_energy_and_keeps_its_joints(pendulum_run):
-    spec, system, sol = pendulum_run
-    tips, energy, kinetic, violation = (np.asarray(y) for y in sol.ys)
-    drift = np.abs(energy - energy[0]).max()
+    run = pendulum_run
+    drift = np.abs(run.energy - run.energy[0]).max()
     # Generalized-α with ρ∞ = 1 conserves the energy of linear problems exactly; what is left
     # is of the order of the step's error tolerance (1e-5 relative) times the energy scale.
-    assert drift < 1e-4 * kinetic.max(), (drift, kinetic.max())
+    assert drift < 1e-4 * run.kinetic.max(), (drift, run.kinetic.max())
     # The chain falls and bends in its plane.
-    assert tips[-1, 2, 1] < -0.3 and np.abs(tips[:, :, 2]).max() < 1e-9
+    assert run.tips[-1, 2, 1] < -0.3 and np.abs(run.nodes[..., 2]).max() < 1e-9
     # The joints at the end of a step (the last output is one): closed to the size of the last
     # Newton correction, newton_tol (1e-3) times the error tolerance atol + rtol |x| (|x| <= 3 m).
-    assert violation[-1] < 1e-3 * (1e-6 + 1e-5 * 3.0), violation[-1]
+    assert run.violation[-1] < 1e-3 * (1e-6 + 1e-5 * 3.0), run.violation[-1]
+    # The first hinge stays at the origin, the right ends stay one beam length from their left
+    # ends to within the beams' stretch (E = 5 MPa: a strain of a few 1e-4 under their weight).
+    assert np.abs(run.nodes[:, 0, 0]).max() < 1e-6
+    np.testing.assert_allclose(np.linalg.norm(run.tips - run.nodes[:, :, 0], axis=-1), 1.0, atol=0.05)
+    np.testing.assert_allclose(run.nodes[:, 1:, 0], run.nodes[:, :-1, -1], atol=1e-6)
+
+
+def test_pendulum_run_views():
+    """``transverse_deflections``: zero for straight beams in any orientation, the tip's distance
+    from the left end's tangent line otherwise, positive to the left; ``table``: t, x1, y1, ..."""
+    from nrrncf_jax.scenarios.pendulum import PendulumRun
+
+    s = np.linspace(0.0, 1.0, 3)
+    phi = np.array([0.0, 0.7, -2.0])  # three straight chains at three angles
+    e = np.stack([np.cos(phi), np.sin(phi), 0.0 * phi], -1)  # (nt, 3)
+    nodes = np.stack([np.stack([(b + s)[:, None] * e[k] for b in range(2)]) for k in range(3)])  # (3, 2, 3, 3)
+    slopes = np.repeat(e[:, None], 2, axis=1)
+    z = np.zeros(3)
+    run = PendulumRun("ancf", 0, np.arange(3.0), nodes, slopes, z, z, z, 0, 0, 0, 0.0, 0.0)
+    np.testing.assert_allclose(run.transverse_deflections, 0.0, atol=1e-15)
+    bent = nodes.copy()
+    bent[:, :, -1] += 0.1 * np.stack([-np.sin(phi), np.cos(phi), 0.0 * phi], -1)[:, None]  # 0.1 to the left
+    run = PendulumRun("ancf", 0, np.arange(3.0), bent, slopes, z, z, z, 0, 0, 0, 0.0, 0.0)
+    np.testing.assert_allclose(run.transverse_deflections, 0.1, atol=1e-15)
+    assert run.table_header() == "t,x1,y1,x2,y2"
+    np.testing.assert_allclose(run.table()[1], [1.0, *bent[1, 0, -1, :2], *bent[1, 1, -1, :2]])
+
+
+def test_pendulum_command(pendulum_run, tmp_path, monkeypatch, capsys):
+    """``nrrncf pendulum``: its options reach ``run_pendulum`` and its outputs are written (the
+    run itself is the fixture's: the simulation is tested above); ``rncf``/``nr-rncf`` are
+    refused with a line that says they are not built."""
+    import json
+
+    from nrrncf_jax.cli import main
+    from nrrncf_jax.scenarios import pendulum
+
+    calls = []
+
+    def fake_run(spec, **kw):
+        calls.append((spec, kw))
+        return pendulum_run
+
+    monkeypatch.setattr(pendulum, "run_pendulum", fake_run)
+    out = tmp_path / "tips.csv"
+    argv = ["pendulum", "--elements", "2", "--t-end", "0.4", "--dt-out", "0.01", "--rho-inf", "1", "--rtol", "1e-5",
+            "--atol", "1e-6", "--out", str(out), "--plot", str(tmp_path / "p.png"), "--animate",
+            str(tmp_path / "p.gif"), "--vtk", str(tmp_path / "vtk"), "--json"]
+    assert main(argv) == 0
+    (spec, kw), = calls
+    assert spec == PendulumSpec(elements=2) and kw == dict(PENDULUM_RUN, progress=False)
+    d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    for key in ("dofs", "steps", "newton_iters", "compile_s", "run_s"):
+        assert d[key] == pendulum_run.summary()[key]
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert open(out).readline().strip() == "t,x1,y1,x2,y2,x3,y3"
+    np.testing.assert_allclose(table[:, 1:], pendulum_run.tips[:, :, :2].reshape(len(table), -1), rtol=1e-8, atol=1e-9)
+    assert (tmp_path / "p.png").stat().st_size > 0 and (tmp_path / "p.gif").stat().st_size > 0
+    assert (tmp_path / "vtk" / "series.pvd").exists() and len(list((tmp_path / "vtk").glob("*.vtu"))) == len(table)
+    for formulation in ("rncf", "nr-rncf"):
+        assert main(["pendulum", "--formulation", formulation]) == 2
+        assert "not built yet" in capsys.readouterr().err
 
 
 def test_multipliers_are_the_reactions():

@@ -8,6 +8,7 @@
     nrrncf truss modes --count 10 --json
     nrrncf truss dynamics --formulation nr-rncf --reference rncf --plot tip.png
     nrrncf membrane --case bending-torsion --formulation nr-rncf --reference rncf --plot rim.png
+    nrrncf pendulum --elements 10 --out tips.csv --plot pendulum.png --animate pendulum.gif
 
 Each subcommand lives in its own module of this package, with a ``register(subparsers)`` that
 sets ``func`` (the run) and ``check`` (the checks of its arguments). ``main`` parses, runs the
@@ -29,7 +30,7 @@ import sys
 
 from ._common import HelpFormatter
 
-SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "truss", "membrane")
+SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "truss", "membrane", "pendulum")
 """Modules of this package, each with ``register(subparsers)``; their order is the help's."""
 
 

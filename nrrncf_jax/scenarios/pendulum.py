@@ -72,30 +72,69 @@ def tip_vectors(spec: PendulumSpec) -> list[tuple[int, int]]:
     return [(k, _PER_NODE * spec.elements + _R) for k in range(spec.beams)]
 
 
+SHAPE_TIMES = (0.0, 0.5, 1.0, 1.5, 2.0)
+"""The instants of the paper's Fig. 17."""
+
+
 @dataclasses.dataclass
 class PendulumRun:
-    """Each beam's right-end position (global, ``tips`` (nt, beams, 3)), the total and kinetic
-    energy, the largest joint violation, and the run's statistics."""
+    """A run: every node's global position (``nodes`` (nt, beams, nodes, 3)) and each beam's
+    left-end slope r_x (``left_slopes`` (nt, beams, 3)) at the output times, the total and kinetic
+    energy, the largest joint violation |C(q)| at each output time (``violation``), and the run's
+    statistics."""
 
     formulation: str
     dofs: int
     ts: np.ndarray
-    tips: np.ndarray
+    nodes: np.ndarray
+    left_slopes: np.ndarray
     energy: np.ndarray
     kinetic: np.ndarray
-    constraint_max: float
+    violation: np.ndarray
     steps: int
     rejected: int
     newton_iters: int
     compile_s: float
     run_s: float
 
+    @property
+    def constraint_max(self) -> float:
+        """The largest joint violation over the output times."""
+        return float(self.violation.max())
+
+    @property
+    def tips(self) -> np.ndarray:
+        """Each beam's right-end position (nt, beams, 3), global."""
+        return self.nodes[:, :, -1]
+
+    @property
+    def tip_displacements(self) -> np.ndarray:
+        """Each right end's displacement from its initial position (nt, beams, 3)."""
+        return self.tips - self.tips[0]
+
+    @property
+    def transverse_deflections(self) -> np.ndarray:
+        """Each beam's right end, transverse to the beam in the frame of its left end (nt, beams):
+        (r_tip − r_left) · (e_z × r_x/|r_x|), r_x the left end's slope (the paper's Fig. 18b). A rigid
+        beam gives zero; positive is a deflection to the beam's left (counter-clockwise about Z)."""
+        t = self.left_slopes / np.linalg.norm(self.left_slopes, axis=-1, keepdims=True)
+        normal = np.stack([-t[..., 1], t[..., 0], np.zeros_like(t[..., 0])], axis=-1)
+        return np.einsum("tbi,tbi->tb", self.tips - self.nodes[:, :, 0], normal)
+
+    def table(self) -> np.ndarray:
+        """Columns ``t, x1, y1, x2, y2, x3, y3, ...``: time and each beam's right-end global x and y."""
+        return np.column_stack([self.ts, self.tips[:, :, :2].reshape(len(self.ts), -1)])
+
+    def table_header(self) -> str:
+        return ",".join(["t"] + [f"{c}{k + 1}" for k in range(self.tips.shape[1]) for c in "xy"])
+
     def summary(self) -> dict:
         return {"formulation": self.formulation, "dofs": self.dofs, "steps": self.steps, "rejected": self.rejected,
                 "newton_iters": self.newton_iters, "compile_s": round(self.compile_s, 3),
                 "run_s": round(self.run_s, 4), "constraint_max": self.constraint_max,
                 "energy_drift": float(np.abs(self.energy - self.energy[0]).max()),
-                "kinetic_max": float(self.kinetic.max())}
+                "kinetic_max": float(self.kinetic.max()),
+                "tips_final_m": self.tips[-1, :, :2].round(6).tolist()}
 
 
 def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out: float = 0.001,
@@ -106,19 +145,20 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
 
     ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
     system = build_pendulum(spec)
-    tips = tip_vectors(spec)
+    nodes = _PER_NODE * np.arange(spec.elements + 1) + _R
 
     def observe(t, x, v):
         xs = system.split(x)
-        return (jnp.stack([xs[b][k] for b, k in tips]), system.energy(x, v), 0.5 * v @ (system.M @ v),
-                jnp.max(jnp.abs(system.constraints(x))))
+        return (jnp.stack([xb[nodes] for xb in xs]), jnp.stack([xb[_RX] for xb in xs]), system.energy(x, v),
+                0.5 * v @ (system.M @ v), jnp.max(jnp.abs(system.constraints(x))))
 
     sol, compile_s, run_s = simulate_timed(system, jnp.asarray(ts), solver=GeneralizedAlphaIndex3(rho_inf), rtol=rtol,
                                            atol=atol, observe=observe, progress=progress, max_steps=max_steps)
-    tip, energy, kinetic, cmax = (np.asarray(y) for y in jax.device_get(sol.ys))
-    return PendulumRun(formulation="ancf", dofs=system.n_dof, ts=ts, tips=tip, energy=energy, kinetic=kinetic,
-                       constraint_max=float(cmax.max()), steps=int(sol.num_steps), rejected=int(sol.num_rejected),
-                       newton_iters=int(sol.num_newton), compile_s=compile_s, run_s=run_s)
+    pos, slopes, energy, kinetic, cmax = (np.asarray(y) for y in jax.device_get(sol.ys))
+    return PendulumRun(formulation="ancf", dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes, energy=energy,
+                       kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
+                       rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton), compile_s=compile_s,
+                       run_s=run_s)
 
 
-__all__ = ["PendulumRun", "PendulumSpec", "build_pendulum", "run_pendulum", "tip_vectors"]
+__all__ = ["SHAPE_TIMES", "PendulumRun", "PendulumSpec", "build_pendulum", "run_pendulum", "tip_vectors"]
