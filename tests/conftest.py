@@ -26,3 +26,16 @@ def paper_body(n_el: int, beam: str = "paper"):
 @pytest.fixture(scope="session")
 def paper4():
     return paper_body(4)
+
+
+PENDULUM_RUN = dict(t_end=0.4, dt_out=0.01, rho_inf=1.0, rtol=1e-5, atol=1e-6)
+"""The coarse three-beam pendulum's run settings, shared by the full and the reduced runs."""
+
+
+@pytest.fixture(scope="session")
+def pendulum_run():
+    """The paper's three-beam pendulum at full order (ANCF), 2 elements a beam, 0-0.4 s, ρ∞ = 1.
+    Its tests share an xdist group, so that one worker runs it once."""
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum
+
+    return run_pendulum(PendulumSpec(elements=2), **PENDULUM_RUN)

@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import PENDULUM_RUN
 from scipy.special import ellipk
 
 from nrrncf_jax.body import beam_body
@@ -21,7 +22,7 @@ from nrrncf_jax.integrate import GeneralizedAlpha, GeneralizedAlphaIndex3, simul
 from nrrncf_jax.material import Material
 from nrrncf_jax.mesh import straight_reference
 from nrrncf_jax.multibody import Fixed, MultibodySystem, Revolute, Spherical, placed
-from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum, run_pendulum
+from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum
 from nrrncf_jax.section import TubeSection
 
 G = 9.81
@@ -51,15 +52,7 @@ def test_stiff_hinged_beam_has_the_compound_pendulums_exact_period():
     assert len(crossings) == 2 and abs(T / T_exact - 1.0) < 2e-4, (T, T_exact)
 
 
-@pytest.fixture(scope="module")
-def pendulum_run():
-    """The paper's three-beam pendulum, 2 elements a beam, 0-0.4 s, ρ∞ = 1."""
-    return run_pendulum(PendulumSpec(elements=2), **PENDULUM_RUN)
-
-
-PENDULUM_RUN = dict(t_end=0.4, dt_out=0.01, rho_inf=1.0, rtol=1e-5, atol=1e-6)
-
-
+@pytest.mark.xdist_group("pendulum")
 def test_pendulum_conserves_energy_and_keeps_its_joints(pendulum_run):
     run = pendulum_run
     drift = np.abs(run.energy - run.energy[0]).max()
@@ -99,10 +92,12 @@ def test_pendulum_run_views():
     np.testing.assert_allclose(run.table()[1], [1.0, *bent[1, 0, -1, :2], *bent[1, 1, -1, :2]])
 
 
+@pytest.mark.xdist_group("pendulum")
 def test_pendulum_command(pendulum_run, tmp_path, monkeypatch, capsys):
     """``nrrncf pendulum``: its options reach ``run_pendulum`` and its outputs are written (the
-    run itself is the fixture's: the simulation is tested above); ``rncf``/``nr-rncf`` are
-    refused with a line that says they are not built."""
+    runs are the fixture's: the simulations are tested above and in test_floating); ``rncf`` is
+    refused with a line that says why."""
+    import dataclasses
     import json
 
     from nrrncf_jax.cli import main
@@ -112,7 +107,7 @@ def test_pendulum_command(pendulum_run, tmp_path, monkeypatch, capsys):
 
     def fake_run(spec, **kw):
         calls.append((spec, kw))
-        return pendulum_run
+        return dataclasses.replace(pendulum_run, formulation=kw.get("formulation", "ancf"))
 
     monkeypatch.setattr(pendulum, "run_pendulum", fake_run)
     out = tmp_path / "tips.csv"
@@ -130,9 +125,18 @@ def test_pendulum_command(pendulum_run, tmp_path, monkeypatch, capsys):
     np.testing.assert_allclose(table[:, 1:], pendulum_run.tips[:, :, :2].reshape(len(table), -1), rtol=1e-8, atol=1e-9)
     assert (tmp_path / "p.png").stat().st_size > 0 and (tmp_path / "p.gif").stat().st_size > 0
     assert (tmp_path / "vtk" / "series.pvd").exists() and len(list((tmp_path / "vtk").glob("*.vtu"))) == len(table)
-    for formulation in ("rncf", "nr-rncf"):
-        assert main(["pendulum", "--formulation", formulation]) == 2
-        assert "not built yet" in capsys.readouterr().err
+    # NR-RNCF against the full model (both runs the fixture's: χ_rel 0, speed-up 1)
+    calls.clear()
+    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--vms", "3", "--mds", "none", "--reference", "ancf",
+                             "--json"]) == 0
+    assert [kw.get("formulation", "ancf") for _, kw in calls] == ["ancf", "nr-rncf"]
+    assert calls[1][1]["n_vms"] == 3 and calls[1][1]["pairs"] == []
+    d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert d["chi_rel_percent"] == 0.0 and d["speedup"] == 1.0 and d["reference_dofs"] == pendulum_run.dofs
+    assert main(["pendulum", "--formulation", "rncf"]) == 2
+    assert "inertial-frame model" in capsys.readouterr().err
+    assert main(["pendulum", "--vms", "3"]) == 2
+    assert "go with --formulation nr-rncf" in capsys.readouterr().err
 
 
 def test_multipliers_are_the_reactions():

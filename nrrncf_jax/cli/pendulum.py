@@ -1,13 +1,17 @@
 """``nrrncf pendulum``: the flexible three-beam pendulum of the paper's Sec. 4.4
 (``scenarios.pendulum``).
 
-    nrrncf pendulum [--formulation ancf] [--elements 10] [--t-end 2] [--dt-out 0.001]
-                    [--out tips.csv] [--plot F] [--animate F.gif] [--vtk DIR] [--json] [--no-progress]
+    nrrncf pendulum [--formulation {ancf,nr-rncf}] [--elements 10] [--vms 5] [--mds all|none]
+                    [--reference ancf] [--t-end 2] [--dt-out 0.001] [--out tips.csv] [--plot F]
+                    [--animate F.gif] [--vtk DIR] [--json] [--no-progress]
 
-Today the full-order model is the one built: three ANCF beams (C1 elements) joined by revolute
-joints, an index-3 DAE integrated by generalized-α. The floating-frame (RNCF) bodies and the
-NR-RNCF reduction by extended Craig-Bampton are not built yet (issue 17): ``--formulation rncf``
-and ``nr-rncf`` are refused with a line that says so.
+``ancf``: the full-order model, three ANCF beams (C1 elements) joined by revolute joints, an
+index-3 DAE integrated by generalized-α. ``nr-rncf``: each beam in its floating frame (Euler
+parameters) with its deformation reduced to its first ``--vms`` cantilever modes and their
+modal derivatives (``multibody.floating``); ``--reference ancf`` runs the full model too and
+reports χ_rel and the speed-up. The full-order model is the inertial-frame one (ANCF): a
+full-order floating-frame model (``--formulation rncf``) is not built, and is refused with a
+line that says so.
 
 ``--out`` writes the columns ``t, x1, y1, x2, y2, x3, y3``: each beam's right end, global (the
 hinge at the origin, the beams initially along +x). ``--plot`` draws the shapes at 0, 0.5, 1, 1.5
@@ -21,8 +25,8 @@ import json
 from .. import _validate
 from . import _common
 
-_NOT_BUILT = ("the floating-frame (RNCF) pendulum and its NR-RNCF reduction are not built yet (issue 17); "
-              "--formulation ancf runs the full-order pendulum (ANCF beams and joints)")
+_NOT_BUILT = ("the full-order pendulum is the inertial-frame model, --formulation ancf (the same equations as a "
+              "full-order floating-frame model); --formulation nr-rncf is the reduced one")
 
 
 def _run(args) -> int:
@@ -33,14 +37,22 @@ def _run(args) -> int:
     spec = PendulumSpec(elements=args.elements)
     _common.say(args, f"three-beam pendulum, {spec.elements} elements a beam, {args.formulation}, "
                       f"0-{args.t_end:g} s ...")
-    run = run_pendulum(spec, t_end=args.t_end, dt_out=args.dt_out, rho_inf=args.rho_inf, rtol=args.rtol,
-                       atol=args.atol, progress=not (args.json or args.no_progress))
+    kw = dict(t_end=args.t_end, dt_out=args.dt_out, rho_inf=args.rho_inf, rtol=args.rtol, atol=args.atol,
+              progress=not (args.json or args.no_progress))
+    ref = run_pendulum(spec, **kw) if args.formulation == "ancf" or args.reference == "ancf" else None
+    if args.formulation == "ancf":
+        run = ref
+    else:
+        run = run_pendulum(spec, formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
+                           **kw)
+        if ref is not None:
+            run.compare(ref)
     if args.out:
         np.savetxt(args.out, run.table(), delimiter=",", header=run.table_header(), comments="", fmt="%.9g")
     if args.plot:
         from ..plotting import plot_pendulum
 
-        plot_pendulum(args.plot, [run], times=SHAPE_TIMES)
+        plot_pendulum(args.plot, [run] + ([ref] if ref is not None and ref is not run else []), times=SHAPE_TIMES)
     if args.animate:
         from ..plotting import animate_pendulum
 
@@ -62,9 +74,16 @@ def _run(args) -> int:
 
 
 def _check(args) -> None:
-    if args.formulation != "ancf":
-        raise ValueError(f"--formulation {args.formulation}: {_NOT_BUILT}")
+    if args.formulation == "rncf":
+        raise ValueError(f"--formulation rncf: {_NOT_BUILT}")
+    if args.formulation == "ancf" and (args.reference is not None or args.vms is not None or args.mds is not None):
+        raise ValueError("--reference, --vms and --mds go with --formulation nr-rncf")
+    if args.vms is None:
+        args.vms = 5
+    if args.mds is None:
+        args.mds = "all"
     _common.at_least("--elements", args.elements, 1)
+    _common.at_least("--vms", args.vms, 1)
     _common.output_times(args.t_end, args.dt_out)
     _validate.tolerances(args.rtol, args.atol)
     if not 0.0 <= args.rho_inf <= 1.0:
@@ -76,15 +95,20 @@ def _check(args) -> None:
 
 
 def register(sub) -> None:
-    t = sub.add_parser("pendulum", help="the flexible three-beam pendulum (paper Sec. 4.4), full order",
+    t = sub.add_parser("pendulum", help="the flexible three-beam pendulum (paper Sec. 4.4): full and NR-RNCF",
                        description="The three-beam pendulum of the paper's Sec. 4.4: three 1 m beams (radius 5 mm, "
                                    "E = 5 MPa, rho = 1100 kg/m^3) hinged to the ground and to each other about Z, "
                                    "released from rest along +x under gravity along -Y. "
-                                   f"Only the full-order ANCF model is built: {_NOT_BUILT}.",
+                                   "ancf: the full-order model; nr-rncf: NR-RNCF with each beam in its floating frame.",
                        formatter_class=_common.HelpFormatter)
-    t.add_argument("--formulation", choices=("ancf", "rncf", "nr-rncf"), default="ancf",
-                   help="the model (only ancf is built yet)")
+    t.add_argument("--formulation", choices=("ancf", "nr-rncf", "rncf"), default="ancf",
+                   help="the model: ancf (full order) or nr-rncf (floating frames, reduced)")
     t.add_argument("--elements", type=int, default=10, help="C1 beam elements per beam")
+    t.add_argument("--vms", type=int, default=None, help="nr-rncf: vibration modes a beam (default: 5)")
+    t.add_argument("--mds", choices=("all", "none"), default=None,
+                   help="nr-rncf: all modal derivatives of the VMs (i <= j), or none (default: all)")
+    t.add_argument("--reference", choices=("ancf",), default=None,
+                   help="nr-rncf: also run the full model and report chi_rel and the speed-up")
     t.add_argument("--t-end", type=float, default=2.0, help="end time [s]")
     t.add_argument("--dt-out", type=float, default=0.001, help="output interval [s]")
     t.add_argument("--rtol", type=float, default=1e-4, help="the step error's relative tolerance")

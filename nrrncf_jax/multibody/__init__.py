@@ -3,8 +3,12 @@
 - ``joints``: ``Spherical``, ``Revolute``, ``Fixed`` (to another body or to the ground).
 - ``system``: ``MultibodySystem`` of inertial-frame (ANCF) bodies under gravity, run with
   ``integrate.GeneralizedAlphaIndex3``; ``placed`` moves a body into place.
+- ``floating``: ``FloatingFrameSystem`` of bodies in free-floating frames (Euler parameters)
+  with reduced deformation (``FloatingBody``): NR-RNCF for jointed systems.
 """
 
+from .floating import FloatingBody as FloatingBody
+from .floating import FloatingFrameSystem as FloatingFrameSystem
 from .joints import GROUND as GROUND
 from .joints import AbstractJoint as AbstractJoint
 from .joints import Fixed as Fixed

@@ -24,7 +24,7 @@ from ..integrate import GeneralizedAlphaIndex3
 from ..integrate.simulate import simulate_timed
 from ..material import Material
 from ..mesh import straight_reference
-from ..multibody import MultibodySystem, Revolute, placed
+from ..multibody import FloatingBody, FloatingFrameSystem, MultibodySystem, Revolute, placed
 from ..section import TubeSection
 
 # The C1 beam's nodal vectors at a node: r, r_x, r_y, r_xy, r_z, r_xz
@@ -53,18 +53,63 @@ class PendulumSpec:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
 
 
+def _beam(spec: PendulumSpec):
+    material = Material(spec.E, spec.rho, spec.nu)
+    return beam_body(material, TubeSection(spec.radius), straight_reference(spec.length, spec.elements))
+
+
+def _joints(spec: PendulumSpec) -> list:
+    end = _PER_NODE * spec.elements  # the last node's first vector
+    joints = [Revolute(None, None, None, 0, _R, _RZ)]
+    return joints + [Revolute(k, end + _R, (end + _RX, end + _RY), k + 1, _R, _RZ) for k in range(spec.beams - 1)]
+
+
+REFERENCE_CONDITIONS = (_R, _RY, _RZ)
+"""The nodal vectors of each beam's left node that define its floating frame (the paper: "the
+left end's position vector and local frame"): its position and cross-section vectors, zero
+deformation in the frame."""
+
+
 def build_pendulum(spec: PendulumSpec = PendulumSpec()) -> MultibodySystem:
     """The jointed system: beam k along x from k·L to (k+1)·L, a ground hinge about Z at the
     origin, and hinges about Z between consecutive beams (each at the section vector r_z of the
     next beam's first node, kept normal to the slope and section vector of the previous beam's last
     node)."""
-    material = Material(spec.E, spec.rho, spec.nu)
-    beam = beam_body(material, TubeSection(spec.radius), straight_reference(spec.length, spec.elements))
+    beam = _beam(spec)
     bodies = [placed(beam, translation=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
-    end = _PER_NODE * spec.elements  # the last node's first vector
-    joints = [Revolute(None, None, None, 0, _R, _RZ)]
-    joints += [Revolute(k, end + _R, (end + _RX, end + _RY), k + 1, _R, _RZ) for k in range(spec.beams - 1)]
-    return MultibodySystem(bodies, joints, gravity=(0.0, -spec.gravity, 0.0))
+    return MultibodySystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
+
+
+def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, pairs="all"
+                           ) -> tuple[FloatingFrameSystem, dict]:
+    """NR-RNCF of the pendulum: each beam in its floating frame (``REFERENCE_CONDITIONS``), its
+    deformation reduced to the beam's first ``n_vms`` vibration modes with those vectors clamped
+    (a cantilever) and their modal derivatives (``pairs``: ``"all"``, the k(k+1)/2 pairs i ≤ j,
+    the paper's 5 VMs + 15 MDs; or a list of (i, j); or ``[]``), deflated by SVD. Returns the
+    system and the offline record: ``frequencies_hz``, ``pairs``, ``k`` (coordinates a body after
+    deflation), ``offline_s``."""
+    import time
+
+    from ..models import RotatingFrameModel
+    from ..motion import Stationary
+    from ..reduction import deflate, elastic_tensors, modal_derivatives, vibration_modes
+
+    positive_int("n_vms", n_vms)
+    t0 = time.perf_counter()
+    beam = _beam(spec)
+    free = RotatingFrameModel(beam, Stationary(), clamped=list(REFERENCE_CONDITIONS)).free_mask()
+    modes = vibration_modes(beam, free, n_vms)
+    pairs = [(i, j) for i in range(n_vms) for j in range(i, n_vms)] if pairs == "all" else [tuple(p) for p in pairs]
+    columns = [modes.phi]
+    if pairs:
+        columns.append(modal_derivatives(beam, free, modes.phi, pairs).theta)
+    Psi = deflate(jnp.concatenate(columns, axis=1))
+    tensors = jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi))
+    bodies = [FloatingBody(beam, Psi, tensors, R0=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
+    system = FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
+    info = {"frequencies_hz": (np.asarray(modes.omega) / (2 * np.pi)).tolist(), "pairs": pairs,
+            "k": int(Psi.shape[1]), "offline_s": time.perf_counter() - t0}
+    return system, info
 
 
 def tip_vectors(spec: PendulumSpec) -> list[tuple[int, int]]:
@@ -96,6 +141,23 @@ class PendulumRun:
     newton_iters: int
     compile_s: float
     run_s: float
+    offline: dict | None = None  # NR-RNCF: build_reduced_pendulum's record
+    reference_dofs: int | None = None
+    reference_run_s: float | None = None
+    chi_rel_percent: float | None = None
+    speedup: float | None = None
+
+    def compare(self, reference: "PendulumRun") -> "PendulumRun":
+        """χ_rel (THEORY §9) of every node's displacement over all output times against a full
+        run on the same output times, and the speed-up."""
+        from ..metrics import chi_rel
+
+        if reference.nodes.shape != self.nodes.shape:
+            raise ValueError("the reference must be a run of the same pendulum and output times")
+        self.reference_dofs, self.reference_run_s = reference.dofs, reference.run_s
+        self.chi_rel_percent = float(chi_rel(reference.nodes - reference.nodes[0], self.nodes - self.nodes[0]))
+        self.speedup = reference.run_s / self.run_s
+        return self
 
     @property
     def constraint_max(self) -> float:
@@ -134,31 +196,57 @@ class PendulumRun:
                 "run_s": round(self.run_s, 4), "constraint_max": self.constraint_max,
                 "energy_drift": float(np.abs(self.energy - self.energy[0]).max()),
                 "kinetic_max": float(self.kinetic.max()),
-                "tips_final_m": self.tips[-1, :, :2].round(6).tolist()}
+                "tips_final_m": self.tips[-1, :, :2].round(6).tolist(),
+                **({} if self.offline is None else {"offline_s": round(self.offline["offline_s"], 3)}),
+                **({} if self.chi_rel_percent is None else {
+                    "reference_dofs": self.reference_dofs, "reference_run_s": round(self.reference_run_s, 3),
+                    "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup})}
+
+
+FORMULATIONS = ("ancf", "nr-rncf")
 
 
 def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out: float = 0.001,
                  rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
-                 max_steps: int = 500_000) -> PendulumRun:
-    """The pendulum released from rest, full order (ANCF bodies, index-3 generalized-α)."""
+                 max_steps: int = 500_000, formulation: str = "ancf", n_vms: int = 5, pairs="all") -> PendulumRun:
+    """The pendulum released from rest: full order (``"ancf"``: ANCF bodies) or NR-RNCF
+    (``"nr-rncf"``: ``build_reduced_pendulum(spec, n_vms, pairs)``), index-3 generalized-α."""
     from .spinup import _check_run_args
 
+    if formulation not in FORMULATIONS:
+        raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
-    system = build_pendulum(spec)
     nodes = _PER_NODE * np.arange(spec.elements + 1) + _R
+    info = None
+    if formulation == "ancf":
+        system = build_pendulum(spec)
+
+        def vectors(x, v):
+            return system.split(x), 0.5 * v @ (system.M @ v)
+    else:
+        system, info = build_reduced_pendulum(spec, n_vms, pairs)
+
+        def vectors(z, v):
+            xs, kinetic = [], 0.0
+            for b, M, zb, vb in zip(system.bodies, system.masses, system.split(z), system.split(v)):
+                x, xv = jax.jvp(b.nodal_vectors, (zb,), (vb,))
+                xs.append(x)
+                kinetic = kinetic + 0.5 * xv.reshape(-1) @ (M @ xv.reshape(-1))
+            return xs, kinetic
 
     def observe(t, x, v):
-        xs = system.split(x)
+        xs, kinetic = vectors(x, v)
         return (jnp.stack([xb[nodes] for xb in xs]), jnp.stack([xb[_RX] for xb in xs]), system.energy(x, v),
-                0.5 * v @ (system.M @ v), jnp.max(jnp.abs(system.constraints(x))))
+                kinetic, jnp.max(jnp.abs(system.constraints(x))))
 
     sol, compile_s, run_s = simulate_timed(system, jnp.asarray(ts), solver=GeneralizedAlphaIndex3(rho_inf), rtol=rtol,
                                            atol=atol, observe=observe, progress=progress, max_steps=max_steps)
     pos, slopes, energy, kinetic, cmax = (np.asarray(y) for y in jax.device_get(sol.ys))
-    return PendulumRun(formulation="ancf", dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes, energy=energy,
-                       kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
+    return PendulumRun(formulation=formulation, dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes,
+                       energy=energy, kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
                        rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton), compile_s=compile_s,
-                       run_s=run_s)
+                       run_s=run_s, offline=info)
 
 
-__all__ = ["SHAPE_TIMES", "PendulumRun", "PendulumSpec", "build_pendulum", "run_pendulum", "tip_vectors"]
+__all__ = ["FORMULATIONS", "REFERENCE_CONDITIONS", "SHAPE_TIMES", "PendulumRun", "PendulumSpec", "build_pendulum",
+           "build_reduced_pendulum", "run_pendulum", "tip_vectors"]
