@@ -6,10 +6,13 @@ order of the swing), C1 beam elements. Beam 1 is hinged to the ground at its lef
 origin), the beams are joined end to end by revolute joints about Z, and the chain is released
 from rest in a straight horizontal line along +x, gravity −9.81 m/s² along Y.
 
-Here the bodies are inertial-frame (ANCF) bodies joined by ``multibody`` joints and integrated by
-the index-3 generalized-α (``integrate.GeneralizedAlphaIndex3``): the full-order reference. The
-floating-frame (RNCF) bodies and their NR-RNCF reduction by extended Craig-Bampton (issue 17)
-are not built yet.
+Two models: ``build_pendulum``, inertial-frame (ANCF) bodies joined by ``multibody`` joints
+and integrated by the index-3 generalized-α (``integrate.GeneralizedAlphaIndex3``), the
+full-order reference; and ``build_reduced_pendulum``, NR-RNCF: each beam in a floating frame
+(``multibody.floating``) with its deformation reduced to cantilever modes and their modal
+derivatives. The extended Craig-Bampton boundary coordinates of the paper are not built (the
+right-end joints act on the reduced bodies' nodal vectors), and the reduced model is not yet
+faster than the full one (issue 17).
 """
 
 import dataclasses
