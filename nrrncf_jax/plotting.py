@@ -43,6 +43,17 @@ def _pyplot():
     return plt
 
 
+def _finish(fig, path: str | None, dpi: int):
+    """Lay the figure out; return it when ``path`` is None (a notebook shows it), else write the
+    PNG, close the figure and return None."""
+    fig.tight_layout()
+    if path is None:
+        return fig
+    fig.savefig(path, dpi=dpi)
+    _pyplot().close(fig)
+    return None
+
+
 def _label(r: TipRecord) -> str:
     label = f"{r.formulation.upper()} ({r.dofs} DOF)"
     if getattr(r, "chi_rel_percent", None) is not None:
@@ -204,12 +215,7 @@ def plot_plate_shapes(path: str | None, plate, shapes: dict, dpi: int = 120):
         ax.set_title(title, fontsize=9)
         ax.set_aspect("equal")
         ax.set_axis_off()
-    fig.tight_layout()
-    if path is None:
-        return fig
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-    return None
+    return _finish(fig, path, dpi)
 
 
 def plot_truss_modes(path: str, truss, phi: np.ndarray, frequencies, types, count: int = 6, dpi: int = 120) -> None:
@@ -266,12 +272,7 @@ def plot_pendulum(path: str | None, runs, times=(0.0, 0.5, 1.0, 1.5, 2.0), dpi: 
     axes[2].set_ylabel("transverse deflection in the left end's frame [m]")
     for ax in axes:
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    if path is None:
-        return fig
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-    return None
+    return _finish(fig, path, dpi)
 
 
 def animate_pendulum(path: str, run, fps: int = 25, dpi: int = 80) -> int:

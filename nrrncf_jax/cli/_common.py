@@ -38,6 +38,19 @@ def say(args, text: str) -> None:
         print(text, file=sys.stderr, flush=True)
 
 
+def emit(args, record: dict) -> int:
+    """A run's record: one JSON object as the last line under ``--json``, else ``key: value``
+    lines. Returns the exit status 0."""
+    import json
+
+    if args.json:
+        print(json.dumps(record))
+        return 0
+    for k, v in record.items():
+        print(f"  {k}: {v}")
+    return 0
+
+
 def output_path(flag: str, path: str | None) -> None:
     """A file to be written after the run: its directory must exist and be writable, and it must
     not be a directory itself (checked now rather than after a long simulation)."""

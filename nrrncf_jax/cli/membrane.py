@@ -10,8 +10,6 @@ with ``dofs, vms, mds, steps, compile_s, run_s, offline_s`` and with ``--referen
 paper's 19th mode is 18).
 """
 
-import json
-
 from .. import _validate
 from . import _common
 
@@ -56,12 +54,7 @@ def _run(args) -> int:
         fields, times = run.displacement_fields(m.body)
         write_plate_vtk(args.vtk, m.plate, fields, times=times)
     out = run.command_record(case=args.case, omega_s=omega, rim_max_m=run.summary()["rim_max_m"])
-    if args.json:
-        print(json.dumps(out))
-        return 0
-    for k, v in out.items():
-        print(f"  {k}: {v}")
-    return 0
+    return _common.emit(args, out)
 
 
 def _check(args) -> None:

@@ -20,8 +20,6 @@ frame of its beam's left end (Fig. 18). ``--json`` prints one JSON object as the
 ``dofs, steps, newton_iters, compile_s, run_s`` and more.
 """
 
-import json
-
 from .. import _validate
 from . import _common
 
@@ -65,12 +63,7 @@ def _run(args) -> int:
         lines = [(b * nodes + i, b * nodes + i + 1) for b in range(beams) for i in range(nodes - 1)]
         write_polyline_series(args.vtk, run.nodes[::every].reshape(-1, beams * nodes, 3), lines, run.ts[::every])
     out = run.summary()
-    if args.json:
-        print(json.dumps(out))
-        return 0
-    for k, v in out.items():
-        print(f"  {k}: {v}")
-    return 0
+    return _common.emit(args, out)
 
 
 def _check(args) -> None:

@@ -88,12 +88,7 @@ def _dynamics(args) -> int:
         write_frame_vtk(args.vtk, truss.frame, run.displacement_fields(truss.body)[0])
     s = run.summary()
     out = run.command_record(tip_y_max_m=s["tip_y_max_m"], tip_z_max_m=s["tip_z_max_m"])
-    if args.json:
-        print(json.dumps(out))
-        return 0
-    for k, v in out.items():
-        print(f"  {k}: {v}")
-    return 0
+    return _common.emit(args, out)
 
 
 def _check(args) -> None:

@@ -271,14 +271,20 @@ class FloatingFrameSystem(AbstractModel):
         sol = DenseLU.factor(A).solve(rhs)
         return sol[:n], sol[n:]
 
-    def energy(self, z, v) -> Float[Array, ""]:
-        """Kinetic + strain + gravity potential energy (conserved without damping)."""
+    def kinetic_energy(self, z, v) -> Float[Array, ""]:
+        """½ Σ_b ẋ_bᵀ M_b ẋ_b, ẋ_b = J_b ż_b."""
         total = 0.0
         for b, M, zb, vb in zip(self.bodies, self.masses, self.split(z), self.split(v)):
-            x, xv = jax.jvp(b.nodal_vectors, (zb,), (vb,))
+            xv = jax.jvp(b.nodal_vectors, (zb,), (vb,))[1].reshape(-1)
+            total = total + 0.5 * xv @ (M @ xv)
+        return total
+
+    def energy(self, z, v) -> Float[Array, ""]:
+        """Kinetic + strain + gravity potential energy (conserved without damping)."""
+        total = self.kinetic_energy(z, v)
+        for b, zb, x in zip(self.bodies, self.split(z), self.nodal_vectors(z)):
             local = b.body.q_hat + (b.basis @ zb[7:]).reshape(-1, 3)
-            total = total + 0.5 * xv.reshape(-1) @ (M @ xv.reshape(-1)) + b.body.strain_energy(local) \
-                - jnp.sum(b.body.varrho()[:, None] * x * self.gravity[None, :])
+            total = total + b.body.strain_energy(local) - jnp.sum(b.body.varrho()[:, None] * x * self.gravity[None, :])
         return total
 
 

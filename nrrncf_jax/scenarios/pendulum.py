@@ -230,12 +230,7 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
         system, info = build_reduced_pendulum(spec, n_vms, pairs)
 
         def vectors(z, v):
-            xs, kinetic = [], 0.0
-            for b, M, zb, vb in zip(system.bodies, system.masses, system.split(z), system.split(v)):
-                x, xv = jax.jvp(b.nodal_vectors, (zb,), (vb,))
-                xs.append(x)
-                kinetic = kinetic + 0.5 * xv.reshape(-1) @ (M @ xv.reshape(-1))
-            return xs, kinetic
+            return system.nodal_vectors(z), system.kinetic_energy(z, v)
 
     def observe(t, x, v):
         xs, kinetic = vectors(x, v)
