@@ -411,9 +411,17 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
         idx = k + jnp.arange(K)
         tau = ts_pad[idx]
         write = accept & (tau <= t1)
-        s = jnp.clip((tau - t) / h, 0.0, 1.0)
-        qi, vi = hermite_interpolate(s[:, None], h, st.q, st.v, q1, v1)
-        obs = jax.vmap(config.observe)(jnp.where(write, tau, t1), qi, vi)
+
+        def observe_window():
+            s = jnp.clip((tau - t) / h, 0.0, 1.0)
+            qi, vi = hermite_interpolate(s[:, None], h, st.q, st.v, q1, v1)
+            return jax.vmap(config.observe)(jnp.where(write, tau, t1), qi, vi)
+
+        # A run that carries its output buffer and is not differentiated in reverse observes only
+        # in the steps that cover an output time: the observation (K slots of it) can cost more
+        # than the step itself (the pendulum's energies: 4 ms against a 1 ms step).
+        lazy = c.ys is not None and config.adjoint != "reverse"
+        obs = None if lazy else observe_window()
 
         if config.adjoint == "reverse":
             # The checkpointed loop's buffers are written once per slot: slots past t1 (or
@@ -449,7 +457,11 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
         )
         if active is not None:
             new = jtu.tree_map(lambda val, old: jnp.where(active, val, old), new, c)
-        if c.ys is not None:
+        if lazy:
+            ys = lax.cond(jnp.any(write), lambda ys: jtu.tree_map(write_window, observe_window(), ys),
+                          lambda ys: ys, c.ys)
+            new = dataclasses.replace(new, ys=ys)
+        elif c.ys is not None:
             new = dataclasses.replace(new, ys=jtu.tree_map(write_window, obs, c.ys))
         return new, obs
 
