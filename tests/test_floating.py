@@ -75,7 +75,7 @@ def test_free_body_keeps_its_momenta_and_energy():
         x, xv = jax.jvp(lambda y: body.nodal_vectors(y).reshape(-1), (z,), (v,))
         # r(ξ) = Σ S_α(ξ) x_α over all nodal vectors: p = ∫ρṙ = Σ ϱ_β ẋ_β, H = ∫ρ r × ṙ
         p = jnp.asarray(body.body.varrho()) @ xv.reshape(-1, 3)
-        H = jnp.sum(jnp.cross(x.reshape(-1, 3), (M @ xv).reshape(-1, 3)), axis=0)
+        H = jnp.sum(jnp.cross(x.reshape(-1, 3), M @ xv.reshape(-1, 3)), axis=0)
         return p, H, system.energy(z, v), z[3:7] @ z[3:7]
 
     ts = jnp.linspace(0.0, 1.0, 11)
@@ -122,15 +122,72 @@ def test_floating_system_refuses_bad_input():
 def test_generalized_forces_are_the_strain_energys_gradient():
     """At rest and without gravity the residual is ∂U/∂z with U the full body's strain energy of
     x = f(z): the reduced cubic force (p rows) is the projected full force, and U does not change
-    with the frame (R and e rows zero), for a rotated, displaced and deformed state. Round-off."""
+    with the frame (R and e rows zero), for a rotated, displaced and deformed state with |e| = 1.
+    Along e itself Â(e) = |e|² A scales the body, and that part of ∂U/∂e is the normalisation
+    constraint's reaction (its row is 2eᵀ), so it is projected out. Round-off."""
     body = _stiff_floating_beam(n_vms=2)
     system = FloatingFrameSystem([body], [])
     rng = np.random.default_rng(0)
     e = rng.normal(size=4)
-    z = jnp.asarray(np.concatenate([rng.normal(size=3), 1.7 * e / np.linalg.norm(e), [0.02, -0.01]]))
+    z = jnp.asarray(np.concatenate([rng.normal(size=3), e / np.linalg.norm(e), [0.02, -0.01]]))  # |e| = 1
     r = np.asarray(system.residual(0.0, z, jnp.zeros_like(z), jnp.zeros_like(z)))
-    g = np.asarray(jax.grad(lambda y: body.body.strain_energy(body.nodal_vectors(y)))(z))
+    g = np.array(jax.grad(lambda y: body.body.strain_energy(body.nodal_vectors(y)))(z))
     scale = np.abs(g).max()
     assert scale > 0
+    e1 = np.asarray(z[3:7])
+    g[3:7] -= (g[3:7] @ e1) * e1  # the part along e is the normalisation constraint's (its multiplier's)
     np.testing.assert_allclose(r, g, rtol=0, atol=1e-9 * scale)
     np.testing.assert_allclose(r[:7], 0.0, atol=1e-9 * scale)
+
+
+def test_closed_form_kinematics_are_the_maps_derivatives():
+    """J, J z̈ + J̇ż, J ᵀF and the joints' C_z, written in closed form, against automatic
+    differentiation of x = f(z) and C(f(z)), at a random state off the constraints (round-off);
+    and the stacked (vmapped) evaluation of equal bodies against the loop over them."""
+    import equinox as eqx
+
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum
+
+    system, _ = build_reduced_pendulum(PendulumSpec(elements=2), n_vms=2, pairs=[(0, 0)])
+    assert system.stacked is not None
+    rng = np.random.default_rng(1)
+    z = system.reference() + 0.1 * rng.normal(size=system.n_dof)
+    v, a = rng.normal(size=(2, system.n_dof))
+    body, zb, vb, ab = system.bodies[1], *(system.split(y)[1] for y in (z, v, a))
+    J = jax.jacfwd(body.nodal_vectors)(zb)
+    scale = float(np.abs(J).max())
+    np.testing.assert_allclose(body.jacobian(zb), J, rtol=0, atol=1e-14 * scale)
+    Jdv = jax.jvp(lambda y: jax.jvp(body.nodal_vectors, (y,), (vb,))[1], (zb,), (vb,))[1]
+    xdd = jnp.einsum("vik,k->vi", J, ab) + Jdv
+    np.testing.assert_allclose(body.acceleration(zb, vb, ab), xdd, rtol=0, atol=1e-13 * float(np.abs(xdd).max()))
+    F = rng.normal(size=(body.body.n_vectors, 3))
+    np.testing.assert_allclose(body.generalized(zb, F), jnp.einsum("vik,vi->k", J, F), rtol=0, atol=1e-13 * scale)
+    np.testing.assert_allclose(system.constraint_jacobian(z), jax.jacfwd(system.constraints)(z), rtol=0,
+                               atol=1e-14 * scale)
+    looped = eqx.tree_at(lambda s: s.stacked, system, None, is_leaf=lambda x: x is None)
+    r = system.residual(0.0, z, v, a)
+    np.testing.assert_allclose(looped.residual(0.0, z, v, a), r, rtol=0, atol=1e-13 * float(np.abs(r).max()))
+    S = system.iteration_matrix(0.0, z, v, 1.0, 0.1, 1e-3)
+    np.testing.assert_allclose(looped.iteration_matrix(0.0, z, v, 1.0, 0.1, 1e-3), S, rtol=0,
+                               atol=1e-13 * float(np.abs(S).max()))
+
+
+def test_joint_modes_give_the_cantilevers_tip_flexibility():
+    """``scenarios.pendulum.boundary_modes``: the static deflections of a beam held at its left end
+    under unit forces at its right end have the Euler-Bernoulli cantilever's tip flexibilities,
+    L³/(3EI) transversely and L/(EA) axially (a slender rod: shear and the section's Poisson
+    contraction change them by about (r/L)² ~ 1e-4 and ν²(r/L)², and the C1 element's cubic
+    interpolation is exact for a tip load)."""
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, _beam, boundary_modes
+
+    spec = PendulumSpec(elements=2)
+    beam = _beam(spec)
+    free = RotatingFrameModel(beam, Stationary(), clamped=list(REFERENCE_CONDITIONS)).free_mask()
+    tip = 6 * spec.elements  # the right end's position vector
+    psi = boundary_modes(beam, free, [tip])
+    flex = psi[3 * tip:3 * tip + 3, :]  # tip displacement (rows) per unit tip force (columns)
+    area, inertia = np.pi * spec.radius**2, np.pi * spec.radius**4 / 4
+    np.testing.assert_allclose(flex[0, 0], spec.length / (spec.E * area), rtol=1e-3)
+    for k in (1, 2):
+        np.testing.assert_allclose(flex[k, k], spec.length**3 / (3 * spec.E * inertia), rtol=1e-3)
+    np.testing.assert_allclose(flex, flex.T, rtol=0, atol=1e-10 * np.abs(flex).max())  # Maxwell-Betti

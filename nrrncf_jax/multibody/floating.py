@@ -1,15 +1,16 @@
 """Free-floating reference frames with reduced deformation: NR-RNCF for jointed systems
 (THEORY §3, Eqs. 4-6; paper Sec. 4.4).
 
-Each body b has a reference frame, origin R_b and orientation A(e_b) from Euler parameters e_b,
-and its deformation in that frame reduced to a basis, w_b = Ψ_b p_b (vibration modes and modal
+Each body b has a reference frame, origin R_b and orientation from Euler parameters e_b, and its
+deformation in that frame reduced to a basis, w_b = Ψ_b p_b (vibration modes and modal
 derivatives, zero on the body's reference conditions). Its nodal vectors in the inertial frame:
 
-    position vectors   x_α = R + A (q̂_α + w_α),      gradient vectors   x_α = A (q̂_α + w_α),
+    position vectors   x_α = R + Â(e) (q̂_α + w_α),      gradient vectors   x_α = Â(e) (q̂_α + w_α),
 
-x_b = f_b(z_b) with z_b = (R_b, e_b, p_b) (3 + 4 + k coordinates). The joints (``joints``) act on
-x = f(z) as in the full system. With M_b constant in the inertial nodal vectors, Lagrange's
-equations of the map are
+x_b = f_b(z_b) with z_b = (R_b, e_b, p_b) (3 + 4 + k coordinates), Â(e) = (e0² − ēᵀē) I + 2 ē ēᵀ
++ 2 e0 ẽ the rotation matrix written as a quadratic form in e (a rotation exactly when |e| = 1,
+which is one more constraint per body). The joints (``joints``) act on x = f(z) as in the full
+system. With M_b constant in the inertial nodal vectors, Lagrange's equations of the map are
 
     J_bᵀ (M_b ẍ_b − Q_b) + ∂U_b/∂z_b + C_zᵀ λ = 0,    ẍ_b = J_b z̈_b + J̇_b ż_b,    J_b = ∂f_b/∂z_b,
 
@@ -21,15 +22,16 @@ Choices, and why:
 
 - **Euler parameters** for the orientation, with |e_b|² = 1 as one more constraint per body: no
   singular orientation (a rotation vector is singular at |ψ| = 2π, Euler angles at gimbal lock),
-  the equations stay polynomial-like, and the index-3 solver already carries constraints. A is
-  the rotation of e/|e| (normalised), so a scaling of e moves nothing: M_z is singular along e and
-  the normalisation constraint's row (2eᵀ) removes exactly that direction, so
-  ``[[M_z, C_zᵀ], [C_z, 0]]`` is regular.
-- **Inertia through automatic differentiation** of the map f (its Jacobian: 7 + k directional
-  derivatives; the quadratic-velocity terms J̇ż: one second directional derivative), rather than
-  the paper's precomputed inertia invariants: exact, with no invariant tensors to get wrong, and
-  its cost grows only linearly with the full body's size (products with the constant M_b). The
-  elastic force, the costly part at full order, is the reduced cubic one.
+  and Â is quadratic in e, so J, J̇ż and their derivatives are polynomials with constant
+  coefficients (``_B``). Off |e| = 1, Â scales the body; the constraint's reaction (its row is
+  2eᵀ) takes the strain energy's part along e, so the equations hold on the constraint.
+- **Inertia in closed form** from the map (J ᵀF, J z̈ and J̇ż as a few small products with u =
+  q̂ + Ψ p, ``FloatingBody.tangent``/``acceleration``/``generalized``, with J itself formed only
+  for the mass matrix and the joints' rows) rather than the paper's precomputed inertia
+  invariants: nothing to precompute and get wrong, and the cost grows only linearly with the full
+  body's size (products with the constant M_b). Bodies of one structure (a chain of equal beams)
+  are evaluated in one ``vmap``: on a CPU the time of these small models is per XLA operation.
+  The elastic force, the costly part at full order, is the reduced cubic one.
 - The iteration matrix is dense (z has a few tens of coordinates): the mass matrix J ᵀM J and
   the reduced elastic stiffness K + 2Lp + 3Npp; the inertia terms' derivatives through J and the
   joints' Hessian are left to Newton's iterations (``iteration_matrix``).
@@ -72,6 +74,30 @@ def euler_parameters(A) -> np.ndarray:
     return e if e[0] >= 0 else -e
 
 
+def _rotation_basis() -> np.ndarray:
+    """B (4, 4, 3, 3), symmetric in its first two indices, with Â(e) = Σ_kl e_k e_l B_kl the
+    unnormalised rotation matrix (e0² − ēᵀē) I + 2 ē ēᵀ + 2 e0 ẽ: a quadratic form in e, so its
+    derivatives are ∂Â/∂e_k = 2 Σ_l B_kl e_l and ∂²Â/∂e_k∂e_l = 2 B_kl."""
+    B = np.zeros((4, 4, 3, 3))
+    B[0, 0] = np.eye(3)
+    for i in range(3):
+        B[i + 1, i + 1] -= np.eye(3)
+        for j in range(3):
+            B[i + 1, j + 1, i, j] += 1.0  # 2 ē ēᵀ, split over (k, l) = (i, j) and (j, i)
+            B[j + 1, i + 1, i, j] += 1.0
+    skew = np.zeros((3, 3, 3))  # ẽ = Σ_i ē_i skew[i]
+    skew[0, 2, 1], skew[0, 1, 2] = 1.0, -1.0
+    skew[1, 0, 2], skew[1, 2, 0] = 1.0, -1.0
+    skew[2, 1, 0], skew[2, 0, 1] = 1.0, -1.0
+    for i in range(3):
+        B[0, i + 1] += skew[i]
+        B[i + 1, 0] += skew[i]
+    return B
+
+
+_B = _rotation_basis()
+
+
 class FloatingBody(eqx.Module):
     """A body in a floating frame, deformation reduced: ``body`` in its own frame (its ``q_hat``
     the stress-free state in frame coordinates), the deformation basis ``basis`` (n_dof × k,
@@ -83,7 +109,9 @@ class FloatingBody(eqx.Module):
     tensors: ElasticTensors
     R0: Float[Array, " 3"]
     e0: Float[Array, " 4"]
-    is_position: Bool[Array, " nv"]
+    is_position: Float[Array, " nv"]  # 1.0 on position vectors, 0.0 on gradient vectors
+    mass: Float[Array, "nv nv"]  # M_b on the nodal vectors (the same for each component)
+    weights: Float[Array, " nv"]  # ϱ: the body force's weights on the nodal vectors
 
     def __init__(self, body: Body, basis, tensors: ElasticTensors, R0=(0.0, 0.0, 0.0), A0=None):
         basis = jnp.asarray(basis)
@@ -94,7 +122,9 @@ class FloatingBody(eqx.Module):
         self.body, self.basis, self.tensors = body, basis, tensors
         self.R0 = jnp.asarray(R0, dtype=float).reshape(3)
         self.e0 = jnp.asarray(euler_parameters(np.eye(3) if A0 is None else A0))
-        self.is_position = jnp.asarray(body.is_position, dtype=bool)
+        self.is_position = jnp.asarray(np.asarray(body.is_position, dtype=float))
+        self.mass = jnp.asarray(body.mass_matrix())
+        self.weights = jnp.asarray(body.varrho())
 
     @property
     def k(self) -> int:
@@ -104,14 +134,78 @@ class FloatingBody(eqx.Module):
     def n_z(self) -> int:
         return 7 + self.k
 
+    def _local(self, p):
+        return self.body.q_hat + (self.basis @ p).reshape(-1, 3)
+
     def nodal_vectors(self, z: Float[Array, " nz"]) -> Float[Array, "nv 3"]:
-        """x = f(z): the nodal vectors in the inertial frame."""
+        """x = f(z) = R (on position vectors) + Â(e) (q̂ + Ψ p): the nodal vectors in the inertial
+        frame."""
         R, e, p = z[:3], z[3:7], z[7:]
-        local = self.body.q_hat + (self.basis @ p).reshape(-1, 3)
-        return local @ rotation(e).T + jnp.where(self.is_position[:, None], R[None, :], 0.0)
+        return self._local(p) @ _A_hat(e).T + self.is_position[:, None] * R[None, :]
+
+    def jacobian(self, z: Float[Array, " nz"], rows=None) -> Float[Array, "nv 3 nz"]:
+        """J = ∂x/∂z in closed form (of the nodal vectors ``rows``, all by default): the columns
+        ∂x/∂R (the position vectors' identity), ∂x/∂e_k = ∂Â/∂e_k u and ∂x/∂p = Â Ψ,
+        u = q̂ + Ψ p."""
+        e, p = z[3:7], z[7:]
+        nv = self.body.n_vectors
+        Psi = self.basis.reshape(nv, 3, -1)
+        u, pos = self.body.q_hat + jnp.einsum("vik,k->vi", Psi, p), self.is_position
+        if rows is not None:
+            rows = jnp.asarray(rows, dtype=int)
+            u, pos, Psi = u[rows], pos[rows], Psi[rows]
+        J_R = pos[:, None, None] * jnp.eye(3)[None]
+        J_e = jnp.einsum("kij,vj->vik", _dA_hat(e), u)
+        J_p = jnp.einsum("ij,vjk->vik", _A_hat(e), Psi)
+        return jnp.concatenate([J_R, J_e, J_p], axis=-1)
+
+    def tangent(self, z, dz) -> Float[Array, "nv 3"]:
+        """J dz (J not formed): dR on the position vectors, Σ_k ∂Â/∂e_k de_k u + Â Ψ dp."""
+        e, p = z[3:7], z[7:]
+        A_de = jnp.einsum("k,kij->ij", dz[3:7], _dA_hat(e))
+        return (self.is_position[:, None] * dz[None, :3] + self._local(p) @ A_de.T
+                + (self.basis @ dz[7:]).reshape(-1, 3) @ _A_hat(e).T)
+
+    def acceleration(self, z, v, a) -> Float[Array, "nv 3"]:
+        """ẍ = J z̈ + J̇ ż, with J̇ ż = Ä u + 2 Ȧ u̇, Ä = ∂²Â(ė, ė), Ȧ = ∂Â ė, u̇ = Ψ ṗ."""
+        e, p, de, dp = z[3:7], z[7:], v[3:7], v[7:]
+        A_dd = 2.0 * jnp.einsum("k,l,klij->ij", de, de, jnp.asarray(_B))
+        A_d = jnp.einsum("k,kij->ij", de, _dA_hat(e))
+        return self.tangent(z, a) + self._local(p) @ A_dd.T + 2.0 * (self.basis @ dp).reshape(-1, 3) @ A_d.T
+
+    def generalized(self, z, F: Float[Array, "nv 3"]) -> Float[Array, " nz"]:
+        """J ᵀF (J not formed): Σ F_α over the position vectors, Σ_α u_αᵀ ∂Â/∂e_kᵀ F_α, and
+        Ψᵀ (Â ᵀF_α)_α."""
+        e, p = z[3:7], z[7:]
+        F_R = self.is_position @ F
+        F_e = jnp.einsum("kij,ij->k", _dA_hat(e), F.T @ self._local(p))
+        F_p = self.basis.T @ (F @ _A_hat(e)).reshape(-1)
+        return jnp.concatenate([F_R, F_e, F_p])
 
     def initial(self) -> Float[Array, " nz"]:
         return jnp.concatenate([self.R0, self.e0, jnp.zeros(self.k)])
+
+
+def _stack(bodies) -> FloatingBody | None:
+    """The bodies' arrays stacked into one ``FloatingBody`` (leading axis: the body), or None when
+    their structures or shapes differ."""
+    leaves = [jax.tree_util.tree_flatten(b) for b in bodies]
+    first, treedef = leaves[0]
+    if any(td != treedef or len(ls) != len(first) for ls, td in leaves):
+        return None
+    if any(not all(isinstance(x, jax.Array) and x.shape == y.shape and x.dtype == y.dtype for x, y in zip(ls, first))
+           for ls, _ in leaves):
+        return None
+    return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *bodies)
+
+
+def _A_hat(e):
+    return jnp.einsum("k,l,klij->ij", e, e, jnp.asarray(_B))
+
+
+def _dA_hat(e):
+    """∂Â/∂e_k (4, 3, 3)."""
+    return 2.0 * jnp.einsum("l,klij->kij", e, jnp.asarray(_B))
 
 
 class FloatingFrameSystem(AbstractModel):
@@ -123,7 +217,7 @@ class FloatingFrameSystem(AbstractModel):
     bodies: tuple[FloatingBody, ...]
     joints: tuple[AbstractJoint, ...]
     gravity: Float[Array, " 3"]
-    masses: tuple  # each body's M_b (n_dof × n_dof, ⊗ I3 applied)
+    stacked: FloatingBody | None  # the bodies' arrays stacked, when they have one structure (vmapped)
     offsets: tuple[int, ...] = eqx.field(static=True)
 
     preferred_newton = "modified"
@@ -136,9 +230,9 @@ class FloatingFrameSystem(AbstractModel):
         if not all(isinstance(j, AbstractJoint) for j in self.joints):
             raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...)")
         self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
-        self.masses = tuple(jnp.asarray(np.kron(np.asarray(b.body.mass_matrix()), np.eye(3))) for b in self.bodies)
         sizes = [b.n_z for b in self.bodies]
         self.offsets = tuple(int(o) for o in np.concatenate([[0], np.cumsum(sizes)[:-1]]))
+        self.stacked = _stack(self.bodies)
         self._check()
 
     def _check(self) -> None:
@@ -168,12 +262,31 @@ class FloatingFrameSystem(AbstractModel):
     def n_constraints(self) -> int:
         return sum(j.n_equations for j in self.joints) + len(self.bodies)
 
+    @property
+    def masses(self) -> tuple[Float[Array, "nv nv"], ...]:
+        """Each body's mass matrix on its nodal vectors (the same for each component)."""
+        return tuple(b.mass for b in self.bodies)
+
     def split(self, z: Float[Array, " n"]) -> tuple[Float[Array, " nz"], ...]:
         return tuple(z[o:o + b.n_z] for b, o in zip(self.bodies, self.offsets))
 
+    def _map(self, fn, *vectors) -> list:
+        """``[fn(body_b, *(each vector's part b))]``: one vmapped call over the stacked bodies when
+        they share one structure (a chain of equal beams: a third of the operations for three
+        bodies, and XLA's time here is per operation), else a loop."""
+        if self.stacked is None:
+            return [fn(b, *parts) for b, *parts in zip(self.bodies, *(self.split(x) for x in vectors))]
+        nb = len(self.bodies)
+        out = jax.vmap(fn)(self.stacked, *(x.reshape(nb, -1) for x in vectors))
+        return [jax.tree_util.tree_map(lambda y, i=i: y[i], out) for i in range(nb)]
+
     def nodal_vectors(self, z: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
         """Every body's nodal vectors in the inertial frame (the full system's ``split``)."""
-        return tuple(b.nodal_vectors(zb) for b, zb in zip(self.bodies, self.split(z)))
+        return tuple(self._map(FloatingBody.nodal_vectors, z))
+
+    def nodal_velocities(self, z: Float[Array, " n"], v: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
+        """ẋ_b = J_b ż_b."""
+        return tuple(self._map(FloatingBody.tangent, z, v))
 
     def reference(self) -> Float[Array, " n"]:
         return jnp.concatenate([b.initial() for b in self.bodies])
@@ -191,18 +304,45 @@ class FloatingFrameSystem(AbstractModel):
     def error_space(self, z, e):
         """The step error in the inertial nodal vectors (J e), so that a tolerance means what it
         means for the full system."""
-        x, dx = jax.jvp(lambda y: jnp.concatenate([v.reshape(-1) for v in self.nodal_vectors(y)]), (z,), (e,))
+        x = jnp.concatenate([v.reshape(-1) for v in self.nodal_vectors(z)])
+        dx = jnp.concatenate([v.reshape(-1) for v in self.nodal_velocities(z, e)])
         return x, dx, jnp.ones(x.shape[0], bool)
 
     # --- the equations ----------------------------------------------------------------------------
+    def _euler_norms(self, z):
+        return [jnp.atleast_1d(zb[3:7] @ zb[3:7] - 1.0) for zb in self.split(z)]
+
     def constraints(self, z: Float[Array, " n"]) -> Float[Array, " m"]:
         xs = self.nodal_vectors(z)
-        joints = [j(xs) for j in self.joints]
-        norms = [jnp.atleast_1d(zb[3:7] @ zb[3:7] - 1.0) for zb in self.split(z)]
-        return jnp.concatenate(joints + norms)
+        return jnp.concatenate([j(xs) for j in self.joints] + self._euler_norms(z))
+
+    def _joint_equations(self, xs):
+        return jnp.concatenate([j(xs) for j in self.joints]) if self.joints else jnp.zeros(0)
+
+    def _joint_rows(self) -> tuple[int, ...]:
+        """The nodal vectors any joint reads (on any body: one list for the stacked bodies)."""
+        return tuple(sorted({v for j in self.joints for _, v in j.references()}))
 
     def constraint_jacobian(self, z):
-        return jax.jacfwd(self.constraints)(z)
+        """C_z = ∂C/∂x J: the joints differentiated with respect to the few nodal vectors they
+        read, times those rows of each body's J; then the rows 2 e_bᵀ of |e_b|² = 1."""
+        xs = self.nodal_vectors(z)
+        zs = self.split(z)
+        rows = self._joint_rows()
+        if rows:
+            idx = jnp.asarray(rows)
+
+            def on_rows(x_rows):
+                return self._joint_equations(tuple(x.at[idx].set(xr) for x, xr in zip(xs, x_rows)))
+
+            dC = jax.jacfwd(on_rows)(tuple(x[idx] for x in xs))  # per body (m, rows, 3)
+            Js = self._map(lambda b, zb: b.jacobian(zb, rows), z)  # per body (rows, 3, nz)
+            C_joints = jnp.concatenate([jnp.einsum("mvi,vik->mk", d, J) for d, J in zip(dC, Js)], axis=1)
+        else:
+            C_joints = jnp.zeros((0, self.n_dof), z.dtype)
+        C_norms = jax.scipy.linalg.block_diag(*[jnp.concatenate([jnp.zeros(3), 2.0 * zb[3:7], jnp.zeros(b.k)])[None]
+                                                for b, zb in zip(self.bodies, zs)])
+        return jnp.concatenate([C_joints, C_norms], axis=0)
 
     def constraint_acceleration(self, z, v) -> Float[Array, " m"]:
         """(C_z v)_z v: the part of C̈ that does not hold the accelerations."""
@@ -211,33 +351,23 @@ class FloatingFrameSystem(AbstractModel):
 
         return jax.jvp(rate, (z,), (v,))[1]
 
-    def _kinematics(self, z, v):
-        """Per body: the Jacobian J_b = ∂x_b/∂z_b (n_b × (7 + k)) and J̇_b ż_b (the second
-        directional derivative of f_b along ż_b)."""
-        out = []
-        for b, zb, vb in zip(self.bodies, self.split(z), self.split(v)):
-            def flat(y, b=b):
-                return b.nodal_vectors(y).reshape(-1)
-
-            J = jax.jacfwd(flat)(zb)
-            Jdv = jax.jvp(lambda y, flat=flat, vb=vb: jax.jvp(flat, (y,), (vb,))[1], (zb,), (vb,))[1]
-            out.append((J, Jdv))
-        return out
-
     def residual(self, t: Scalar, z, v, a) -> Float[Array, " n"]:
         """J ᵀ(M ẍ − Q) + ∂U/∂z, ẍ = J z̈ + J̇ ż, without the joints' forces (the stepper adds
         C_zᵀ λ)."""
-        parts = []
-        for b, M, (J, Jdv), ab, zb in zip(self.bodies, self.masses, self._kinematics(z, v), self.split(a),
-                                          self.split(z)):
-            Q = (b.body.varrho()[:, None] * self.gravity[None, :]).reshape(-1)
-            parts.append((J.T @ (M @ (J @ ab + Jdv) - Q)).at[7:].add(b.tensors.force(zb[7:])))
-        return jnp.concatenate(parts)
+        def body_residual(b, zb, vb, ab):
+            F = b.mass @ b.acceleration(zb, vb, ab) - b.weights[:, None] * self.gravity[None, :]
+            return b.generalized(zb, F).at[7:].add(b.tensors.force(zb[7:]))
+
+        return jnp.concatenate(self._map(body_residual, z, v, a))
+
+    @staticmethod
+    def _body_mass(b: FloatingBody, zb):
+        J = b.jacobian(zb)
+        return jnp.einsum("vik,vw,wil->kl", J, b.mass, J)
 
     def mass_matrix(self, z) -> Float[Array, "n n"]:
-        """M_z = blockdiag(J_bᵀ M_b J_b): singular along each body's e (see the module docstring)."""
-        return jax.scipy.linalg.block_diag(*[J.T @ M @ J for M, (J, _) in
-                                             zip(self.masses, self._kinematics(z, jnp.zeros_like(z)))])
+        """M_z = blockdiag(J_bᵀ M_b J_b)."""
+        return jax.scipy.linalg.block_diag(*self._map(self._body_mass, z))
 
     def iteration_matrix(self, t, z, v, c_M, c_C, c_K):
         """``c_M M_z + c_K ∂F/∂z``: the mass matrix and the reduced elastic stiffness. The
@@ -245,11 +375,11 @@ class FloatingFrameSystem(AbstractModel):
         direction) are left out: they are of order c_K ω² M and c_C ω M against M, small at the
         steps the motion needs, and Newton's iterations absorb them (a modified Newton on this
         matrix converges linearly, at that rate, to the same solution)."""
-        blocks = []
-        for b, M, (J, _), zb in zip(self.bodies, self.masses, self._kinematics(z, jnp.zeros_like(z)), self.split(z)):
+        def block(b, zb):
             _, K = b.tensors.force_and_jacobian(zb[7:])
-            blocks.append((c_M * (J.T @ M @ J)).at[7:, 7:].add(c_K * K))
-        return jax.scipy.linalg.block_diag(*blocks)
+            return (c_M * self._body_mass(b, zb)).at[7:, 7:].add(c_K * K)
+
+        return jax.scipy.linalg.block_diag(*self._map(block, z))
 
     def factor_iteration_matrix(self, t, z, v, c_M, c_C, c_K):
         return DenseLU.factor(self.iteration_matrix(t, z, v, c_M, c_C, c_K))
@@ -273,18 +403,14 @@ class FloatingFrameSystem(AbstractModel):
 
     def kinetic_energy(self, z, v) -> Float[Array, ""]:
         """½ Σ_b ẋ_bᵀ M_b ẋ_b, ẋ_b = J_b ż_b."""
-        total = 0.0
-        for b, M, zb, vb in zip(self.bodies, self.masses, self.split(z), self.split(v)):
-            xv = jax.jvp(b.nodal_vectors, (zb,), (vb,))[1].reshape(-1)
-            total = total + 0.5 * xv @ (M @ xv)
-        return total
+        return sum(0.5 * jnp.sum(xv * (b.mass @ xv)) for b, xv in zip(self.bodies, self.nodal_velocities(z, v)))
 
     def energy(self, z, v) -> Float[Array, ""]:
         """Kinetic + strain + gravity potential energy (conserved without damping)."""
         total = self.kinetic_energy(z, v)
         for b, zb, x in zip(self.bodies, self.split(z), self.nodal_vectors(z)):
-            local = b.body.q_hat + (b.basis @ zb[7:]).reshape(-1, 3)
-            total = total + b.body.strain_energy(local) - jnp.sum(b.body.varrho()[:, None] * x * self.gravity[None, :])
+            potential = -jnp.sum(b.weights[:, None] * x * self.gravity[None, :])
+            total = total + b.body.strain_energy(b._local(zb[7:])) + potential
         return total
 
 
