@@ -127,10 +127,10 @@ def test_pendulum_command(pendulum_run, tmp_path, monkeypatch, capsys):
     assert (tmp_path / "vtk" / "series.pvd").exists() and len(list((tmp_path / "vtk").glob("*.vtu"))) == len(table)
     # NR-RNCF against the full model (both runs the fixture's: χ_rel 0, speed-up 1)
     calls.clear()
-    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--vms", "3", "--mds", "none", "--reference", "ancf",
-                             "--json"]) == 0
+    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--vms", "3", "--mds", "none", "--joint-modes",
+                             "--reference", "ancf", "--json"]) == 0
     assert [kw.get("formulation", "ancf") for _, kw in calls] == ["ancf", "nr-rncf"]
-    assert calls[1][1]["n_vms"] == 3 and calls[1][1]["pairs"] == []
+    assert calls[1][1]["n_vms"] == 3 and calls[1][1]["pairs"] == [] and calls[1][1]["joint_modes"] is True
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert d["chi_rel_percent"] == 0.0 and d["speedup"] == 1.0 and d["reference_dofs"] == pendulum_run.dofs
     assert main(["pendulum", "--formulation", "rncf"]) == 2

@@ -42,7 +42,7 @@ def _run(args) -> int:
         run = ref
     else:
         run = run_pendulum(spec, formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
-                           **kw)
+                           joint_modes=args.joint_modes, **kw)
         if ref is not None:
             run.compare(ref)
     if args.out:
@@ -69,8 +69,9 @@ def _run(args) -> int:
 def _check(args) -> None:
     if args.formulation == "rncf":
         raise ValueError(f"--formulation rncf: {_NOT_BUILT}")
-    if args.formulation == "ancf" and (args.reference is not None or args.vms is not None or args.mds is not None):
-        raise ValueError("--reference, --vms and --mds go with --formulation nr-rncf")
+    if args.formulation == "ancf" and (args.reference is not None or args.vms is not None or args.mds is not None
+                                       or args.joint_modes):
+        raise ValueError("--reference, --vms, --mds and --joint-modes go with --formulation nr-rncf")
     if args.vms is None:
         args.vms = 5
     if args.mds is None:
@@ -100,6 +101,8 @@ def register(sub) -> None:
     t.add_argument("--vms", type=int, default=None, help="nr-rncf: vibration modes a beam (default: 5)")
     t.add_argument("--mds", choices=("all", "none"), default=None,
                    help="nr-rncf: all modal derivatives of the VMs (i <= j), or none (default: all)")
+    t.add_argument("--joint-modes", action="store_true",
+                   help="nr-rncf: add each beam's static modes under forces at its right-end joint (3 a beam)")
     t.add_argument("--reference", choices=("ancf",), default=None,
                    help="nr-rncf: also run the full model and report chi_rel and the speed-up")
     t.add_argument("--t-end", type=float, default=2.0, help="end time [s]")

@@ -83,12 +83,31 @@ def build_pendulum(spec: PendulumSpec = PendulumSpec()) -> MultibodySystem:
     return MultibodySystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
 
 
-def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, pairs="all"
+def boundary_modes(beam, free, vectors) -> np.ndarray:
+    """The static deflections of the beam, held on its reference conditions (``free``), under a
+    unit force on each component of each position vector in ``vectors`` (n_dof × 3·len(vectors)):
+    the joint's static modes. They span the same space as Craig-Bampton's static constraint
+    modes Φ_IB = −K_II⁻¹ K_IB of those boundary coordinates (paper Eq. 45), here kept as basis
+    vectors rather than as the boundary coordinates themselves."""
+    free = np.asarray(free).reshape(-1)
+    K = np.asarray(beam.stiffness_matrix(beam.q_hat))[np.ix_(free, free)]
+    n = free.shape[0]
+    F = np.zeros((n, 3 * len(vectors)))
+    for k, v in enumerate(vectors):
+        F[3 * v + np.arange(3), 3 * k + np.arange(3)] = 1.0
+    psi = np.zeros_like(F)
+    psi[free] = np.linalg.solve(K, F[free])
+    return psi
+
+
+def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, pairs="all", joint_modes: bool = False
                            ) -> tuple[FloatingFrameSystem, dict]:
     """NR-RNCF of the pendulum: each beam in its floating frame (``REFERENCE_CONDITIONS``), its
     deformation reduced to the beam's first ``n_vms`` vibration modes with those vectors clamped
     (a cantilever) and their modal derivatives (``pairs``: ``"all"``, the k(k+1)/2 pairs i ≤ j,
-    the paper's 5 VMs + 15 MDs; or a list of (i, j); or ``[]``), deflated by SVD. Returns the
+    the paper's 5 VMs + 15 MDs; or a list of (i, j); or ``[]``), and with ``joint_modes`` the
+    static modes of the right-end joint (``boundary_modes``: 3 more a beam, the span of the
+    extended Craig-Bampton's static constraint modes), deflated by SVD. Returns the
     system and the offline record: ``frequencies_hz``, ``pairs``, ``k`` (coordinates a body after
     deflation), ``offline_s``."""
     import time
@@ -106,6 +125,8 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     columns = [modes.phi]
     if pairs:
         columns.append(modal_derivatives(beam, free, modes.phi, pairs).theta)
+    if joint_modes:
+        columns.append(jnp.asarray(boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])))
     Psi = deflate(jnp.concatenate(columns, axis=1))
     tensors = jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi))
     bodies = [FloatingBody(beam, Psi, tensors, R0=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
@@ -211,9 +232,10 @@ FORMULATIONS = ("ancf", "nr-rncf")
 
 def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out: float = 0.001,
                  rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
-                 max_steps: int = 500_000, formulation: str = "ancf", n_vms: int = 5, pairs="all") -> PendulumRun:
+                 max_steps: int = 500_000, formulation: str = "ancf", n_vms: int = 5, pairs="all",
+                 joint_modes: bool = False) -> PendulumRun:
     """The pendulum released from rest: full order (``"ancf"``: ANCF bodies) or NR-RNCF
-    (``"nr-rncf"``: ``build_reduced_pendulum(spec, n_vms, pairs)``), index-3 generalized-α."""
+    (``"nr-rncf"``: ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes)``), index-3 generalized-α."""
     from .spinup import _check_run_args
 
     if formulation not in FORMULATIONS:
@@ -227,7 +249,7 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
         def vectors(x, v):
             return system.split(x), 0.5 * v @ (system.M @ v)
     else:
-        system, info = build_reduced_pendulum(spec, n_vms, pairs)
+        system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes)
 
         def vectors(z, v):
             return system.nodal_vectors(z), system.kinetic_energy(z, v)
