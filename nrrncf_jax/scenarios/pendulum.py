@@ -236,23 +236,42 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
                  joint_modes: bool = False) -> PendulumRun:
     """The pendulum released from rest: full order (``"ancf"``: ANCF bodies) or NR-RNCF
     (``"nr-rncf"``: ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes)``), index-3 generalized-α."""
-    from .spinup import _check_run_args
-
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
-    ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
-    nodes = _PER_NODE * np.arange(spec.elements + 1) + _R
     info = None
     if formulation == "ancf":
         system = build_pendulum(spec)
+    else:
+        system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes)
+    run = run_chain(system, t_end, dt_out, rho_inf, rtol, atol, progress, max_steps)
+    run.offline = info
+    return run
+
+
+def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0, dt_out: float = 0.001,
+              rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
+              max_steps: int = 500_000) -> PendulumRun:
+    """Any chain of C1 beams joined into a ``MultibodySystem`` (``"ancf"``) or a
+    ``FloatingFrameSystem`` (``"nr-rncf"``), from its reference state at rest, index-3
+    generalized-α: the ``PendulumRun`` record (every node's position, the left ends' slopes,
+    energies, the joints' violation, the statistics). ``run_pendulum`` is this for the paper's
+    pendulum; a notebook builds its own system and runs it here."""
+    from .spinup import _check_run_args
+
+    ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
+    if isinstance(system, FloatingFrameSystem):
+        formulation, n_vectors = "nr-rncf", system.bodies[0].body.n_vectors
+
+        def vectors(z, v):
+            return system.nodal_vectors(z), system.kinetic_energy(z, v)
+    elif isinstance(system, MultibodySystem):
+        formulation, n_vectors = "ancf", system.bodies[0].n_vectors
 
         def vectors(x, v):
             return system.split(x), 0.5 * v @ (system.M @ v)
     else:
-        system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes)
-
-        def vectors(z, v):
-            return system.nodal_vectors(z), system.kinetic_energy(z, v)
+        raise ValueError(f"system must be a MultibodySystem or a FloatingFrameSystem, got {type(system).__name__}")
+    nodes = _PER_NODE * np.arange(n_vectors // _PER_NODE) + _R
 
     def observe(t, x, v):
         xs, kinetic = vectors(x, v)
@@ -265,8 +284,8 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
     return PendulumRun(formulation=formulation, dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes,
                        energy=energy, kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
                        rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton), compile_s=compile_s,
-                       run_s=run_s, offline=info)
+                       run_s=run_s)
 
 
 __all__ = ["FORMULATIONS", "REFERENCE_CONDITIONS", "SHAPE_TIMES", "PendulumRun", "PendulumSpec", "build_pendulum",
-           "build_reduced_pendulum", "run_pendulum", "tip_vectors"]
+           "boundary_modes", "build_reduced_pendulum", "run_chain", "run_pendulum", "tip_vectors"]
