@@ -117,6 +117,10 @@ def test_floating_system_refuses_bad_input():
         FloatingFrameSystem([body], [Revolute(None, None, None, 0, 99, 4)])
     with pytest.raises(ValueError, match="violates joint equations"):
         FloatingFrameSystem([body], [Revolute(None, None, None, 0, 0, 4, point=(0.0, 1.0, 0.0))])
+    from nrrncf_jax.scenarios.pendulum import run_chain
+
+    with pytest.raises(ValueError, match="MultibodySystem or a FloatingFrameSystem"):
+        run_chain(body)
 
 
 def test_generalized_forces_are_the_strain_energys_gradient():
