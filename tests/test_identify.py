@@ -29,6 +29,7 @@ def _reduction(beam: str, n_el: int, omega_s=6.0, T_s=1.47):
     return full, nr_rncf(full, jnp.asarray(TS), n_modes=6, vms=2, mds=2, max_dofs=None, spin_state=False)
 
 
+# The tests of ``straight`` share an xdist group, so that one worker builds it (and compiles its runs) once.
 @pytest.fixture(scope="module")
 def straight():
     return _reduction("classic", 3)
@@ -58,6 +59,7 @@ def test_measurement_rejects_bad_arrays(bad, match):
         Measurement(**bad)
 
 
+@pytest.mark.xdist_group("identify_straight")
 def test_fixed_basis_gradient_matches_finite_differences(straight):
     full, red = straight
     E0 = float(beam_preset("classic").E)
@@ -79,6 +81,7 @@ def test_fixed_basis_gradient_matches_finite_differences(straight):
         assert abs(float(g[k])) > 1e-6  # every parameter moves the response
 
 
+@pytest.mark.xdist_group("identify_straight")
 def test_offline_path_degenerate_tube_falls_back_with_a_warning(straight):
     full, red = straight
     with pytest.warns(DegenerateModesWarning, match="repeated eigenvalue"):
@@ -122,6 +125,7 @@ def test_offline_path_gradient(curved):
     assert float(g_nu) == pytest.approx(fd, rel=1e-2)
 
 
+@pytest.mark.xdist_group("identify_straight")
 def test_identify_rejects_bad_input_before_tracing(straight):
     full, red = straight
     E0 = float(beam_preset("classic").E)
