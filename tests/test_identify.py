@@ -146,9 +146,10 @@ def test_identify_rejects_bad_input_before_tracing(straight):
 @pytest.mark.slow
 def test_identification_demo_cli(capsys):
     """The issue's demonstration, coarser (3 elements, 0-20 s every 0.1 s): E within 2 %, ζ within
-    15 % from 30 % off, with 1 % noise."""
+    15 % from 30 % off, with 1 % noise. 6 Adam and 8 L-BFGS steps reach the minimiser (measured:
+    E -0.145 %, ζ +1.92 %, the same to 1e-5 as after 10 + 15 steps, in 16 loss evaluations, not 60)."""
     rc = main(["identify", "--demo", "--json", "--elements", "3", "--t-end", "20", "--dt-out", "0.1",
-               "--adam-steps", "10", "--lbfgs-steps", "15"])
+               "--adam-steps", "6", "--lbfgs-steps", "8"])
     assert rc == 0
     out, err = capsys.readouterr()
     d = json.loads(out.strip().splitlines()[-1])
