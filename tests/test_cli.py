@@ -68,6 +68,7 @@ def test_compilation_cache_keeps_small_kernels(tmp_path):
     assert int(second.stdout) == int(first.stdout)  # a hit: nothing new written
 
 
+@pytest.mark.xdist_group("cli_paper2_nr_rncf")
 def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):
     png = tmp_path / "tip.png"
     rc = main(["spinup", "--formulation", "nr-rncf", "--beam", "paper", "--elements", "2", "--omega", "4",
@@ -86,9 +87,11 @@ def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+@pytest.mark.xdist_group("cli_paper2_nr_rncf")
 def test_modes_mmi_json(tmp_path, capsys):
     png = tmp_path / "mmi.png"
-    # The same beam, mesh, candidate count and time span as the nr-rncf test above: compiled code is reused.
+    # The same beam, mesh, candidate count and time span as the nr-rncf test above, on the same xdist
+    # worker (their group): compiled code is reused.
     assert main(["modes", "--beam", "paper", "--elements", "2", "--count", "8", "--mmi", "--omega", "4",
                  "--t-end", "3", "--plot", str(png), "--json"]) == 0
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])

@@ -87,6 +87,7 @@ def test_profile_input_errors():
         FourierSpinUp(1.0, 1.0)
 
 
+# The tests of ``tiny`` share an xdist group, so that one worker builds it (and compiles its runs) once.
 @pytest.fixture(scope="module")
 def tiny():
     """2-element paper beam reduced on its first two bending pairs (no MDs: plumbing, not accuracy)."""
@@ -97,6 +98,7 @@ def tiny():
     return full, model, tip_index(body)
 
 
+@pytest.mark.xdist_group("control_tiny")
 def test_objective_gradient_matches_finite_differences(tiny):
     full, model, tip = tiny
     obs = tip_observer(model, tip)
@@ -124,6 +126,7 @@ def test_objective_gradient_matches_finite_differences(tiny):
         assert float(g[idx]) == pytest.approx(fd, rel=1e-5, abs=1e-9 * float(jnp.abs(g).max())), idx
 
 
+@pytest.mark.xdist_group("control_tiny")
 def test_short_optimisation_beats_eq43(tiny):
     full, model, tip = tiny
     r = optimal_spinup(model, OMEGA_S, T_S, T_END, n_terms=2, steps=2, lbfgs_steps=4, tip=tip, **FIXED)
@@ -142,6 +145,7 @@ def test_short_optimisation_beats_eq43(tiny):
     assert r.amplitude_optimal == pytest.approx(np.abs(r.tip_optimal[after, 1]).max())
 
 
+@pytest.mark.xdist_group("control_tiny")
 def test_optimal_spinup_input_errors(tiny):
     full, model, tip = tiny
     with pytest.raises(ValueError, match="t_end"):

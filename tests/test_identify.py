@@ -29,6 +29,7 @@ def _reduction(beam: str, n_el: int, omega_s=6.0, T_s=1.47):
     return full, nr_rncf(full, jnp.asarray(TS), n_modes=6, vms=2, mds=2, max_dofs=None, spin_state=False)
 
 
+# The tests of ``straight`` share an xdist group, so that one worker builds it (and compiles its runs) once.
 @pytest.fixture(scope="module")
 def straight():
     return _reduction("classic", 3)
@@ -58,6 +59,7 @@ def test_measurement_rejects_bad_arrays(bad, match):
         Measurement(**bad)
 
 
+@pytest.mark.xdist_group("identify_straight")
 def test_fixed_basis_gradient_matches_finite_differences(straight):
     full, red = straight
     E0 = float(beam_preset("classic").E)
@@ -79,6 +81,7 @@ def test_fixed_basis_gradient_matches_finite_differences(straight):
         assert abs(float(g[k])) > 1e-6  # every parameter moves the response
 
 
+@pytest.mark.xdist_group("identify_straight")
 def test_offline_path_degenerate_tube_falls_back_with_a_warning(straight):
     full, red = straight
     with pytest.warns(DegenerateModesWarning, match="repeated eigenvalue"):
@@ -122,6 +125,7 @@ def test_offline_path_gradient(curved):
     assert float(g_nu) == pytest.approx(fd, rel=1e-2)
 
 
+@pytest.mark.xdist_group("identify_straight")
 def test_identify_rejects_bad_input_before_tracing(straight):
     full, red = straight
     E0 = float(beam_preset("classic").E)
@@ -142,9 +146,10 @@ def test_identify_rejects_bad_input_before_tracing(straight):
 @pytest.mark.slow
 def test_identification_demo_cli(capsys):
     """The issue's demonstration, coarser (3 elements, 0-20 s every 0.1 s): E within 2 %, ζ within
-    15 % from 30 % off, with 1 % noise."""
+    15 % from 30 % off, with 1 % noise. 6 Adam and 8 L-BFGS steps reach the minimiser (measured:
+    E -0.145 %, ζ +1.92 %, the same to 1e-5 as after 10 + 15 steps, in 16 loss evaluations, not 60)."""
     rc = main(["identify", "--demo", "--json", "--elements", "3", "--t-end", "20", "--dt-out", "0.1",
-               "--adam-steps", "10", "--lbfgs-steps", "15"])
+               "--adam-steps", "6", "--lbfgs-steps", "8"])
     assert rc == 0
     out, err = capsys.readouterr()
     d = json.loads(out.strip().splitlines()[-1])

@@ -199,6 +199,7 @@ def test_bad_integrator_input():
 
 
 # --- vmap and grad through the spin-up of a small RNCF beam ------------------------------------
+# The tests that run ``_spin`` share an xdist group: one worker compiles its fixed-step run once.
 
 def _tip_uy(t, q, v):
     return q.reshape(-1, 3)[-6, 1]
@@ -229,6 +230,7 @@ def _loss(sol):
     return float(jnp.sum(sol.ys**2))
 
 
+@pytest.mark.xdist_group("integrator_spin")
 def test_vmap_over_spin_rate_matches_separate_runs():
     omegas = jnp.array([1.0, 2.0, 3.0, 4.0])
     batched = jax.vmap(lambda w: _spin(w).ys)(omegas)
@@ -237,6 +239,7 @@ def test_vmap_over_spin_rate_matches_separate_runs():
     assert float(jnp.abs(batched[-1]).max()) > float(jnp.abs(batched[0]).max())
 
 
+@pytest.mark.xdist_group("integrator_spin")
 def test_fixed_step_newton_converges_in_every_step():
     """Issue 13: a fixed-step run converges in every step, also where Newton wanders before it
     converges (the violent T_s = 2 spin-up). A divergence test that failed such steps split them,
@@ -247,6 +250,7 @@ def test_fixed_step_newton_converges_in_every_step():
         assert (int(sol.num_steps), int(sol.num_rejected)) == (60, 0), float(w)
 
 
+@pytest.mark.xdist_group("integrator_spin")
 def test_fixed_step_run_is_a_smooth_function_of_its_parameters():
     """Nine spin rates 1e-5 apart: the same Newton count in each, no rejected step, and a loss
     whose second differences are those of a smooth function. A step whose Newton converged in
@@ -280,6 +284,7 @@ print(json.dumps(dict(loss=float(jnp.sum(gentle.ys ** 2)), newton=int(gentle.num
 """
 
 
+@pytest.mark.xdist_group("integrator_spin")
 def test_results_do_not_depend_on_the_cpu():
     """The same runs with another CPU's rounding: a subprocess limited to SSE4.2 (no FMA, no AVX),
     which rounds differently from the AVX2/AVX-512 code XLA emits for any x86-64 CPU of the last
@@ -304,6 +309,7 @@ def test_results_do_not_depend_on_the_cpu():
     assert abs(other["loss"] - _loss(here)) <= 1e-10 * _loss(here)
 
 
+@pytest.mark.xdist_group("integrator_spin")
 def test_reverse_gradient_matches_finite_differences():
     """jax.grad through the whole (fixed-step) simulation with respect to the spin rate ωs and
     a stiffness scale (κ ∝ E), against central differences (step 1e-5 relative: truncation error

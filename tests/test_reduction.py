@@ -26,6 +26,7 @@ from nrrncf_jax.reduction.modal_derivatives import dK_deta_times, dK_deta_times_
 from nrrncf_jax.reduction.selection import mmi_matrix, select
 
 
+# The tests of ``curved`` (and ``reduced``) share an xdist group, so that one worker builds them once.
 @pytest.fixture(scope="module")
 def curved():
     body = paper_body(3, "curved-out-of-plane")
@@ -35,6 +36,7 @@ def curved():
     return body, full, modes
 
 
+@pytest.mark.xdist_group("reduction_curved")
 def test_modes_are_mass_normalised_eigenvectors(curved):
     body, full, modes = curved
     M = jnp.kron(body.mass_matrix(), jnp.eye(3))
@@ -44,6 +46,7 @@ def test_modes_are_mass_normalised_eigenvectors(curved):
     np.testing.assert_allclose(Phi.T @ K @ Phi, np.diag(modes.omega**2), atol=1e-7 * float(modes.omega[-1] ** 2))
 
 
+@pytest.mark.xdist_group("reduction_curved")
 def test_modal_derivative_closed_form_equals_autodiff(curved):
     body, full, modes = curved
     free = full.free_mask()
@@ -61,6 +64,7 @@ def test_modal_derivative_closed_form_equals_autodiff(curved):
     np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-10 * float(jnp.abs(x).max()))
 
 
+@pytest.mark.xdist_group("reduction_curved")
 def test_modal_derivatives_are_symmetric(curved):
     body, full, modes = curved
     P = modes.phi.reshape(body.n_vectors, 3, -1)
@@ -82,6 +86,7 @@ def reduced(curved):
     return full, Psi, reduce_rotating_model(full, Psi), reduce_rotating_model(full, Psi, force="projected")
 
 
+@pytest.mark.xdist_group("reduction_curved")
 @pytest.mark.parametrize("seed", [0, 1])
 def test_reduced_force_and_residual_equal_projected_full(reduced, seed):
     full, Psi, red, red_proj = reduced
@@ -101,6 +106,7 @@ def test_reduced_force_and_residual_equal_projected_full(reduced, seed):
         np.testing.assert_allclose(r, r_full, rtol=1e-10, atol=1e-11 * float(jnp.abs(r_full).max()))
 
 
+@pytest.mark.xdist_group("reduction_curved")
 def test_reduced_jacobians_equal_autodiff(reduced):
     full, Psi, red, red_proj = reduced
     p = jnp.asarray(np.random.default_rng(3).normal(size=Psi.shape[1])) * 0.3
@@ -143,6 +149,7 @@ def test_mmi_and_selection():
     assert select(W, n_mds=[(1, 0)]).pairs == ((0, 1),)
 
 
+@pytest.mark.xdist_group("reduction_curved")
 def test_closed_form_modal_response_equals_the_integrated_linear_model(curved):
     """The MMI's exact first-order-hold response == the linear model (Eq. 39) integrated by
     the time integrator at tight tolerance; and a damped oscillator against its closed form."""
@@ -170,10 +177,17 @@ def test_closed_form_modal_response_equals_the_integrated_linear_model(curved):
 # --- the reduced spin-up ---------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def spin4():
+def spin4_model():
+    """The paper's beam (6 elements) spun up to 4 rad/s in 15 s, and the output times 0-20 s."""
     body = paper_body(6)
-    full = RotatingFrameModel(body, SpinUp(4.0, 15.0))
-    ts = jnp.arange(0.0, 20.0 + 1e-9, 0.02)
+    return RotatingFrameModel(body, SpinUp(4.0, 15.0)), jnp.arange(0.0, 20.0 + 1e-9, 0.02)
+
+
+@pytest.fixture(scope="module")
+def spin4(spin4_model):
+    """``spin4_model`` and its full RNCF run (the reference): the tests that use it share an xdist
+    group, so that one worker runs it once."""
+    full, ts = spin4_model
     ref = simulate(full, ts, observe=_all_displacements(full))
     return full, ts, np.asarray(ref.ys).reshape(ts.size, -1)
 
@@ -191,11 +205,12 @@ def _displacements(red, ps):
 
 
 @pytest.fixture(scope="module")
-def red4(spin4):
-    full, ts, _ = spin4
+def red4(spin4_model):
+    full, ts = spin4_model
     return nr_rncf(full, ts, n_modes=16)
 
 
+@pytest.mark.xdist_group("reduction_spin4")
 def test_nr_rncf_reproduces_full_rncf_spinup_omega_4(spin4, red4):
     full, ts, w_ref = spin4
     red = red4
@@ -214,6 +229,7 @@ def test_nr_rncf_reproduces_full_rncf_spinup_omega_4(spin4, red4):
     assert err_vm > 5 * err
 
 
+@pytest.mark.xdist_group("reduction_spin4")
 def test_spinning_state_enrichment_helps_at_omega_4(spin4, red4):
     """The rest basis misses the spinning beam's first frequency by more than spin_tol, so the
     automatic check enriches it; the enriched basis is closer to the full model than the
@@ -259,8 +275,8 @@ def test_spinning_modes_match_the_rotating_cantilever():
     assert abs(u[1]) < 1e-10 and abs(u[2]) < 1e-10
 
 
-def test_reduced_spinup_vmap_and_gradient(spin4):
-    full, _, _ = spin4
+def test_reduced_spinup_vmap_and_gradient(spin4_model):
+    full, _ = spin4_model
     body = full.body
     modes = vibration_modes(body, full.free_mask(), 4)
     md = modal_derivatives(body, full.free_mask(), modes.phi[:, [0, 2]])
@@ -308,8 +324,8 @@ class _TipUy(eqx.Module):
         return self.row @ p
 
 
-def test_reduction_input_errors(spin4):
-    full, ts, _ = spin4
+def test_reduction_input_errors(spin4_model):
+    full, ts = spin4_model
     with pytest.raises(ValueError, match="Psi must have shape"):
         reduce_rotating_model(full, jnp.zeros((5, 2)))
     with pytest.raises(ValueError, match="force"):

@@ -36,6 +36,7 @@ CLI_ARGS = ["sweep", "--beam", "paper", "--omega", "2:6:3", "--ts", "3", "--E", 
             "--t-end", str(T_END), "--elements", str(ELEMENTS), "--modes", str(MODES), "--dt-out", str(DT_OUT)]
 
 
+# The tests of the basis share an xdist group, so that one worker builds it (and compiles its runs) once.
 @pytest.fixture(scope="module")
 def grid():
     return sweep_grid(OMEGA, TS, E_SCALE)
@@ -51,6 +52,7 @@ def res(red, grid):
     return spinup_sweep(red, grid, t_end=T_END, dt_out=DT_OUT)
 
 
+@pytest.mark.xdist_group("sweep_basis")
 def test_vmapped_sweep_equals_single_runs(red, grid, res):
     assert grid.shape == (3, 1, 2) and res.cases == 6 and res.tip.shape == (6, res.ts.size, 3)
     assert res.devices == jax.device_count() and res.collectives == 0
@@ -93,6 +95,7 @@ _SUBPROCESS = textwrap.dedent("""
 """)
 
 
+@pytest.mark.xdist_group("sweep_basis")
 def test_sharded_sweep_equals_unsharded_on_4_host_devices(red, tmp_path):
     path = tmp_path / "model.pkl"
     with open(path, "wb") as f:
@@ -115,6 +118,7 @@ def test_sharded_sweep_equals_unsharded_on_4_host_devices(red, tmp_path):
     assert d["peak_diff"] <= 1e-11 * d["scale"], d
 
 
+@pytest.mark.xdist_group("sweep_basis")
 def test_bad_input_raises_before_tracing(red, grid, monkeypatch):
     import nrrncf_jax.studies.sweep as sweep_mod
 
@@ -169,6 +173,7 @@ def test_schedule_sorts_pads_and_balances():
     assert schedule(cost, 1).tolist() == [0, 2, 4, 3, 1]
 
 
+@pytest.mark.xdist_group("sweep_basis")
 def test_cli_sweep_json_and_errors(res, tmp_path, capsys):
     png = tmp_path / "sweep.png"
     assert main(CLI_ARGS + ["--plot", str(png), "--json"]) == 0
