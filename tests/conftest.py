@@ -35,12 +35,9 @@ PENDULUM_RUN = dict(t_end=0.4, dt_out=0.01, rho_inf=1.0, rtol=1e-5, atol=1e-6)
 @pytest.fixture(scope="session")
 def pendulum_run():
     """The paper's three-beam pendulum at full order (ANCF), 2 elements a beam, 0-0.4 s, ρ∞ = 1.
-    Its tests share an xdist group, so that one worker runs it once.
-
-    NOTE: with pytest 9.2 and pytest-xdist 3.8 (this venv) xdist_group marks have no effect: xdist
-    tags the group by assigning ``item._nodeid``, which pytest 9's ``nodeid`` (built from
-    ``item._id``) no longer reads, so every test is scheduled on its own (checked with a toy
-    module: grouped tests land on both workers)."""
+    Its tests share an xdist group, so that one worker runs it once. (xdist_group needs pytest
+    < 9.2, pinned in pyproject.toml: pytest-xdist 3.8 tags the group through ``item._nodeid``,
+    which pytest 9.2's ``nodeid`` no longer reads, and grouped tests landed on both workers.)"""
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum
 
     return run_pendulum(PendulumSpec(elements=2), **PENDULUM_RUN)
