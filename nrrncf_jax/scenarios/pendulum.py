@@ -10,9 +10,10 @@ Two models: ``build_pendulum``, inertial-frame (ANCF) bodies joined by ``multibo
 and integrated by the index-3 generalized-α (``integrate.GeneralizedAlphaIndex3``), the
 full-order reference; and ``build_reduced_pendulum``, NR-RNCF: each beam in a floating frame
 (``multibody.floating``) with its deformation reduced to cantilever modes and their modal
-derivatives. The extended Craig-Bampton boundary coordinates of the paper are not built (the
-right-end joints act on the reduced bodies' nodal vectors), and the reduced model is not yet
-faster than the full one (issue 17).
+derivatives (optionally with the right-end joint's static modes, ``boundary_modes``). The extended
+Craig-Bampton boundary coordinates of the paper are not built (the right-end joints act on the
+reduced bodies' nodal vectors), and the reduced model is only about 1.3× faster than the full one
+on the paper's mesh (``benchmarks/results/pendulum.md``, issue 17).
 """
 
 import dataclasses
