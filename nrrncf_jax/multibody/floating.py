@@ -314,7 +314,7 @@ class FloatingFrameSystem(AbstractModel):
 
     def constraints(self, z: Float[Array, " n"]) -> Float[Array, " m"]:
         xs = self.nodal_vectors(z)
-        return jnp.concatenate([j(xs) for j in self.joints] + self._euler_norms(z))
+        return jnp.concatenate([self._joint_equations(xs)] + self._euler_norms(z))
 
     def _joint_equations(self, xs):
         return jnp.concatenate([j(xs) for j in self.joints]) if self.joints else jnp.zeros(0)
