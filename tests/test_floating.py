@@ -29,7 +29,7 @@ from nrrncf_jax.models import RotatingFrameModel
 from nrrncf_jax.motion import Stationary
 from nrrncf_jax.multibody import FloatingBody, FloatingFrameSystem, Revolute
 from nrrncf_jax.multibody.floating import euler_parameters, rotation
-from nrrncf_jax.reduction import elastic_tensors, vibration_modes
+from nrrncf_jax.reduction import elastic_tensors, excited_modes, plane_loads, vibration_modes
 from nrrncf_jax.scenarios.pendulum import REFERENCE_CONDITIONS
 from nrrncf_jax.section import TubeSection
 
@@ -145,9 +145,10 @@ def test_generalized_forces_are_the_strain_energys_gradient():
 
 
 def test_closed_form_kinematics_are_the_maps_derivatives():
-    """J, J z̈ + J̇ż, J ᵀF and the joints' C_z, written in closed form, against automatic
-    differentiation of x = f(z) and C(f(z)), at a random state off the constraints (round-off);
-    and the stacked (vmapped) evaluation of equal bodies against the loop over them."""
+    """J, J z̈ + J̇ż, J ᵀF, the mass matrix from the inertia invariants and the joints' C_z, written
+    in closed form, against automatic differentiation of x = f(z) and C(f(z)) (and J ᵀM J), at a
+    random state off the constraints (round-off); and the stacked (vmapped) evaluation of equal
+    bodies against the loop over them."""
     import equinox as eqx
 
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum
@@ -164,6 +165,8 @@ def test_closed_form_kinematics_are_the_maps_derivatives():
     Jdv = jax.jvp(lambda y: jax.jvp(body.nodal_vectors, (y,), (vb,))[1], (zb,), (vb,))[1]
     xdd = jnp.einsum("vik,k->vi", J, ab) + Jdv
     np.testing.assert_allclose(body.acceleration(zb, vb, ab), xdd, rtol=0, atol=1e-13 * float(np.abs(xdd).max()))
+    M_z = jnp.einsum("vik,vw,wil->kl", J, body.mass, J)  # the inertia invariants' mass matrix against J ᵀM J
+    np.testing.assert_allclose(body.mass_matrix(zb), M_z, rtol=0, atol=1e-13 * float(np.abs(M_z).max()))
     F = rng.normal(size=(body.body.n_vectors, 3))
     np.testing.assert_allclose(body.generalized(zb, F), jnp.einsum("vik,vi->k", J, F), rtol=0, atol=1e-13 * scale)
     np.testing.assert_allclose(system.constraint_jacobian(z), jax.jacfwd(system.constraints)(z), rtol=0,
@@ -195,3 +198,39 @@ def test_joint_modes_give_the_cantilevers_tip_flexibility():
     for k in (1, 2):
         np.testing.assert_allclose(flex[k, k], spec.length**3 / (3 * spec.E * inertia), rtol=1e-3)
     np.testing.assert_allclose(flex, flex.T, rtol=0, atol=1e-10 * np.abs(flex).max())  # Maxwell-Betti
+
+
+def test_excited_modes_keep_the_plane_of_the_swing():
+    """``reduction.excited_modes`` with ``plane_loads`` about Z, on the pendulum's cantilevered round
+    tube (bending modes in equal-frequency pairs): the modes kept are eigenvectors with no
+    out-of-plane part, and they are the in-plane member of each bending pair, in order.
+
+    Out of plane means odd under the mirror z → −z: the z component of r, r_x, r_y, r_xy and the x
+    and y components of r_z, r_xz (derivatives across z change sign). The bound is the eigensolver's
+    round-off in a mode, eps ‖A‖/gap: eps (ω_max/ω_gap)², ω_gap the distance from the pair to the
+    next frequency."""
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, _beam
+
+    spec = PendulumSpec(elements=2)
+    beam = _beam(spec)
+    free = RotatingFrameModel(beam, Stationary(), clamped=list(REFERENCE_CONDITIONS)).free_mask()
+    every = vibration_modes(beam, free)
+    omega = np.asarray(every.omega)
+    kept, phi = excited_modes(every.phi, every.omega, plane_loads(beam, normal=(0.0, 0.0, 1.0)), 4)
+    phi = np.asarray(phi)
+    # the lowest frequencies come in pairs (equal to the eigensolver's relative round-off in a low
+    # eigenvalue, eps ‖A‖/λ): the kept modes are one of each of the first three pairs
+    eps = np.finfo(float).eps
+    np.testing.assert_allclose(omega[[0, 2, 4]], omega[[1, 3, 5]], rtol=100 * eps * (omega[-1] / omega[0]) ** 2)
+    assert all(kept[i] in (2 * i, 2 * i + 1) for i in range(3))
+    odd = np.tile(np.array([[0, 0, 1]] * 4 + [[1, 1, 0]] * 2, bool), (spec.elements + 1, 1)).reshape(-1)
+    bound = 100 * eps * (omega[-1] / (omega[2] - omega[1])) ** 2
+    assert np.abs(phi[odd]).max() <= bound * np.abs(phi).max()
+    assert np.abs(phi[~odd]).max() > 0.1 * np.abs(phi).max()
+    K = np.asarray(beam.stiffness_matrix(beam.q_hat))
+    M = np.kron(np.asarray(beam.mass_matrix()), np.eye(3))
+    w2 = omega[kept] ** 2
+    residual = (K @ phi - M @ phi * w2)[np.asarray(free)]
+    assert np.abs(residual).max() <= 1e-7 * np.abs(K @ phi).max()
+    with pytest.raises(ValueError, match="excited"):
+        excited_modes(every.phi[:, :4], every.omega[:4], plane_loads(beam), 3)

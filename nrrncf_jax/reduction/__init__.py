@@ -9,7 +9,9 @@ from .modes import VibrationModes as VibrationModes
 from .modes import vibration_modes as vibration_modes
 from .selection import Selection as Selection
 from .selection import align_degenerate_modes as align_degenerate_modes
+from .selection import excited_modes as excited_modes
 from .selection import mmi_matrix as mmi_matrix
+from .selection import plane_loads as plane_loads
 from .selection import select as select
 from .spin_state import SpinCheck as SpinCheck
 from .spin_state import match_modes as match_modes

@@ -152,3 +152,48 @@ def align_degenerate_modes(phi: Float[Array, "ndof k"], omega, loads: Float[Arra
             phi[:, i:j] = phi[:, i:j] @ U
         i = j
     return jnp.asarray(phi, dtype=float)
+
+
+def plane_loads(body, normal=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """The inertial loads ``(M ⊗ I₃) u`` (n_dof × 4) of the body's rigid motions in the plane
+    normal to ``normal``: its two translations in the plane, the rotation about ``normal``
+    (n × q̂_α on every nodal vector) and that rotation's centrifugal field n × (n × q̂_α). A body
+    in a frame that moves in this plane (a planar mechanism's link) is loaded by combinations of
+    these alone, so the modes they leave unloaded are the out-of-plane ones (``excited_modes``).
+    NumPy, on the concrete reference."""
+    n = np.asarray(normal, dtype=float)
+    n = n / np.linalg.norm(n)
+    e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    pos = np.asarray(body.is_position, dtype=float)[:, None]
+    q_hat = np.asarray(body.q_hat)
+    rot = np.cross(n, q_hat)
+    fields = [pos * e1, pos * e2, rot, np.cross(n, rot)]
+    M = np.asarray(body.mass_matrix())
+    return np.stack([(M @ u).reshape(-1) for u in fields], axis=1)
+
+
+def excited_modes(phi: Float[Array, "ndof k"], omega, loads: Float[Array, "ndof m"], n: int,
+                  tol: float = 1e-6, rtol: float = 1e-4) -> tuple[np.ndarray, Float[Array, "ndof n"]]:
+    """The ``n`` lowest of the modes ``phi`` that the physical ``loads`` (columns) excite:
+    ``(indices, modes)``.
+
+    Each cluster of equal frequencies is first rotated to the loads
+    (``align_degenerate_modes``), so that a tube's two bending planes separate into the mode
+    the loads drive and the one they leave alone; then a mode counts as excited when its largest
+    modal load |φ_iᵀ f| is at least ``tol`` times the largest over all modes. With
+    ``plane_loads`` this keeps a planar mechanism's in-plane modes: the lowest ``n`` of *these*
+    are the reduction's vibration modes, rather than the lowest ``n`` overall, half of which
+    (the out-of-plane pairs) the motion never reaches. Raises ``ValueError`` if fewer than
+    ``n`` are excited (give more candidate modes)."""
+    omega = np.asarray(omega)
+    F = np.asarray(loads, dtype=float)
+    phi = align_degenerate_modes(phi, omega, np.asarray(phi).T @ F, rtol)
+    modal = np.abs(np.asarray(phi).T @ F).max(axis=1)
+    idx = np.flatnonzero(modal >= tol * modal.max())
+    if len(idx) < n:
+        raise ValueError(f"only {len(idx)} of the {len(omega)} candidate modes are excited by the loads; "
+                         f"give more candidates to find {n}")
+    idx = idx[:n]
+    return idx, phi[:, idx]
