@@ -145,7 +145,7 @@ def test_generalized_forces_are_the_strain_energys_gradient():
 
 
 def test_closed_form_kinematics_are_the_maps_derivatives():
-    """J, J z̈ + J̇ż, J ᵀF, the mass matrix from the inertia invariants and the joints' C_z, written
+    """J, J z̈ + J̇ż, J ᵀF, the mass matrix from the inertia invariants, the joints' C_z and C_zᵀλ, written
     in closed form, against automatic differentiation of x = f(z) and C(f(z)) (and J ᵀM J), at a
     random state off the constraints (round-off); and the stacked (vmapped) evaluation of equal
     bodies against the loop over them."""
@@ -171,6 +171,9 @@ def test_closed_form_kinematics_are_the_maps_derivatives():
     np.testing.assert_allclose(body.generalized(zb, F), jnp.einsum("vik,vi->k", J, F), rtol=0, atol=1e-13 * scale)
     np.testing.assert_allclose(system.constraint_jacobian(z), jax.jacfwd(system.constraints)(z), rtol=0,
                                atol=1e-14 * scale)
+    lam = rng.normal(size=system.n_constraints)
+    np.testing.assert_allclose(system.constraint_force(z, lam), system.constraint_jacobian(z).T @ lam, rtol=0,
+                               atol=1e-13 * scale * float(np.abs(lam).sum()))
     looped = eqx.tree_at(lambda s: s.stacked, system, None, is_leaf=lambda x: x is None)
     r = system.residual(0.0, z, v, a)
     np.testing.assert_allclose(looped.residual(0.0, z, v, a), r, rtol=0, atol=1e-13 * float(np.abs(r).max()))

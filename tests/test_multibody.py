@@ -141,7 +141,8 @@ def test_pendulum_command(pendulum_run, tmp_path, monkeypatch, capsys):
 
 def test_multipliers_are_the_reactions():
     """The chain's momentum balance: Σ_bodies Σ_α ϱ_α a_α = m g + R, where R = −λ[:3] is the ground
-    hinge's force on the chain (the hinges between beams cancel in pairs). At a moving state."""
+    hinge's force on the chain (the hinges between beams cancel in pairs). At a moving state. And
+    ``constraint_force`` is C_xᵀλ."""
     spec = PendulumSpec(elements=2)
     system = build_pendulum(spec)
     x0 = system.reference()
@@ -154,6 +155,9 @@ def test_multipliers_are_the_reactions():
     C_ddot = system.constraint_jacobian(x0) @ a + system.constraint_acceleration(x0, jnp.asarray(v))
     scale = float(np.abs(np.asarray(a)).max())
     assert np.abs(np.asarray(C_ddot)).max() < 1e-9 * scale
+    # C_xᵀλ by the reverse-mode product Newton uses, against the formed Jacobian (round-off)
+    np.testing.assert_allclose(system.constraint_force(x0, lam), B.T @ np.asarray(lam), rtol=0,
+                               atol=1e-13 * float(np.abs(B).max() * np.abs(np.asarray(lam)).sum()))
     momentum_rate = sum(np.asarray(b.varrho()) @ np.asarray(q) for b, q in zip(system.bodies, system.split(a)))
     m = sum(float(b.mass) for b in system.bodies)
     R = -np.asarray(lam)[:3]

@@ -33,7 +33,7 @@ from .state import GeneralizedAlphaState, NewtonOptions
 class GeneralizedAlphaIndex3(GeneralizedAlpha):
     """Generalized-α (``GeneralizedAlpha``'s coefficients from ρ∞) for a model with joint
     constraints: a ``multibody.MultibodySystem`` (``constraints``, ``constraint_jacobian``,
-    ``factor_augmented``, ``consistent_accelerations``). Forward mode
+    ``constraint_force`` (C_qᵀλ), ``factor_augmented``, ``consistent_accelerations``). Forward mode
     only: differentiating a run goes through the Newton iterations (``jax.jacfwd``/``jvp``)."""
 
     def init(self, model, t0: Scalar, q0: Float[Array, " n"], v0: Float[Array, " n"]) -> GeneralizedAlphaState:
@@ -58,7 +58,7 @@ class GeneralizedAlphaIndex3(GeneralizedAlpha):
         def equations(z):
             a1, lam = z[:n], z[n:]
             q1, v1, a1, _ = stage(a1)
-            r = model.residual(t1, q1, v1, a1) + model.constraint_jacobian(q1).T @ lam
+            r = model.residual(t1, q1, v1, a1) + model.constraint_force(q1, lam)
             return jnp.concatenate([r, model.constraints(q1) / c_K]), q1, v1
 
         z0 = jnp.concatenate([state.a, state.lam])

@@ -385,6 +385,24 @@ class FloatingFrameSystem(AbstractModel):
                                                 for b, zb in zip(self.bodies, zs)])
         return jnp.concatenate([C_joints, C_norms], axis=0)
 
+    def constraint_force(self, z: Float[Array, " n"], lam: Float[Array, " m"]) -> Float[Array, " n"]:
+        """C_zᵀ λ without forming C_z: the joints' (∂C/∂x)ᵀ λ by one reverse-mode product on the
+        nodal vectors, taken to each body's coordinates by J ᵀ (``FloatingBody.generalized``),
+        plus 2 e_b λ_b of the normalisation rows."""
+        xs = self.nodal_vectors(z)
+        m = lam.shape[0] - len(self.bodies)
+        if self.joints:
+            F = jax.vjp(self._joint_equations, xs)[1](lam[:m])[0]
+        else:
+            F = tuple(jnp.zeros_like(x) for x in xs)
+        if self.stacked is None:
+            parts = [b.generalized(zb, Fb) for b, zb, Fb in zip(self.bodies, self.split(z), F)]
+        else:
+            nb = len(self.bodies)
+            parts = list(jax.vmap(FloatingBody.generalized)(self.stacked, z.reshape(nb, -1), jnp.stack(F)))
+        return jnp.concatenate([g.at[3:7].add(2.0 * lb * zb[3:7])
+                                for g, lb, zb in zip(parts, lam[m:], self.split(z))])
+
     def constraint_acceleration(self, z, v) -> Float[Array, " m"]:
         """(C_z v)_z v: the part of C̈ that does not hold the accelerations."""
         def rate(y):
