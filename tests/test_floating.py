@@ -211,7 +211,9 @@ def test_excited_modes_keep_the_plane_of_the_swing():
     Out of plane means odd under the mirror z → −z: the z component of r, r_x, r_y, r_xy and the x
     and y components of r_z, r_xz (derivatives across z change sign). The bound is the eigensolver's
     round-off in a mode, eps ‖A‖/gap: eps (ω_max/ω_gap)², ω_gap the distance from the pair to the
-    next frequency."""
+    next frequency. The same modes come exactly in-plane from the beam's odd coordinates held at
+    zero (``elements.beam.mirror_even``), as ``build_reduced_pendulum`` computes them."""
+    from nrrncf_jax.elements.beam import mirror_even
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, _beam
 
     spec = PendulumSpec(elements=2)
@@ -226,7 +228,9 @@ def test_excited_modes_keep_the_plane_of_the_swing():
     eps = np.finfo(float).eps
     np.testing.assert_allclose(omega[[0, 2, 4]], omega[[1, 3, 5]], rtol=100 * eps * (omega[-1] / omega[0]) ** 2)
     assert all(kept[i] in (2 * i, 2 * i + 1) for i in range(3))
-    odd = np.tile(np.array([[0, 0, 1]] * 4 + [[1, 1, 0]] * 2, bool), (spec.elements + 1, 1)).reshape(-1)
+    odd = ~mirror_even(spec.elements + 1, "z")
+    np.testing.assert_array_equal(odd, np.tile(np.array([[0, 0, 1]] * 4 + [[1, 1, 0]] * 2, bool),
+                                               (spec.elements + 1, 1)).reshape(-1))
     bound = 100 * eps * (omega[-1] / (omega[2] - omega[1])) ** 2
     assert np.abs(phi[odd]).max() <= bound * np.abs(phi).max()
     assert np.abs(phi[~odd]).max() > 0.1 * np.abs(phi).max()
@@ -235,5 +239,13 @@ def test_excited_modes_keep_the_plane_of_the_swing():
     w2 = omega[kept] ** 2
     residual = (K @ phi - M @ phi * w2)[np.asarray(free)]
     assert np.abs(residual).max() <= 1e-7 * np.abs(K @ phi).max()
+    # the same modes, exactly in-plane, from the odd coordinates held at zero (elements.beam.mirror_even)
+    planar = vibration_modes(beam, free & jnp.asarray(~odd), 4)
+    np.testing.assert_allclose(np.asarray(planar.omega), omega[kept], rtol=100 * eps * (omega[-1] / omega[0]) ** 2)
+    assert np.all(np.asarray(planar.phi)[odd] == 0.0)
+    signs = np.sign(np.sum(np.asarray(planar.phi) * phi, axis=0))
+    np.testing.assert_allclose(np.asarray(planar.phi) * signs, phi, rtol=0, atol=bound * np.abs(phi).max())
     with pytest.raises(ValueError, match="excited"):
         excited_modes(every.phi[:, :4], every.omega[:4], plane_loads(beam), 3)
+    with pytest.raises(ValueError, match="normal"):
+        mirror_even(3, "x")

@@ -8,5 +8,6 @@ from .beam import NODAL_VECTORS_PER_NODE as NODAL_VECTORS_PER_NODE
 from .beam import C1Beam as C1Beam
 from .beam import beam_element_integrals as beam_element_integrals
 from .beam import beam_shape_functions as beam_shape_functions
+from .beam import mirror_even as mirror_even
 from .joint_cell import JointCell as JointCell
 from .plate import TrianglePlate as TrianglePlate

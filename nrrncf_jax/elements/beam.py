@@ -41,6 +41,28 @@ NODAL_VECTORS_PER_NODE = 6
 """Per node: r, r_x, r_y, r_xy, r_z, r_xz."""
 
 
+def mirror_even(n_nodes: int, normal: str = "z") -> np.ndarray:
+    """The coordinates of a chain of ``n_nodes`` C1 beam nodes (n_nodes·18, node by node) that a
+    reflection through the plane normal to the global axis ``normal`` ("y" or "z") leaves
+    unchanged, for a reference along x whose section axes are the global y and z.
+
+    The reflection maps a deformed state r(ξ, y, z) to S r(ξ, y, −z) (normal z; S = diag(1, 1, −1)),
+    so each nodal vector becomes S times itself, with a minus sign more on the derivatives across
+    the plane (r_z and r_xz; for normal y, r_y and r_xy). K and M commute with this map, so the
+    modes and modal derivatives computed with the odd coordinates held at zero are exactly the
+    symmetric (in-plane) ones of the whole beam: where the eigensolver on all coordinates returns
+    them only to its round-off, eps (ω_max/ω_gap)² (about 1e-8 of a mode for a 2-element tube), a
+    seed that the motion can amplify."""
+    axis = {"y": 1, "z": 2}.get(normal)
+    if axis is None:
+        raise ValueError(f"normal must be 'y' or 'z', got {normal!r}")
+    across = [2, 3] if axis == 1 else [4, 5]  # r_y, r_xy or r_z, r_xz (see beam_shape_functions)
+    sign = np.ones((NODAL_VECTORS_PER_NODE, 3))
+    sign[:, axis] = -1.0
+    sign[across] *= -1.0
+    return np.tile(sign > 0, (int(n_nodes), 1)).reshape(-1)
+
+
 def _hermite(s: Float[Array, ""], l: Float[Array, ""]):
     """Cubic Hermite functions on ξ = s·l, s ∈ [0, 1], and their ξ-derivatives."""
     h = jnp.stack([1 - 3 * s**2 + 2 * s**3, l * (s - 2 * s**2 + s**3), 3 * s**2 - 2 * s**3, l * (-(s**2) + s**3)])

@@ -25,13 +25,14 @@ Choices, and why:
   and Â is quadratic in e, so J, J̇ż and their derivatives are polynomials with constant
   coefficients (``_B``). Off |e| = 1, Â scales the body; the constraint's reaction (its row is
   2eᵀ) takes the strain energy's part along e, so the equations hold on the constraint.
-- **Inertia in closed form** from the map (J ᵀF, J z̈ and J̇ż as a few small products with u =
-  q̂ + Ψ p, ``FloatingBody.tangent``/``acceleration``/``generalized``, with J itself formed only
-  for the mass matrix and the joints' rows) rather than the paper's precomputed inertia
-  invariants: nothing to precompute and get wrong, and the cost grows only linearly with the full
-  body's size (products with the constant M_b). Bodies of one structure (a chain of equal beams)
-  are evaluated in one ``vmap``: on a CPU the time of these small models is per XLA operation.
-  The elastic force, the costly part at full order, is the reduced cubic one.
+- **Inertia in closed form** from the map: J ᵀF, J z̈ and J̇ż as a few small products with u =
+  q̂ + Ψ p (``FloatingBody.tangent``/``acceleration``/``generalized``: the cost grows linearly
+  with the full body's size, products with the constant M_b), and the mass matrix M_z from the
+  paper's precomputed inertia invariants (``FloatingBody.mass_matrix``: 3 × 3 × k × k products,
+  tested against J ᵀM J). J itself is formed only for the joints' rows. Bodies of one structure
+  (a chain of equal beams) are evaluated in one ``vmap``: on a CPU the time of these small models
+  is per XLA operation. The elastic force, the costly part at full order, is the reduced cubic
+  one.
 - The iteration matrix is dense (z has a few tens of coordinates): the mass matrix J ᵀM J and
   the reduced elastic stiffness K + 2Lp + 3Npp; the inertia terms' derivatives through J and the
   joints' Hessian are left to Newton's iterations (``iteration_matrix``).
@@ -412,7 +413,9 @@ class FloatingFrameSystem(AbstractModel):
 
     def residual(self, t: Scalar, z, v, a) -> Float[Array, " n"]:
         """J ᵀ(M ẍ − Q) + ∂U/∂z, ẍ = J z̈ + J̇ ż, without the joints' forces (the stepper adds
-        C_zᵀ λ)."""
+        C_zᵀ λ). Through the nodal vectors, not the inertia invariants: written with the invariants
+        (a dozen 3 × 3 × k × k contractions) it took twice as long on the pendulum's beams (0.12
+        against 0.06 ms a body), XLA's time here being per operation."""
         def body_residual(b, zb, vb, ab):
             F = b.mass @ b.acceleration(zb, vb, ab) - b.weights[:, None] * self.gravity[None, :]
             return b.generalized(zb, F).at[7:].add(b.tensors.force(zb[7:]))
