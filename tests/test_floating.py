@@ -201,6 +201,11 @@ def test_joint_modes_give_the_cantilevers_tip_flexibility():
     for k in (1, 2):
         np.testing.assert_allclose(flex[k, k], spec.length**3 / (3 * spec.E * inertia), rtol=1e-3)
     np.testing.assert_allclose(flex, flex.T, rtol=0, atol=1e-10 * np.abs(flex).max())  # Maxwell-Betti
+    # in the in-plane pendulum the out-of-plane force's mode is zero and left out: 2 VMs + 2 joint modes
+    from nrrncf_jax.scenarios.pendulum import build_reduced_pendulum
+
+    _, info = build_reduced_pendulum(spec, n_vms=2, pairs=[], joint_modes=True)
+    assert info["k"] == 4
 
 
 def test_excited_modes_keep_the_plane_of_the_swing():

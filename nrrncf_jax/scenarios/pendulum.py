@@ -12,8 +12,8 @@ full-order reference; and ``build_reduced_pendulum``, NR-RNCF: each beam in a fl
 (``multibody.floating``) with its deformation reduced to cantilever modes and their modal
 derivatives (optionally with the right-end joint's static modes, ``boundary_modes``). The extended
 Craig-Bampton boundary coordinates of the paper are not built (the right-end joints act on the
-reduced bodies' nodal vectors). On the paper's mesh the reduced model (81 DOFs, χ_rel 1.13 %) runs
-about 5.7× faster than the full one, short of the issue's 10× (``benchmarks/results/pendulum.md``,
+reduced bodies' nodal vectors). On the paper's mesh the reduced model (81 DOFs, χ_rel 1.12 %) runs
+6–8× faster than the full one, short of the issue's 10× (``benchmarks/results/pendulum.md``,
 issue 17).
 """
 
@@ -141,7 +141,8 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     if pairs:
         columns.append(modal_derivatives(beam, free, modes.phi, pairs).theta)
     if joint_modes:
-        columns.append(jnp.asarray(boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])))
+        psi = boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])
+        columns.append(jnp.asarray(psi[:, np.abs(psi).max(axis=0) > 0]))  # in-plane: the z force's is zero
     Psi = deflate(jnp.concatenate(columns, axis=1))
     tensors = jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi))
     bodies = [FloatingBody(beam, Psi, tensors, R0=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
