@@ -207,7 +207,7 @@ class FloatingBody(eqx.Module):
             M_RR = m I,  M_Re = [D_k c]_k,  M_Rp = Â C,  M_ee = [Σ D_k:(D_l U)]_kl,
             M_ep = [Σ D_k:(Â V_m)]_km,  M_pp = Σ Â_ia Â_ib H_ab.
 
-        A few 3 × 3 × k × k products instead of J ᵀM J over every nodal vector (0.37 → 0.02 ms on
+        A few 3 × 3 × k × k products instead of J ᵀM J over every nodal vector (0.37 → 0.06 ms on
         the pendulum's 10-element beams); equal to it to round-off (tests/test_floating.py)."""
         e, p = z[3:7], z[7:]
         A, D = _A_hat(e), _dA_hat(e)
@@ -385,24 +385,6 @@ class FloatingFrameSystem(AbstractModel):
         C_norms = jax.scipy.linalg.block_diag(*[jnp.concatenate([jnp.zeros(3), 2.0 * zb[3:7], jnp.zeros(b.k)])[None]
                                                 for b, zb in zip(self.bodies, zs)])
         return jnp.concatenate([C_joints, C_norms], axis=0)
-
-    def constraint_force(self, z: Float[Array, " n"], lam: Float[Array, " m"]) -> Float[Array, " n"]:
-        """C_zᵀ λ without forming C_z: the joints' (∂C/∂x)ᵀ λ by one reverse-mode product on the
-        nodal vectors, taken to each body's coordinates by J ᵀ (``FloatingBody.generalized``),
-        plus 2 e_b λ_b of the normalisation rows."""
-        xs = self.nodal_vectors(z)
-        m = lam.shape[0] - len(self.bodies)
-        if self.joints:
-            F = jax.vjp(self._joint_equations, xs)[1](lam[:m])[0]
-        else:
-            F = tuple(jnp.zeros_like(x) for x in xs)
-        if self.stacked is None:
-            parts = [b.generalized(zb, Fb) for b, zb, Fb in zip(self.bodies, self.split(z), F)]
-        else:
-            nb = len(self.bodies)
-            parts = list(jax.vmap(FloatingBody.generalized)(self.stacked, z.reshape(nb, -1), jnp.stack(F)))
-        return jnp.concatenate([g.at[3:7].add(2.0 * lb * zb[3:7])
-                                for g, lb, zb in zip(parts, lam[m:], self.split(z))])
 
     def constraint_acceleration(self, z, v) -> Float[Array, " m"]:
         """(C_z v)_z v: the part of C̈ that does not hold the accelerations."""

@@ -159,11 +159,6 @@ class MultibodySystem(AbstractModel):
         """C_x = ∂C/∂x (dense)."""
         return jax.jacfwd(self.constraints)(x)
 
-    def constraint_force(self, x: Float[Array, " n"], lam: Float[Array, " m"]) -> Float[Array, " n"]:
-        """C_xᵀ λ, by one reverse-mode product (C_x is not formed: Newton needs this every
-        iteration, the matrix once a step)."""
-        return jax.vjp(self.constraints, x)[1](lam)[0]
-
     def constraint_hessian(self, x: Float[Array, " n"], lam: Float[Array, " m"]) -> Float[Array, "n n"]:
         """∂(C_xᵀ λ)/∂x: the joints' contribution to the tangent stiffness (constant: the
         equations are quadratic)."""

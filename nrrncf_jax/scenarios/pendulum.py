@@ -88,8 +88,9 @@ def build_pendulum(spec: PendulumSpec = PendulumSpec()) -> MultibodySystem:
 
 def boundary_modes(beam, free, vectors) -> np.ndarray:
     """The static deflections of the beam, held on its reference conditions (``free``), under a
-    unit force on each component of each position vector in ``vectors`` (n_dof × 3·len(vectors)):
-    the joint's static modes. They span the same space as Craig-Bampton's static constraint
+    unit force on each free component of each position vector in ``vectors`` (n_dof × that many;
+    a held component, such as z in the in-plane pendulum, has no static mode): the joint's static
+    modes. They span the same space as Craig-Bampton's static constraint
     modes Φ_IB = −K_II⁻¹ K_IB of those boundary coordinates (paper Eq. 45), here kept as basis
     vectors rather than as the boundary coordinates themselves."""
     free = np.asarray(free).reshape(-1)
@@ -98,6 +99,7 @@ def boundary_modes(beam, free, vectors) -> np.ndarray:
     F = np.zeros((n, 3 * len(vectors)))
     for k, v in enumerate(vectors):
         F[3 * v + np.arange(3), 3 * k + np.arange(3)] = 1.0
+    F = F[:, free @ F > 0]
     psi = np.zeros_like(F)
     psi[free] = np.linalg.solve(K, F[free])
     return psi
@@ -141,8 +143,7 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     if pairs:
         columns.append(modal_derivatives(beam, free, modes.phi, pairs).theta)
     if joint_modes:
-        psi = boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])
-        columns.append(jnp.asarray(psi[:, np.abs(psi).max(axis=0) > 0]))  # in-plane: the z force's is zero
+        columns.append(jnp.asarray(boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])))
     Psi = deflate(jnp.concatenate(columns, axis=1))
     tensors = jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi))
     bodies = [FloatingBody(beam, Psi, tensors, R0=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
