@@ -243,7 +243,8 @@ def test_excited_modes_keep_the_plane_of_the_swing():
     M = np.kron(np.asarray(beam.mass_matrix()), np.eye(3))
     w2 = omega[kept] ** 2
     residual = (K @ phi - M @ phi * w2)[np.asarray(free)]
-    assert np.abs(residual).max() <= 1e-7 * np.abs(K @ phi).max()
+    # an eigenvector to the solver's round-off, eps ‖K‖‖φ‖ against |Kφ| = ω²|Mφ|: eps (ω_max/ω_0)²
+    assert np.abs(residual).max() <= 100 * eps * (omega[-1] / omega[0]) ** 2 * np.abs(K @ phi).max()
     # the same modes, exactly in-plane, from the odd coordinates held at zero (elements.beam.mirror_even)
     planar = vibration_modes(beam, free & jnp.asarray(~odd), 4)
     np.testing.assert_allclose(np.asarray(planar.omega), omega[kept], rtol=100 * eps * (omega[-1] / omega[0]) ** 2)
