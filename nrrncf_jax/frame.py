@@ -1,34 +1,30 @@
 """Frames: straight C1 beams rigidly joined at joints of any angle, and pin-ended bars, in one body.
 
-**Rigid joints by the gradient transformation** (Shabana & Mikkola, *J. Mech. Des.* 125, 2003).
-A joint node carries its position and its full position gradient ``F = [r_X, r_Y, r_Z]`` (the
-derivatives along the global reference axes): four nodal vectors. A beam member leaving the joint
-along the unit direction d, with section axes (e₂, e₃), sees there its own slope and section
-vectors as that gradient applied to its directions:
+**Rigid joints by links to the joint's gradient.** A joint node carries its position and its full
+position gradient ``F = [r_X, r_Y, r_Z]`` (the derivatives along the global reference axes): four
+nodal vectors. A beam member leaving the joint along the unit direction d, with section axes
+(e₂, e₃), shares the joint's position and keeps its own end vectors
+``[r_ξ, r_η, r_ξη, r_ζ, r_ξζ]``; an ``elements.JointLink`` ties its end triad (r_ξ, r_η, r_ζ) to
+the joint's gradient along its directions (F d, F e₂, F e₃) in relative rotation and shear, not
+in stretch. Every member at the joint is linked to the same F, so the joint transmits forces,
+bending moments and torque and keeps the angles between the members' axes and sections (under a
+rigid rotation of the frame F is the rotation and every member turns with it). The link is
+quartic in the nodal vectors with a constant κ, so the frame stays one body with one sparse
+matrix, and the reduction's tensors take it like any element.
 
-    r_ξ = F d,   r_η = F e₂,   r_ζ = F e₃,
+F itself carries an ``elements.JointCell``, the elastic energy of the joint's own small solid
+(default: a cube of the members' outer diameter), which gives F's stretches their stiffness
+(nothing else resists them) and keeps F a rotation to within the joint's own compliance,
+independent of the mesh.
 
-linear combinations of the joint's vectors (``body.element_group``'s ``transforms``), so κ stays
-constant and the frame stays one body with one sparse matrix. Every member at the joint shares F:
-the joint transmits forces, bending moments and torque, and keeps the angles between the
-members' axes and sections (a rigid joint; under a rigid rotation of the frame F is the rotation
-and every member turns with it). The cross derivatives (r_ξη, r_ξζ: the rate of change of the
-section vectors along the member, its curvature and twist) are the member's own at each end, so
-the members' curvatures are not tied to each other at a joint.
-
-Sharing F alone is not enough for members at an angle: their elements resist a distortion of F
-only through their transverse shear next to the joint, whose energy vanishes with the element
-length, so under refinement the joint would become a hinge. Each joint therefore also carries a
-``elements.JointCell``, the elastic energy of the joint's own small solid on F (constant κ too),
-which keeps F a rotation to within the joint's own compliance, independent of the mesh.
-
-**Its limit, measured**: F couples the members' strains at the joint point, not only their
-rotations (a batten's section strain along the truss axis is the longeron's axial strain there),
-and the element next to the joint carries that constraint over its length: an over-stiffening of
-O(element length) that refinement removes only slowly (the truss's bending frequencies drop
-0.35-0.6 % from 6/4 to 12/8 elements a member, its torsion 4e-5; ``benchmarks/results/truss.md``).
-Coupling the members to the joint by rotation only would need an element with a quadratic energy
-(a spring between each member end's own gradient triad and the joint's), which the body lacks.
+**Why links, not a shared F.** Shabana & Mikkola's gradient transformation (*J. Mech. Des.* 125,
+2003) makes each member's end triad *equal* to F times its directions. That ties the members'
+strains at the joint point too, not only their rotations: a batten's section strain along the
+truss axis becomes the longeron's axial strain there, and the element next to the joint carries
+that constraint over its length, an over-stiffening of O(element length). On the 12-bay truss the
+first bending frequency fell 0.53 % from 6/4 to 12/8 elements a member and 0.31 % more to 24/16;
+with links it changes by 9e-6 and 7e-6 (``benchmarks/results/truss.md`` has the 36-bay table).
+The price is five more nodal vectors at each member end.
 
 **Pins**: a bar (``elements.Bar``) joins the position vectors of two joints and nothing else, so
 it carries axial force only.
@@ -44,6 +40,7 @@ from .body import Body, element_group
 from .elements.bar import Bar
 from .elements.beam import C1Beam
 from .elements.joint_cell import JointCell
+from .elements.joint_link import JointLink
 
 JOINT_VECTORS = 4
 """A joint node's nodal vectors: r, r_X, r_Y, r_Z (position and full gradient)."""
@@ -80,13 +77,18 @@ class Frame:
 
 
 def frame_body(joints, members, beam: C1Beam, n_elements, bars=(), bar: Bar | None = None,
-               joint_volume: float | None = None) -> Frame:
+               joint_volume: float | None = None, link_stiffness: float | None = None) -> Frame:
     """A frame of straight beam ``members`` (m × 2 joint indices, each meshed with ``n_elements``
     C1 elements of the element type ``beam``; an integer or one per member) rigidly joined at
     ``joints`` (n × 3 reference positions), and pin-ended ``bars`` (k × 2 joint indices) of the
-    element type ``bar``. Every joint gets a ``JointCell`` of the beam's material and
-    ``joint_volume`` (default: a cube of the section's outer diameter; 0: none, which leaves a
-    joint of members at an angle mesh-dependent). See the module docstring for the joint."""
+    element type ``bar``. See the module docstring for the joint:
+
+    - every joint gets a ``JointCell`` of the beam's material and ``joint_volume`` [m³] (default:
+      a cube of the section's outer diameter);
+    - every member end a ``JointLink`` of stiffness ``link_stiffness`` [N m] (default
+      ``10 G A ℓ``, ten times the shear stiffness of the shortest member ℓ over its whole length:
+      its compliance is below 1e-4 of the members' in the frame test, so the joint is rigid to
+      that accuracy on any mesh)."""
     joints = np.asarray(joints, dtype=float)
     members = np.asarray(members, dtype=int).reshape(-1, 2)
     bars = np.asarray(bars, dtype=int).reshape(-1, 2)
@@ -123,45 +125,44 @@ def frame_body(joints, members, beam: C1Beam, n_elements, bars=(), bar: Bar | No
 
     joint_vectors = np.stack([add([p, eye[0], eye[1], eye[2]]) for p in joints])
 
-    conn, transforms, lengths, positions = [], [], [], []
+    conn, lengths, positions, links, link_T, member_lengths = [], [], [], [], [], []
     for (a, b), n in zip(members, n_el):
         span = joints[b] - joints[a]
         L = np.linalg.norm(span)
         if L <= 1e-12 * max(1.0, np.abs(joints).max()):
             raise ValueError(f"member ({a}, {b}) has zero length")
+        member_lengths.append(L)
         d = span / L
         e2, e3 = section_axes(d)
         R = np.stack([d, e2, e3])  # rows: the member's directions in global components
         z = np.zeros(3)
-        # Per node of the member: its six slots [r, r_ξ, r_η, r_ξη, r_ζ, r_ξζ] as body vectors, and
-        # whether slots (1, 2, 4) are the joint's gradient (to be transformed by R).
+        # Per node of the member: its six slots [r, r_ξ, r_η, r_ξη, r_ζ, r_ξζ] as body vectors.
         nodes = []
         for k in range(n + 1):
             if k in (0, n):
                 j = joint_vectors[a if k == 0 else b]
-                own = add([z, z])  # r_ξη, r_ξζ of this member at the joint
-                nodes.append((np.array([j[0], j[1], j[2], own[0], j[3], own[1]]), True))
+                own = add([d, e2, z, e3, z])  # the member's own r_ξ, r_η, r_ξη, r_ζ, r_ξζ at the joint
+                nodes.append(np.array([j[0], *own]))
+                # the link: [r_ξ, r_η, r_ζ] against F's columns, turned to (F d, F e₂, F e₃) by R
+                links.append(np.array([own[0], own[1], own[3], j[1], j[2], j[3]]))
+                link_T.append(np.block([[np.eye(3), np.zeros((3, 3))], [np.zeros((3, 3)), R]]))
             else:
                 c = joints[a] + (k / n) * span
-                nodes.append((add([c, d, e2, z, e3, z]), False))
-        positions.append(np.array([v[0] for v, _ in nodes]))
-        for k in range(n):
-            (va, ja), (vb, jb) = nodes[k], nodes[k + 1]
-            T = np.eye(12)
-            for off, at_joint in ((0, ja), (6, jb)):
-                if at_joint:
-                    slots = off + np.array([1, 2, 4])
-                    T[np.ix_(slots, slots)] = R
-            conn.append(np.concatenate([va, vb]))
-            transforms.append(T)
-            lengths.append(L / n)
+                nodes.append(add([c, d, e2, z, e3, z]))
+        positions.append(np.array([v[0] for v in nodes]))
+        conn += [np.concatenate([nodes[k], nodes[k + 1]]) for k in range(n)]
+        lengths += [L / n] * n
     q_hat = np.asarray(q_hat)
-    groups = [element_group(beam, q_hat, np.asarray(conn), np.asarray(lengths), np.asarray(transforms))]
     volume = float((2.0 * beam.section.r_outer) ** 3) if joint_volume is None else float(joint_volume)
-    if volume < 0.0:
-        raise ValueError(f"joint_volume must be >= 0, got {volume}")
-    if volume > 0.0:
-        groups.append(element_group(JointCell(beam.material, volume), q_hat, joint_vectors[:, 1:], np.ones(n_j)))
+    if not volume > 0.0:
+        raise ValueError(f"joint_volume must be > 0 (F's stretches have no other stiffness), got {volume}")
+    k_link = (10.0 * float(beam.material.G * beam.section.area) * min(member_lengths)
+              if link_stiffness is None else float(link_stiffness))
+    if not k_link > 0.0:
+        raise ValueError(f"link_stiffness must be > 0, got {k_link}")
+    groups = [element_group(beam, q_hat, np.asarray(conn), np.asarray(lengths)),
+              element_group(JointCell(beam.material, volume), q_hat, joint_vectors[:, 1:], np.ones(n_j)),
+              element_group(JointLink(k_link), q_hat, np.asarray(links), np.ones(len(links)), np.asarray(link_T))]
     if len(bars):
         bar_conn = joint_vectors[bars, 0]
         bar_len = np.linalg.norm(joints[bars[:, 1]] - joints[bars[:, 0]], axis=1)

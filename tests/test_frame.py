@@ -1,9 +1,10 @@
-"""Frames: beams rigidly joined at an angle (gradient transformation + joint cell), pinned bars.
+"""Frames: beams rigidly joined at an angle (joint links + joint cell), pinned bars.
 
 Closed forms: the linear (Timoshenko, no shear correction factor: the C1 beam's transverse shear
 carries G) solution of a right-angle frame clamped at one end and loaded at the other. Its
-neglected effects are the section's own deformation (Poisson) and the joint cell's compliance:
-O((r/L)²) = 1e-4 and, for the stiff cell used, (P L)/(G V) · L / δ ≈ 1e-5 relative.
+neglected effects are the section's own deformation (Poisson) and the joint's compliance:
+O((r/L)²) = 1e-4 and, for the stiff cell used, (P L)/(G V) · L / δ ≈ 1e-5 relative; the links'
+default stiffness 10 G A L adds O(0.1 · L/(G A)) / δ ≈ 1e-5.
 """
 
 import functools
@@ -13,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from nrrncf_jax.elements import Bar, C1Beam
+from nrrncf_jax.elements import Bar, C1Beam, JointLink
 from nrrncf_jax.frame import frame_body
 from nrrncf_jax.material import Material
 from nrrncf_jax.section import TubeSection
@@ -72,6 +73,40 @@ def test_joint_converges_under_refinement():
     assert 0.0 < d[2] / closed - 1 < 2e-3
 
 
+def _link_energy(G, F, k=2.0):
+    """½ κ Q Q of one ``JointLink`` whose six vectors are the rows of G (member) and F (joint)."""
+    link = JointLink(k)
+    q_hat = np.concatenate([np.eye(3), np.eye(3)])
+    q = np.concatenate([G, F])
+    Q = 0.5 * (q @ q.T - q_hat @ q_hat.T)
+    kappa = np.asarray(link.integrals(jnp.asarray(q_hat), jnp.ones(())).kappa)
+    return 0.5 * np.einsum("abcd,ab,cd->", kappa, Q, Q)
+
+
+def test_joint_link_ties_direction_not_length():
+    """The link (``elements.JointLink``) costs k sin²θ for a relative rotation θ about each of the
+    member's axes (a spring of 2k, isotropic), nothing for a stretch or a distortion of the member's
+    own section, nothing for a common rotation, and is the same in any section axes (a circular
+    tube's truss keeps its three-fold symmetry: the pairs of ``test_truss`` are degenerate). Exact
+    identities: to round-off of products of O(1) vectors, 1e-15."""
+    k, th = 2.0, 0.3
+    for axis in range(3):
+        assert _link_energy(np.eye(3), Rotation.from_rotvec(th * np.eye(3)[axis]).as_matrix().T, k) == \
+            pytest.approx(k * np.sin(th) ** 2, rel=1e-13)
+    stretch = np.diag([1.01, 0.97, 1.05])
+    stretch[1, 2] = stretch[2, 1] = 0.02  # the section's own in-plane shear
+    assert abs(_link_energy(stretch, np.eye(3))) < 1e-15
+    rng = np.random.default_rng(3)
+    G, F = np.eye(3) + 0.05 * rng.normal(size=(3, 3)), np.eye(3) + 0.05 * rng.normal(size=(3, 3))
+    U = _link_energy(G, F)
+    assert U > 1e-4
+    R = Rotation.from_rotvec([0.4, -1.0, 0.6]).as_matrix()
+    assert _link_energy(G @ R.T, F @ R.T) == pytest.approx(U, rel=1e-13)  # a common rotation
+    P = np.eye(3)
+    P[1:, 1:] = Rotation.from_rotvec([0.7, 0.0, 0.0]).as_matrix()[1:, 1:]  # other section axes
+    assert _link_energy(P @ G, P @ F) == pytest.approx(U, rel=1e-13)
+
+
 def test_rigid_motion_gives_zero_force():
     """A large rigid rotation and translation of a frame with an oblique member and a bar: zero
     elastic force and energy, to round-off of the force of a unit strain (eps 2.2e-16)."""
@@ -94,8 +129,8 @@ def test_rigid_motion_gives_zero_force():
 def test_frame_counts_and_bad_input():
     frame = frame_body(*L_FRAME, C1Beam(MAT, SEC), [3, 2], bars=[[0, 2]], bar=Bar(E, 2700.0, 3e-6))
     assert (frame.n_beams, frame.n_bars) == (5, 1)
-    # joints: 4 vectors each; interior nodes: 6; member ends: 2 own vectors each
-    assert frame.body.n_vectors == 3 * 4 + (2 + 1) * 6 + 2 * 2 * 2
+    # joints: 4 vectors each; interior nodes: 6; member ends: 5 own vectors each
+    assert frame.body.n_vectors == 3 * 4 + (2 + 1) * 6 + 2 * 2 * 5
     assert [len(p) for p in frame.member_positions] == [4, 3]
     with pytest.raises(ValueError, match="refer to joint"):
         frame_body(*L_FRAME[:1], [[0, 3]], C1Beam(MAT, SEC), 2)

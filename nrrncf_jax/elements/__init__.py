@@ -10,4 +10,5 @@ from .beam import beam_element_integrals as beam_element_integrals
 from .beam import beam_shape_functions as beam_shape_functions
 from .beam import mirror_even as mirror_even
 from .joint_cell import JointCell as JointCell
+from .joint_link import JointLink as JointLink
 from .plate import TrianglePlate as TrianglePlate

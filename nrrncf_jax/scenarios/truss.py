@@ -3,10 +3,11 @@
 A cantilevered space truss along x: ``bays`` bays of length ``bay`` with an equilateral
 triangular cross-section of side ``side`` (vertices on a circle of radius side/√3, one on +y).
 Longerons (along x) and battens (the sides of the triangle at every station) are aluminium tubes
-Ø20 × 2 mm, C1 beams rigidly joined at the joints (``frame.frame_body``: shared full gradient and
-a joint cell of the tube's diameter); two crossed diagonals per side face and bay are solid rods
-Ø2 mm, pin-ended bars. The three joints of the root station are clamped. Mesh: 6 beam elements
-per longeron bay and 4 per batten (the paper's 1092 beams and 216 bars at 36 bays).
+Ø20 × 2 mm, C1 beams rigidly joined at the joints (``frame.frame_body``: each member end linked
+to the joint's full gradient in rotation and shear, and a joint cell of the tube's diameter); two
+crossed diagonals per side face and bay are solid rods Ø2 mm, pin-ended bars. The three joints of
+the root station are clamped. Mesh: 6 beam elements per longeron bay and 4 per batten (the paper's
+1092 beams and 216 bars at 36 bays).
 
 Closed forms (``equivalent_beam``): the truss as a Timoshenko beam, with
 
