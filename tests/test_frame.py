@@ -142,3 +142,7 @@ def test_frame_counts_and_bad_input():
         frame_body([[0, 0, 0], [0, 0, 0]], [[0, 1]], C1Beam(MAT, SEC), 2)
     with pytest.raises(ValueError, match="bar=elements.Bar"):
         frame_body(*L_FRAME, C1Beam(MAT, SEC), 2, bars=[[0, 2]])
+    with pytest.raises(ValueError, match="joint_volume must be > 0"):
+        frame_body(*L_FRAME, C1Beam(MAT, SEC), 2, joint_volume=0.0)
+    with pytest.raises(ValueError, match="link_stiffness must be > 0"):
+        frame_body(*L_FRAME, C1Beam(MAT, SEC), 2, link_stiffness=-1.0)
