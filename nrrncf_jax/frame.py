@@ -23,7 +23,7 @@ strains at the joint point too, not only their rotations: a batten's section str
 truss axis becomes the longeron's axial strain there, and the element next to the joint carries
 that constraint over its length, an over-stiffening of O(element length). On the 12-bay truss the
 first bending frequency fell 0.53 % from 6/4 to 12/8 elements a member and 0.31 % more to 24/16;
-with links it changes by 9e-6 and 7e-6 (``benchmarks/results/truss.md`` has the 36-bay table).
+with links it changes by 9e-6 from 6/4 to 12/8 (``benchmarks/results/truss.md``: 36 bays).
 The price is five more nodal vectors at each member end.
 
 **Pins**: a bar (``elements.Bar``) joins the position vectors of two joints and nothing else, so

@@ -11,7 +11,7 @@ no relative shear), but must leave the member's own stretches alone: making G eq
 section strain along the truss axis equal to the longeron's axial strain at the joint, an
 over-stiffening that the element next to the joint carries over its length, O(element length),
 which refinement removes only slowly (the 36-bay truss's bending frequencies fell 0.6 % from 6/4
-to 12/8 elements a member, and 0.3 % more to 24/16).
+to 12/8 elements a member; on 12 bays 0.5 %, and 0.3 % more to 24/16).
 
 The link penalises the off-diagonal entries of ``GᵀF_m`` only:
 
