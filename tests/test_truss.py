@@ -35,8 +35,8 @@ def test_layout_has_the_papers_counts():
 def test_small_truss_modes_symmetric_and_typed():
     """The truss has the three-fold symmetry of its equilateral section, so its bending modes come
     in degenerate pairs, equal to the eigensolver's round-off (1e-8 of ω is far above it: measured
-    1e-13 for this 1,584-DOF sparse problem; a joint link that also tied the members' section
-    stretches, which are not isotropic in the section axes, split the pair by 8e-8), and mode types
+    1e-13 for this 1,584-DOF sparse problem; a joint link that also penalised the section's
+    in-plane shear, which depends on the section axes, split the pair by 6e-8), and mode types
     find them; on 2 bays the first torsion mode lies below the first bending pair (measured 28.09 Hz
     against 28.59 Hz), on 36 bays far above it (benchmarks/results/truss.md)."""
     truss = build_truss(SMALL)
