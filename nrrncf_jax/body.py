@@ -88,12 +88,12 @@ def element_group(element: AbstractElement, q_hat: Float[Array, "n 3"], elements
 
     ``transforms`` (n_el × n_e × n_e, optional): element e's own nodal vectors are the linear
     combinations ``q^e_α = T_αA q_{elements[e, A]}`` of the body's, not the body's vectors
-    themselves: e.g. a beam whose end joins a joint node carrying the full position gradient
-    (``frame.frame_body``: its slope and section vectors are that gradient times its own
-    directions). Q is bilinear in the vectors, so ``Q^e = T Q Tᵀ`` and the integrals in the body's
-    vectors are ``κ^{ABCD} = T_αA T_βB T_μC T_νD κ^{αβμν}``, ``Tᵀ M T``, ``Tᵀ ϱ``: constant
-    still, and the group computes with them as with any other (Shabana & Mikkola's gradient
-    transformation for slope discontinuities, 2003)."""
+    themselves: e.g. a frame's joint link (``frame.frame_body``), which sees the joint's full
+    position gradient F along a member's directions, F d = Σ d_K r_K. Q is bilinear in the
+    vectors, so ``Q^e = T Q Tᵀ`` and the integrals in the body's vectors are
+    ``κ^{ABCD} = T_αA T_βB T_μC T_νD κ^{αβμν}``, ``Tᵀ M T``, ``Tᵀ ϱ``: constant still, and the
+    group computes with them as with any other (Shabana & Mikkola's gradient transformation,
+    2003)."""
     elements = np.asarray(elements) if not isinstance(elements, jax.core.Tracer) else elements
     ne = element.vectors
     if elements.ndim != 2 or elements.shape[1] != ne:

@@ -5,8 +5,8 @@ position gradient ``F = [r_X, r_Y, r_Z]`` (the derivatives along the global refe
 nodal vectors. A beam member leaving the joint along the unit direction d, with section axes
 (e₂, e₃), shares the joint's position and keeps its own end vectors
 ``[r_ξ, r_η, r_ξη, r_ζ, r_ξζ]``; an ``elements.JointLink`` ties its end triad (r_ξ, r_η, r_ζ) to
-the joint's gradient along its directions (F d, F e₂, F e₃) in relative rotation and shear, not
-in stretch. Every member at the joint is linked to the same F, so the joint transmits forces,
+the joint's gradient along its directions (F d, F e₂, F e₃) in relative rotation and
+axis–section shear, not in stretch. Every member at the joint is linked to the same F, so the joint transmits forces,
 bending moments and torque and keeps the angles between the members' axes and sections (under a
 rigid rotation of the frame F is the rotation and every member turns with it). The link is
 quartic in the nodal vectors with a constant κ, so the frame stays one body with one sparse

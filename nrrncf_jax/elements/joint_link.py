@@ -13,21 +13,25 @@ over-stiffening that the element next to the joint carries over its length, O(el
 which refinement removes only slowly (the 36-bay truss's bending frequencies fell 0.6 % from 6/4
 to 12/8 elements a member; on 12 bays 0.5 %, and 0.3 % more to 24/16).
 
-The link penalises the off-diagonal entries of ``GᵀF_m`` only:
+The link penalises the axis–section entries of ``GᵀF_m`` and the section's relative twist:
 
-    U = ½ k Σ_{i≠j} (g_i·f_j)².
+    U = ½ k [ (g₁·f₂)² + (g₂·f₁)² + (g₁·f₃)² + (g₃·f₁)² + ½ (g₂·f₃ − g₃·f₂)² ].
 
 With G = R_G(I + ε_G) and F_m = R_F(I + ε_F) (rotations times symmetric stretches, in the member's
-basis), ``GᵀF_m = I + ε_G + ε_F + W + O(2)``, ``W = R_Gᵀ R_F − I`` skew: its off-diagonal is the
-relative rotation and the sum of the two shears, its diagonal (the stretches) is not penalised. A
-common rotation of both triads leaves GᵀF_m, and so U, unchanged (rigid motion costs nothing). A
-relative rotation θ costs ``U = k sin²θ`` (a rotational spring of stiffness 2k), a relative shear
-γ costs ``k γ²/4``.
+basis), ``GᵀF_m = I + ε_G + ε_F + W + O(2)``, ``W = R_Gᵀ R_F − I`` skew: the four axis–section
+entries are the relative rotation about the section axes plus the axis–section shears, the twist
+term is the relative rotation about the axis, and the diagonal (the stretches) and the section's
+own in-plane shear are not penalised. The energy is the same for any choice of section axes
+(e₂, e₃) (a circular tube has none preferred: penalising the in-plane shear g₂·f₃ + g₃·f₂ as well
+split the truss's degenerate bending pairs by 1e-6 in ω²). A common rotation of both triads
+leaves GᵀF_m, and so U, unchanged (rigid motion costs nothing). A relative rotation θ about any
+of the member's axes costs ``U = k sin²θ`` (a rotational spring of stiffness 2k), an axis–section
+shear γ costs ``k γ²/4``.
 
 Each ``g_i·f_j`` (i ≠ j) is ``2 Q_{i,3+j}`` with ``Q_αβ = ½(q_α·q_β − q̂_α·q̂_β)`` of the six
 vectors [g₁, g₂, g₃, f₁, f₂, f₃] (the reference value is 0), so ``U = ½ κ Q Q`` with the constant
-``κ = k Σ_{i≠j} B⁽ⁱʲ⁾ ⊗ B⁽ⁱʲ⁾``, ``B⁽ⁱʲ⁾`` the symmetric unit matrix on (i, 3+j): the body's cubic
-elastic force and the reduction's tensors take it like any element. The link carries no mass.
+``κ = k Σ_n B⁽ⁿ⁾ ⊗ B⁽ⁿ⁾`` over the five rows of ``_link_rows``: the body's cubic elastic force and
+the reduction's tensors take it like any element. The link carries no mass.
 """
 
 from typing import ClassVar
@@ -53,8 +57,8 @@ def _link_rows() -> np.ndarray:
 
 class JointLink(AbstractElement):
     """A link of stiffness ``k`` [N m] between a member end's triad (g₁, g₂, g₃) and its joint's
-    gradient along the member's directions (f₁, f₂, f₃): relative rotation and shear cost
-    ``½ k Σ_{i≠j} (g_i·f_j)²``, stretches nothing."""
+    gradient along the member's directions (f₁, f₂, f₃): relative rotation (2k about any axis)
+    and axis–section shear cost, stretches and the section's own distortion nothing."""
 
     k: Float[Array, ""]
 
