@@ -86,6 +86,35 @@ def test_solvers_agree_on_a_chain():
     np.testing.assert_allclose(assemble_sparse([(Ge, dofs)], n, free).toarray(), A, rtol=0, atol=1e-14)
 
 
+def test_pivoted_lu_forms_agree_and_need_no_permutation_loop():
+    """``DenseLU`` keeps (U, L⁻¹P): its CPU form (one getrf of [A | I]) and the other platforms'
+    (the square LU and its permutation) agree with NumPy on a matrix whose first pivot comes from
+    another row, and so do their derivatives (jvp against dx = A⁻¹(db − dA x)). On a CPU the
+    compiled factor-and-solve holds no loop: ``lu_solve``'s pivots-to-permutation loop of n
+    scatter steps, which it replaced, was most of the reduced pendulum's step."""
+    from nrrncf_jax.linalg.dense import _pivoted_lu_augmented, _pivoted_lu_square
+
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(9, 9))
+    A[0, 0] = 1e-4
+    b, dA, db = rng.normal(size=9), rng.normal(size=(9, 9)), rng.normal(size=9)
+    x = np.linalg.solve(A, b)
+    dx = np.linalg.solve(A, db - dA @ x)
+    for form in (_pivoted_lu_augmented, _pivoted_lu_square):
+        def solve_with(A, b, form=form):
+            lu, C = form(A)
+            return DenseLU(lu=lu, inv_lower=C).solve(b)
+
+        x1, dx1 = jax.jvp(solve_with, (jnp.asarray(A), jnp.asarray(b)), (jnp.asarray(dA), jnp.asarray(db)))
+        np.testing.assert_allclose(x1, x, rtol=1e-11, atol=1e-12)
+        np.testing.assert_allclose(dx1, dx, rtol=1e-9, atol=1e-11)
+    np.testing.assert_allclose(DenseLU.factor(A).solve(np.stack([b, db], axis=1)),
+                               np.linalg.solve(A, np.stack([b, db], axis=1)), rtol=1e-11, atol=1e-12)
+    if jax.default_backend() == "cpu":
+        text = jax.jit(lambda A, b: DenseLU.factor(A).solve(b)).lower(A, b).compile().as_text()
+        assert " while(" not in text and "while." not in text
+
+
 def test_several_groups_dense_against_sparse():
     """Two element groups of different sizes on one matrix (a chain and long springs between
     distant nodes, so the pattern is no chain): dense and sparse against NumPy."""

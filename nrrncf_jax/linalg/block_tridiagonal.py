@@ -12,29 +12,30 @@ import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 from jax import lax
 
-from .._types import Array, Bool, Float, Int
+from .._types import Array, Bool, Float
 from .base import AbstractFactorization
+from .dense import pivoted_lu
 
 
 class BlockTridiagonalLU(AbstractFactorization):
     """Factors of a block-tridiagonal matrix with diagonal blocks D_i, sub-diagonal L_i
     (row i, column i-1) and super-diagonal U_i (row i, column i+1)."""
 
-    lu: Float[Array, "nb m m"]
-    piv: Int[Array, "nb m"]
+    lu: Float[Array, "nb m m"]  # each S_i's U (``dense.pivoted_lu``)
+    inv_lower: Float[Array, "nb m m"]  # each S_i's L⁻¹P
     L: Float[Array, "nb m m"]
     G: Float[Array, "nb m m"]  # S_i⁻¹ U_i
 
     def solve(self, b: Float[Array, " n"]) -> Float[Array, " n"]:
-        nb, m = self.piv.shape
+        nb, m = self.lu.shape[:2]
         b = b.reshape(nb, m)
 
         def forward(y_prev, x):
-            lu, piv, L, bi = x
-            y = jsl.lu_solve((lu, piv), bi - L @ y_prev)
+            lu, C, L, bi = x
+            y = jsl.solve_triangular(lu, C @ (bi - L @ y_prev), lower=False)
             return y, y
 
-        _, y = lax.scan(forward, jnp.zeros(m, b.dtype), (self.lu, self.piv, self.L, b))
+        _, y = lax.scan(forward, jnp.zeros(m, b.dtype), (self.lu, self.inv_lower, self.L, b))
 
         def backward(x_next, x):
             G, yi = x
@@ -53,12 +54,12 @@ def factor_block_tridiagonal(
     def step(G_prev, x):
         Di, Li, Ui = x
         S = Di - Li @ G_prev
-        lu, piv = jsl.lu_factor(S)
-        G = jsl.lu_solve((lu, piv), Ui)
-        return G, (lu, piv, G)
+        lu, C = pivoted_lu(S)
+        G = jsl.solve_triangular(lu, C @ Ui, lower=False)
+        return G, (lu, C, G)
 
-    _, (lu, piv, G) = lax.scan(step, jnp.zeros((m, m), D.dtype), (D, L, U))
-    return BlockTridiagonalLU(lu=lu, piv=piv, L=L, G=G)
+    _, (lu, C, G) = lax.scan(step, jnp.zeros((m, m), D.dtype), (D, L, U))
+    return BlockTridiagonalLU(lu=lu, inv_lower=C, L=L, G=G)
 
 
 def assemble_block_tridiagonal(
