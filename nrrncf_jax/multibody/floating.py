@@ -265,6 +265,7 @@ class FloatingFrameSystem(AbstractModel):
     offsets: tuple[int, ...] = eqx.field(static=True)
 
     preferred_newton = "modified"
+    project_velocities = True  # GeneralizedAlphaIndex3 projects v onto C_z v = 0 after each step (see there)
 
     def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0)):
         self.bodies = tuple(bodies)
