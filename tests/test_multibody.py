@@ -135,13 +135,16 @@ def test_pendulum_command(pendulum_run, tmp_path, monkeypatch, capsys):
     assert d["chi_rel_percent"] == 0.0 and d["speedup"] == 1.0 and d["reference_dofs"] == pendulum_run.dofs
     # the reference at its own tolerance, its atol scaled alike
     calls.clear()
-    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--reference", "ancf", "--reference-rtol", "1e-6",
-                             "--json"]) == 0
+    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--craig-bampton", "--reference", "ancf",
+                             "--reference-rtol", "1e-6", "--json"]) == 0
+    assert calls[1][1]["craig_bampton"] is True and calls[1][1]["joint_modes"] is False
     np.testing.assert_allclose([(kw["rtol"], kw["atol"]) for _, kw in calls], [(1e-6, 1e-7), (1e-5, 1e-6)],
                                rtol=1e-12)
     capsys.readouterr()
     assert main(["pendulum", "--formulation", "nr-rncf", "--reference-rtol", "1e-6"]) == 2
     assert "--reference-rtol needs --reference ancf" in capsys.readouterr().err
+    assert main(["pendulum", "--formulation", "nr-rncf", "--craig-bampton", "--joint-modes"]) == 2
+    assert "pass one of --joint-modes, --craig-bampton" in capsys.readouterr().err
     assert main(["pendulum", "--formulation", "rncf"]) == 2
     assert "inertial-frame model" in capsys.readouterr().err
     assert main(["pendulum", "--vms", "3"]) == 2

@@ -2,13 +2,15 @@
 (``scenarios.pendulum``).
 
     nrrncf pendulum [--formulation {ancf,nr-rncf}] [--elements 10] [--vms 5] [--mds all|none]
+                    [--joint-modes | --craig-bampton]
                     [--reference ancf] [--reference-rtol R] [--t-end 2] [--dt-out 0.001]
                     [--out tips.csv] [--plot F] [--animate F.gif] [--vtk DIR] [--json] [--no-progress]
 
 ``ancf``: the full-order model, three ANCF beams (C1 elements) joined by revolute joints, an
 index-3 DAE integrated by generalized-α. ``nr-rncf``: each beam in its floating frame (Euler
 parameters) with its deformation reduced to its first ``--vms`` cantilever modes and their
-modal derivatives (``multibody.floating``); ``--reference ancf`` runs the full model too and
+modal derivatives (``multibody.floating``), or with ``--craig-bampton`` to the extended
+Craig-Bampton basis (``reduction.craig_bampton``); ``--reference ancf`` runs the full model too and
 reports χ_rel and the speed-up (``--reference-rtol``: the full model at its own tolerance). The
 full-order model is the inertial-frame one (ANCF): a full-order floating-frame model
 (``--formulation rncf``) is not built, and is refused with a line that says so.
@@ -47,7 +49,7 @@ def _run(args) -> int:
         run = ref
     else:
         run = run_pendulum(spec, formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
-                           joint_modes=args.joint_modes, **kw)
+                           joint_modes=args.joint_modes, craig_bampton=args.craig_bampton, **kw)
         if ref is not None:
             run.compare(ref)
     if args.out:
@@ -77,8 +79,11 @@ def _check(args) -> None:
     if args.reference_rtol is not None and (args.reference is None or not args.reference_rtol > 0):
         raise ValueError("--reference-rtol needs --reference ancf and a positive value")
     if args.formulation == "ancf" and (args.reference is not None or args.vms is not None or args.mds is not None
-                                       or args.joint_modes):
-        raise ValueError("--reference, --vms, --mds and --joint-modes go with --formulation nr-rncf")
+                                       or args.joint_modes or args.craig_bampton):
+        raise ValueError("--reference, --vms, --mds, --joint-modes and --craig-bampton go with --formulation nr-rncf")
+    if args.joint_modes and args.craig_bampton:
+        raise ValueError("--craig-bampton already holds the joint's static modes: pass one of --joint-modes, "
+                         "--craig-bampton")
     if args.vms is None:
         args.vms = 5
     if args.mds is None:
@@ -110,6 +115,9 @@ def register(sub) -> None:
                    help="nr-rncf: all modal derivatives of the VMs (i <= j), or none (default: all)")
     t.add_argument("--joint-modes", action="store_true",
                    help="nr-rncf: add each beam's static modes under forces at its right-end joint (3 a beam)")
+    t.add_argument("--craig-bampton", action="store_true",
+                   help="nr-rncf: the extended Craig-Bampton basis: the right end's position as boundary coordinates, "
+                        "fixed-interface VMs and their MDs")
     t.add_argument("--reference", choices=("ancf",), default=None,
                    help="nr-rncf: also run the full model and report chi_rel and the speed-up")
     t.add_argument("--reference-rtol", type=float, default=None,

@@ -1,7 +1,9 @@
-"""Model order reduction (THEORY §4-6): vibration modes, modal derivatives, maximum modal
-interaction, SVD deflation, the spinning-state enrichment and the reduced tensors
-(``nrrncf_jax.nr_rncf`` chains them)."""
+"""Model order reduction (THEORY §4-7): vibration modes, modal derivatives, maximum modal
+interaction, SVD deflation, the extended Craig-Bampton basis of jointed bodies, the
+spinning-state enrichment and the reduced tensors (``nrrncf_jax.nr_rncf`` chains them)."""
 
+from .craig_bampton import CraigBampton as CraigBampton
+from .craig_bampton import craig_bampton as craig_bampton
 from .deflation import deflate as deflate
 from .modal_derivatives import ModalDerivatives as ModalDerivatives
 from .modal_derivatives import modal_derivatives as modal_derivatives

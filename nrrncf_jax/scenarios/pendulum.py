@@ -106,13 +106,18 @@ def boundary_modes(beam, free, vectors) -> np.ndarray:
 
 
 def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, pairs="all", joint_modes: bool = False,
-                           in_plane: bool = True) -> tuple[FloatingFrameSystem, dict]:
+                           in_plane: bool = True, craig_bampton: bool = False) -> tuple[FloatingFrameSystem, dict]:
     """NR-RNCF of the pendulum: each beam in its floating frame (``REFERENCE_CONDITIONS``), its
     deformation reduced to ``n_vms`` vibration modes with those vectors clamped (a cantilever) and
     their modal derivatives (``pairs``: ``"all"``, the k(k+1)/2 pairs i ≤ j,
     the paper's 5 VMs + 15 MDs; or a list of (i, j); or ``[]``), and with ``joint_modes`` the
     static modes of the right-end joint (``boundary_modes``: 3 more a beam, the span of the
-    extended Craig-Bampton's static constraint modes), deflated by SVD. Returns the
+    extended Craig-Bampton's static constraint modes), deflated by SVD. ``craig_bampton``: the
+    extended Craig-Bampton basis instead (``reduction.craig_bampton``): the right end's position
+    (its in-plane components) kept as boundary coordinates with their static constraint modes,
+    and ``n_vms`` fixed-interface modes (both ends held) and their MDs; every beam gets the same
+    basis (the last beam's right end is free, and its boundary coordinates are two more
+    coordinates), so the three are evaluated in one ``vmap``. Returns the
     system and the offline record: ``frequencies_hz``, ``pairs``, ``k`` (coordinates a body after
     deflation), ``offline_s``.
 
@@ -129,22 +134,30 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
 
     from ..models import RotatingFrameModel
     from ..motion import Stationary
+    from ..reduction import craig_bampton as reduction_craig_bampton
     from ..reduction import deflate, elastic_tensors, modal_derivatives, vibration_modes
 
     positive_int("n_vms", n_vms)
+    if craig_bampton and joint_modes:
+        raise ValueError("craig_bampton already holds the joint's static modes: pass one of craig_bampton, joint_modes")
     t0 = time.perf_counter()
     beam = _beam(spec)
     free = RotatingFrameModel(beam, Stationary(), clamped=list(REFERENCE_CONDITIONS)).free_mask()
     if in_plane:
         free = free & jnp.asarray(mirror_even(spec.elements + 1, "z"))
-    modes = vibration_modes(beam, free, n_vms)
     pairs = [(i, j) for i in range(n_vms) for j in range(i, n_vms)] if pairs == "all" else [tuple(p) for p in pairs]
-    columns = [modes.phi]
-    if pairs:
-        columns.append(modal_derivatives(beam, free, modes.phi, pairs).theta)
-    if joint_modes:
-        columns.append(jnp.asarray(boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])))
-    Psi = deflate(jnp.concatenate(columns, axis=1))
+    if craig_bampton:
+        tip = 3 * (_PER_NODE * spec.elements + _R) + np.arange(3)
+        cb = reduction_craig_bampton(beam, free, tip[np.asarray(free)[tip]], n_vms, pairs)
+        modes, Psi = cb, cb.basis
+    else:
+        modes = vibration_modes(beam, free, n_vms)
+        columns = [modes.phi]
+        if pairs:
+            columns.append(modal_derivatives(beam, free, modes.phi, pairs).theta)
+        if joint_modes:
+            columns.append(jnp.asarray(boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])))
+        Psi = deflate(jnp.concatenate(columns, axis=1))
     tensors = jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi))
     bodies = [FloatingBody(beam, Psi, tensors, R0=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
     system = FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
@@ -250,16 +263,17 @@ FORMULATIONS = ("ancf", "nr-rncf")
 def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out: float = 0.001,
                  rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
                  max_steps: int = 500_000, formulation: str = "ancf", n_vms: int = 5, pairs="all",
-                 joint_modes: bool = False, newton_tol: float = 1e-2) -> PendulumRun:
+                 joint_modes: bool = False, newton_tol: float = 1e-2, craig_bampton: bool = False) -> PendulumRun:
     """The pendulum released from rest: full order (``"ancf"``: ANCF bodies) or NR-RNCF
-    (``"nr-rncf"``: ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes)``), index-3 generalized-α."""
+    (``"nr-rncf"``: ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=...)``), index-3
+    generalized-α."""
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     info = None
     if formulation == "ancf":
         system = build_pendulum(spec)
     else:
-        system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes)
+        system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=craig_bampton)
     run = run_chain(system, t_end, dt_out, rho_inf, rtol, atol, progress, max_steps, newton_tol)
     run.offline = info
     return run

@@ -1,0 +1,86 @@
+"""Extended Craig-Bampton reduction of a body with joints (THEORY §7, paper Eqs. 44-46).
+
+The body's free coordinates split into boundary ones B (those its joints act on) and interior
+ones I. The deformation is
+
+    w = [u_B; w_I] = [I; Φ_IB] u_B + [0; Ψ_I] p,        Φ_IB = −K_II⁻¹ K_IB,
+
+u_B the boundary coordinates themselves (kept as coordinates of the reduced model), Φ_IB the
+static constraint modes (the interior's static response to a unit displacement of each boundary
+coordinate), and Ψ_I the interior basis: the vibration modes of (M_II, K_II), the fixed-interface
+modes, and their modal derivatives, computed with the boundary held, deflated by SVD (Eq. 38).
+The columns of the basis are [Φ_B | Ψ]: the first ``n_boundary`` reduced coordinates are the
+boundary coordinates' displacements exactly (the interior columns vanish on B), and the reduced
+cubic elastic force of the whole basis is ``reduction.elastic_tensors``'s, as for any basis.
+
+With the boundary coordinates as coordinates, a joint's equations act on reduced coordinates
+that are the joint node's own displacements; a static load on the boundary is reproduced
+exactly (Guyan), and the interior modes need not bend to meet the joint.
+"""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from .._types import Array, Float
+from ..body import Body
+from .deflation import deflate
+from .modal_derivatives import modal_derivatives
+from .modes import vibration_modes
+
+
+class CraigBampton(eqx.Module):
+    """The basis [Φ_B | Ψ] (n_dof × (n_boundary + k)), ``boundary`` the DOFs of its first
+    columns (in order), and the fixed-interface modes' angular frequencies ``omega``."""
+
+    basis: Float[Array, "ndof m"]
+    boundary: tuple[int, ...] = eqx.field(static=True)
+    omega: Float[Array, " k"]
+
+    @property
+    def n_boundary(self) -> int:
+        return len(self.boundary)
+
+
+def craig_bampton(body: Body, free, boundary, n_vms: int, pairs="all", q_eq=None, deflate_tol: float = 1e-6
+                  ) -> CraigBampton:
+    """The extended Craig-Bampton basis of ``body`` at ``q_eq`` (default its reference): ``free``
+    (n_dof booleans) the coordinates not held by its reference conditions, ``boundary`` the free
+    DOFs (indices) its joints act on, ``n_vms`` fixed-interface vibration modes and their modal
+    derivatives for ``pairs`` (``"all"``: every i ≤ j; a list of (i, j), e.g. from
+    ``reduction.select``'s maximum modal interaction; or ``[]``).
+
+    Raises ``ValueError`` for a boundary DOF that is not free or is repeated, and (through
+    ``vibration_modes``) when the interior's stiffness is singular.
+    """
+    free = np.asarray(free, dtype=bool).reshape(-1)
+    if free.shape[0] != body.n_dof:
+        raise ValueError(f"free must have one entry per DOF ({body.n_dof}), got {free.shape[0]}")
+    boundary = tuple(int(b) for b in np.asarray(boundary, dtype=int).reshape(-1))
+    if len(set(boundary)) != len(boundary):
+        raise ValueError(f"boundary DOFs must be distinct, got {boundary}")
+    if any(not 0 <= b < body.n_dof or not free[b] for b in boundary):
+        raise ValueError("boundary DOFs must be free coordinates of the body (not held by its reference "
+                         f"conditions), got {boundary}")
+    q_eq = body.q_hat if q_eq is None else q_eq
+    interior = free.copy()
+    interior[list(boundary)] = False
+    modes = vibration_modes(body, jnp.asarray(interior), n_vms, q_eq=q_eq)
+    pairs = [(i, j) for i in range(n_vms) for j in range(i, n_vms)] if pairs == "all" else [tuple(p) for p in pairs]
+    columns = [np.asarray(modes.phi)]
+    if pairs:
+        columns.append(np.asarray(modal_derivatives(body, jnp.asarray(interior), modes.phi, pairs, q_eq=q_eq).theta))
+    Psi = np.array(deflate(jnp.asarray(np.concatenate(columns, axis=1)), deflate_tol))
+    Psi[~interior] = 0.0  # the SVD's round-off (1e-17) off the interior: the boundary rows are u_B's alone
+    # Φ_IB = −K_II⁻¹ K_IB: the interior's static response to unit boundary displacements.
+    K = np.asarray(body.stiffness_matrix(q_eq))
+    I, B = np.flatnonzero(interior), np.asarray(boundary, dtype=int)
+    Phi_B = np.zeros((body.n_dof, len(B)))
+    Phi_B[B, np.arange(len(B))] = 1.0
+    if len(B):
+        Phi_B[I] = -np.linalg.solve(K[np.ix_(I, I)], K[np.ix_(I, B)])
+    return CraigBampton(basis=jnp.asarray(np.concatenate([Phi_B, Psi], axis=1)), boundary=boundary,
+                        omega=modes.omega)
+
+
+__all__ = ["CraigBampton", "craig_bampton"]
