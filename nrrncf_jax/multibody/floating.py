@@ -38,6 +38,10 @@ Choices, and why:
   inertia terms' derivatives through J and the joints' Hessian are left to Newton's iterations
   (``iteration_matrix``). The constrained matrix is factored body by body with the joints' Schur
   complement (``factor_augmented``).
+- ``project_velocities``: the index-3 step (``integrate.GeneralizedAlphaIndex3``) projects ż onto
+  C_z ż = 0 after each step. Without it the frames' accelerations oscillated from step to step
+  (the O(h) velocity-constraint violation that index 3 leaves), which stalled the step size, and
+  with ρ∞ = 1 stopped the pendulum at its first steps.
 """
 
 import equinox as eqx
