@@ -138,6 +138,30 @@ def test_hinged_floating_body_conserves_energy_with_rho_inf_1(monkeypatch):
         run(1e-6)
 
 
+def test_mmi_per_body_ranks_each_beams_pairs():
+    """Maximum modal interaction per beam of the pendulum (``scenarios.pendulum.mmi_per_body``,
+    the paper's Fig. 16), 2 elements a beam, 3 VMs, 0-0.4 s: each beam's W is symmetric and
+    non-negative, its 2 pairs are its largest W_ij (i ≤ j), the beams' W differ (the beams move
+    differently), and the system built with one basis a beam (``body_pairs``) has each beam's
+    VMs and its MDs; bad ``body_pairs`` are refused."""
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, mmi_per_body
+
+    spec = PendulumSpec(elements=2)
+    sels = mmi_per_body(spec, n_vms=3, n_mds=2, t_end=0.4, n_samples=81)
+    cand = [(i, j) for i in range(3) for j in range(i, 3)]
+    for sel in sels:
+        W = np.asarray(sel.W)
+        assert W.shape == (3, 3) and np.allclose(W, W.T) and W.min() >= 0.0 and sel.vms == (0, 1, 2)
+        assert list(sel.pairs) == sorted(cand, key=lambda p: -W[p])[:2]
+    assert not np.allclose(sels[0].W, sels[2].W, rtol=1e-2)
+    system, info = build_reduced_pendulum(spec, 3, body_pairs=[s.pairs for s in sels])
+    assert [b.k for b in system.bodies] == info["k"] and all(3 < k <= 5 for k in info["k"])
+    with pytest.raises(ValueError, match="one list of MD pairs"):
+        build_reduced_pendulum(spec, 3, body_pairs=[[(0, 0)]])
+    with pytest.raises(ValueError, match="0 <= i <= j < n_vms"):
+        build_reduced_pendulum(spec, 3, body_pairs=[[(0, 3)], [], []])
+
+
 def test_floating_system_refuses_bad_input():
     body = _stiff_floating_beam(n_vms=1)
     with pytest.raises(ValueError, match="basis must be"):

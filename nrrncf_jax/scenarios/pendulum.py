@@ -12,10 +12,12 @@ full-order reference; and ``build_reduced_pendulum``, NR-RNCF: each beam in a fl
 (``multibody.floating``) with its deformation reduced to cantilever modes and their modal
 derivatives (optionally with the right-end joint's static modes, ``boundary_modes``), or to the
 extended Craig-Bampton basis (``reduction.craig_bampton``: the joint's position as boundary
-coordinates, fixed-interface modes and their MDs). On the paper's mesh the reduced model
-(81 DOFs, χ_rel 1.14 %) runs 9.9× faster than the full one at the same tolerance and 18.7× at
-a 3× looser one, which its own time-integration error allows; the Craig-Bampton one (87 DOFs)
-is within χ_rel 0.33 % (``benchmarks/results/pendulum.md``, issue 17).
+coordinates, fixed-interface modes and their MDs); ``mmi_per_body`` picks each beam's MDs by
+maximum modal interaction. On the paper's mesh the reduced model (81 DOFs, χ_rel 1.14 %) runs
+6.3-9.9× faster than the full one at the same tolerance and 10-19× at a 3× looser one, which its
+own time-integration error allows; with 8 MDs a beam by MMI (60 DOFs) χ_rel 1.17 % and 20.6×;
+the Craig-Bampton one (87 DOFs) is within χ_rel 0.33 % (``benchmarks/results/pendulum.md``,
+issue 17).
 """
 
 import dataclasses
@@ -107,7 +109,8 @@ def boundary_modes(beam, free, vectors) -> np.ndarray:
 
 
 def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, pairs="all", joint_modes: bool = False,
-                           in_plane: bool = True, craig_bampton: bool = False) -> tuple[FloatingFrameSystem, dict]:
+                           in_plane: bool = True, craig_bampton: bool = False,
+                           body_pairs=None) -> tuple[FloatingFrameSystem, dict]:
     """NR-RNCF of the pendulum: each beam in its floating frame (``REFERENCE_CONDITIONS``), its
     deformation reduced to ``n_vms`` vibration modes with those vectors clamped (a cantilever) and
     their modal derivatives (``pairs``: ``"all"``, the k(k+1)/2 pairs i ≤ j,
@@ -118,9 +121,11 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     (its in-plane components) kept as boundary coordinates with their static constraint modes,
     and ``n_vms`` fixed-interface modes (both ends held) and their MDs; every beam gets the same
     basis (the last beam's right end is free, and its boundary coordinates are two more
-    coordinates), so the three are evaluated in one ``vmap``. Returns the
-    system and the offline record: ``frequencies_hz``, ``pairs``, ``k`` (coordinates a body after
-    deflation), ``offline_s``.
+    coordinates), so the three are evaluated in one ``vmap``. ``body_pairs``: one list of MD
+    pairs a beam (``mmi_per_body``'s selection), each beam with its own basis (the bodies are then
+    evaluated one by one). Returns the system and the offline record: ``frequencies_hz``,
+    ``pairs``, ``k`` (coordinates a body after deflation; with ``body_pairs`` a list), ``phi``
+    (the VMs), ``offline_s``.
 
     ``in_plane`` (default): the beam's in-plane modes and MDs, computed with its coordinates that
     are odd under the mirror z → −z held at zero (``elements.beam.mirror_even``), which gives
@@ -141,6 +146,13 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     positive_int("n_vms", n_vms)
     if craig_bampton and joint_modes:
         raise ValueError("craig_bampton already holds the joint's static modes: pass one of craig_bampton, joint_modes")
+    if body_pairs is not None:
+        body_pairs = [[tuple(int(i) for i in pair) for pair in b] for b in body_pairs]
+        if len(body_pairs) != spec.beams or craig_bampton or joint_modes:
+            raise ValueError(f"body_pairs takes one list of MD pairs for each of the {spec.beams} beams, with the "
+                             "cantilever basis (neither craig_bampton nor joint_modes)")
+        if any(not 0 <= i <= j < n_vms for b in body_pairs for i, j in b):
+            raise ValueError(f"body_pairs must be pairs (i, j) with 0 <= i <= j < n_vms = {n_vms}")
     t0 = time.perf_counter()
     beam = _beam(spec)
     free = RotatingFrameModel(beam, Stationary(), clamped=list(REFERENCE_CONDITIONS)).free_mask()
@@ -159,12 +171,48 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
         if joint_modes:
             columns.append(jnp.asarray(boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])))
         Psi = deflate(jnp.concatenate(columns, axis=1))
-    tensors = jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi))
-    bodies = [FloatingBody(beam, Psi, tensors, R0=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
+    if body_pairs is None:
+        tensors = jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi))
+        bodies = [FloatingBody(beam, Psi, tensors, R0=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
+        k_out = int(Psi.shape[1])
+    else:
+        bodies = []
+        for k, bp in enumerate(body_pairs):
+            cols = [modes.phi] + ([modal_derivatives(beam, free, modes.phi, bp).theta] if bp else [])
+            Psi_b = deflate(jnp.concatenate(cols, axis=1))
+            tensors = jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi_b))
+            bodies.append(FloatingBody(beam, Psi_b, tensors, R0=(k * spec.length, 0.0, 0.0)))
+        k_out, pairs = [b.k for b in bodies], body_pairs
     system = FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
     info = {"frequencies_hz": (np.asarray(modes.omega) / (2 * np.pi)).tolist(), "pairs": pairs,
-            "k": int(Psi.shape[1]), "offline_s": time.perf_counter() - t0}
+            "k": k_out, "phi": np.asarray(modes.phi) if not craig_bampton else None,
+            "offline_s": time.perf_counter() - t0}
     return system, info
+
+
+def mmi_per_body(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, n_mds: int = 8, t_end: float = 2.0,
+                 rtol: float = 1e-3, n_samples: int = 401) -> list:
+    """Maximum modal interaction per beam (Eq. 39, the paper's Fig. 16): the reduced pendulum
+    with its ``n_vms`` VMs alone run over 0-``t_end`` (its own nonlinear motion, frames and
+    joints included, at a loose ``rtol``: W ranks the pairs, it need not be accurate), each
+    beam's modal amplitudes η_b(t) (its coordinates in the VMs), W_b = ∫|η_i η_j| dt, and the
+    ``n_mds`` pairs (i ≤ j) with the largest W_b,ij: one ``reduction.Selection`` a beam, for
+    ``build_reduced_pendulum(body_pairs=[s.pairs for s in selections])``."""
+    from ..integrate import simulate
+    from ..reduction import mmi_matrix, select
+
+    positive_int("n_mds", n_mds)
+    system, info = build_reduced_pendulum(spec, n_vms, pairs=[])
+    ts = np.linspace(0.0, t_end, n_samples)
+    sol = simulate(system, ts, solver=GeneralizedAlphaIndex3(0.9), rtol=rtol, atol=rtol / 10,
+                   observe=lambda t, z, v: z)
+    Z = np.asarray(sol.ys)
+    out = []
+    for b, zb in zip(system.bodies, system.split(Z.T)):
+        to_vms = np.linalg.lstsq(info["phi"], np.asarray(b.basis), rcond=None)[0]  # η = Φ⁺ Ψ p
+        eta = np.asarray(zb[7:]).T @ to_vms.T
+        out.append(select(mmi_matrix(ts, eta), n_vms=list(range(n_vms)), n_mds=n_mds))
+    return out
 
 
 def tip_vectors(spec: PendulumSpec) -> list[tuple[int, int]]:
@@ -264,17 +312,19 @@ FORMULATIONS = ("ancf", "nr-rncf")
 def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out: float = 0.001,
                  rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
                  max_steps: int = 500_000, formulation: str = "ancf", n_vms: int = 5, pairs="all",
-                 joint_modes: bool = False, newton_tol: float = 1e-2, craig_bampton: bool = False) -> PendulumRun:
+                 joint_modes: bool = False, newton_tol: float = 1e-2, craig_bampton: bool = False,
+                 body_pairs=None) -> PendulumRun:
     """The pendulum released from rest: full order (``"ancf"``: ANCF bodies) or NR-RNCF
-    (``"nr-rncf"``: ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=...)``), index-3
-    generalized-α."""
+    (``"nr-rncf"``: ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=...,
+    body_pairs=...)``), index-3 generalized-α."""
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     info = None
     if formulation == "ancf":
         system = build_pendulum(spec)
     else:
-        system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=craig_bampton)
+        system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=craig_bampton,
+                                              body_pairs=body_pairs)
     run = run_chain(system, t_end, dt_out, rho_inf, rtol, atol, progress, max_steps, newton_tol)
     run.offline = info
     return run
@@ -327,4 +377,4 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
 
 
 __all__ = ["FORMULATIONS", "REFERENCE_CONDITIONS", "SHAPE_TIMES", "PendulumRun", "PendulumSpec", "build_pendulum",
-           "boundary_modes", "build_reduced_pendulum", "run_chain", "run_pendulum", "tip_vectors"]
+           "boundary_modes", "build_reduced_pendulum", "mmi_per_body", "run_chain", "run_pendulum", "tip_vectors"]
