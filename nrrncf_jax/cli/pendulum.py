@@ -43,8 +43,8 @@ def _run(args) -> int:
     if args.formulation == "ancf":
         ref = run_pendulum(spec, **kw)
     elif args.reference == "ancf":
-        scale = 1.0 if args.reference_rtol is None else args.reference_rtol / args.rtol
-        ref = run_pendulum(spec, **(kw | dict(rtol=args.rtol * scale, atol=args.atol * scale)))
+        rtol = args.rtol if args.reference_rtol is None else args.reference_rtol
+        ref = run_pendulum(spec, **(kw | dict(rtol=rtol, atol=args.atol * rtol / args.rtol)))
     if args.formulation == "ancf":
         run = ref
     else:

@@ -162,27 +162,21 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     if craig_bampton:
         tip = 3 * (_PER_NODE * spec.elements + _R) + np.arange(3)
         cb = reduction_craig_bampton(beam, free, tip[np.asarray(free)[tip]], n_vms, pairs)
-        modes, Psi = cb, cb.basis
+        modes, bases = cb, [cb.basis]
     else:
         modes = vibration_modes(beam, free, n_vms)
-        columns = [modes.phi]
-        if pairs:
-            columns.append(modal_derivatives(beam, free, modes.phi, pairs).theta)
-        if joint_modes:
-            columns.append(jnp.asarray(boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])))
-        Psi = deflate(jnp.concatenate(columns, axis=1))
-    if body_pairs is None:
-        tensors = jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi))
-        bodies = [FloatingBody(beam, Psi, tensors, R0=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
-        k_out = int(Psi.shape[1])
-    else:
-        bodies = []
-        for k, bp in enumerate(body_pairs):
-            cols = [modes.phi] + ([modal_derivatives(beam, free, modes.phi, bp).theta] if bp else [])
-            Psi_b = deflate(jnp.concatenate(cols, axis=1))
-            tensors = jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi_b))
-            bodies.append(FloatingBody(beam, Psi_b, tensors, R0=(k * spec.length, 0.0, 0.0)))
-        k_out, pairs = [b.k for b in bodies], body_pairs
+        tip_modes = [jnp.asarray(boundary_modes(beam, free, [_PER_NODE * spec.elements + _R]))] if joint_modes else []
+
+        def cantilever_basis(md_pairs):
+            mds = [modal_derivatives(beam, free, modes.phi, md_pairs).theta] if md_pairs else []
+            return deflate(jnp.concatenate([modes.phi] + mds + tip_modes, axis=1))
+
+        bases = [cantilever_basis(bp) for bp in ([pairs] if body_pairs is None else body_pairs)]
+    tensors = [jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi)) for Psi in bases]
+    which = [0] * spec.beams if len(bases) == 1 else range(spec.beams)  # one shared basis, or one a beam
+    bodies = [FloatingBody(beam, bases[i], tensors[i], R0=(k * spec.length, 0.0, 0.0)) for k, i in enumerate(which)]
+    k_out = bodies[0].k if body_pairs is None else [b.k for b in bodies]
+    pairs = pairs if body_pairs is None else body_pairs
     system = FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
     info = {"frequencies_hz": (np.asarray(modes.omega) / (2 * np.pi)).tolist(), "pairs": pairs,
             "k": k_out, "phi": np.asarray(modes.phi) if not craig_bampton else None,
