@@ -9,6 +9,10 @@ systems.
 - The generalized forces at rest are the gradient of the full strain energy of x = f(z): the
   reduced force is the projected one, and the frame's coordinates feel none.
 
+- The full-order floating-frame body (``multibody.full_order_frame``) is the ANCF body in
+  other coordinates: its residual is J ᵀ of the ANCF residual at x = f(z), ẋ = J ż,
+  ẍ = J z̈ + J̇ ż, and its elements' force is the reduced cubic one on the identity basis
+  (round-off). Its pendulum runs with the ANCF one in ``test_multibody.py``.
 - Hinged, with ρ∞ = 1, it conserves its energy to its integration error thanks to the velocity
   projection, without which its step size stalls.
 
@@ -195,6 +199,49 @@ def test_generalized_forces_are_the_strain_energys_gradient():
     g[3:7] -= (g[3:7] @ e1) * e1  # the part along e is the normalisation constraint's (its multiplier's)
     np.testing.assert_allclose(r, g, rtol=0, atol=1e-9 * scale)
     np.testing.assert_allclose(r[:7], 0.0, atol=1e-9 * scale)
+
+
+def test_full_order_frame_is_the_ancf_body_in_other_coordinates():
+    """``full_floating_body``: with Ψ = I[:, free] the floating body's equations are the inertial
+    ANCF body's, mapped: r_z(z, ż, z̈) = J ᵀ r_x(f(z), J z̈ + J̇ ż), r_x = M ẍ + F(x) − ϱ g, at a random
+    rotated, displaced, deformed and moving state with |e| = 1 (the part of the e rows along e
+    projected out: the normalisation constraint's reaction, as in the test above). And
+    ``NodalElasticForce`` (the elements' force, gathered) equals the reduced cubic force of
+    ``elastic_tensors`` on the same identity basis, force and Jacobian: for a constant κ the cubic
+    form is exact (Eq. 24). Round-off."""
+    from nrrncf_jax.multibody import NodalElasticForce, full_floating_body
+    from nrrncf_jax.scenarios.pendulum import LEFT_END_FRAME
+
+    beam = beam_body(Material(5e6, 1100.0, 0.3), TubeSection(0.005), straight_reference(1.0, 1))
+    free = np.ones(beam.n_dof, bool)
+    free[[3 * v + i for v, i in LEFT_END_FRAME]] = False
+    gravity = (0.0, -G, 0.0)
+    body = full_floating_body(beam, free)
+    floating = FloatingFrameSystem([body], [], gravity)
+
+    def ancf_residual(x, xdd):  # the inertial ANCF body's M ẍ + F(x) − ϱ g, on its nodal vectors
+        return (beam.mass_matrix() @ xdd + beam.elastic_force(x) - beam.varrho()[:, None] * jnp.asarray(gravity))
+
+    assert floating.n_dof == 7 + beam.n_dof - 6
+    rng = np.random.default_rng(2)
+    e = rng.normal(size=4)
+    z = jnp.asarray(np.concatenate([rng.normal(size=3), e / np.linalg.norm(e), 0.05 * rng.normal(size=body.k)]))
+    v, a = (jnp.asarray(rng.normal(size=floating.n_dof)) for _ in range(2))
+    J = jax.jacfwd(body.nodal_vectors)(z).reshape(beam.n_dof, -1)
+    r = np.array(floating.residual(0.0, z, v, a))
+    mapped = np.array(J.T @ ancf_residual(body.nodal_vectors(z), body.acceleration(z, v, a)).reshape(-1))
+    e1 = np.asarray(z[3:7])
+    for y in (r, mapped):
+        y[3:7] -= (y[3:7] @ e1) * e1
+    np.testing.assert_allclose(r, mapped, rtol=0, atol=1e-12 * np.abs(mapped).max())
+    p = jnp.asarray(z[7:])
+    tensors = elastic_tensors(beam, beam.q_hat, body.basis)
+    F, K = NodalElasticForce(beam, free).force_and_jacobian(p)
+    F3, K3 = tensors.force_and_jacobian(p)
+    np.testing.assert_allclose(F, F3, rtol=0, atol=1e-12 * float(np.abs(F3).max()))
+    np.testing.assert_allclose(K, K3, rtol=0, atol=1e-12 * float(np.abs(K3).max()))
+    with pytest.raises(ValueError, match="mask of the body's 36"):
+        full_floating_body(beam, free[:-1])
 
 
 def test_closed_form_kinematics_are_the_maps_derivatives():

@@ -93,10 +93,27 @@ def test_pendulum_run_views():
 
 
 @pytest.mark.xdist_group("pendulum")
+def test_floating_frame_pendulum_runs_with_the_ancf_one(pendulum_run):
+    """The full-order RNCF pendulum (``build_rncf_pendulum``: each beam in the frame of its left
+    end, every other nodal coordinate kept) is the ANCF model in other coordinates, so the two
+    runs differ by their time-integration errors alone: at rtol 1e-5 the tips agree to 8.4e-6 m
+    over 0-0.4 s, and each model's own error there (against itself at rtol 1e-7) is 9.6e-6 m
+    (ANCF) and 1.2e-5 m (RNCF); the bound 1e-4 m is 8× those, and a model that holds the section vectors entirely (the NR-RNCF cantilever clamp,
+    ``REFERENCE_CONDITIONS``) misses it (3.4e-4 m). Energy (ρ∞ = 1) and the joints as the ANCF
+    run's."""
+    from nrrncf_jax.scenarios.pendulum import run_pendulum
+
+    run = run_pendulum(PendulumSpec(elements=2), formulation="rncf", **PENDULUM_RUN)
+    assert run.formulation == "rncf" and run.dofs == 3 * (7 + 54 - 6)
+    assert np.abs(run.tips - pendulum_run.tips).max() < 1e-4
+    assert np.abs(run.energy - run.energy[0]).max() < 1e-4 * run.kinetic.max()
+    assert run.constraint_max < 1e-8
+
+
+@pytest.mark.xdist_group("pendulum")
 def test_pendulum_command(pendulum_run, tmp_path, monkeypatch, capsys):
     """``nrrncf pendulum``: its options reach ``run_pendulum`` and its outputs are written (the
-    runs are the fixture's: the simulations are tested above and in test_floating); ``rncf`` is
-    refused with a line that says why."""
+    runs are the fixture's: the simulations are tested above and in test_floating)."""
     import dataclasses
     import json
 
@@ -145,8 +162,16 @@ def test_pendulum_command(pendulum_run, tmp_path, monkeypatch, capsys):
     assert "--reference-rtol needs --reference ancf" in capsys.readouterr().err
     assert main(["pendulum", "--formulation", "nr-rncf", "--craig-bampton", "--joint-modes"]) == 2
     assert "pass one of --joint-modes, --craig-bampton" in capsys.readouterr().err
-    assert main(["pendulum", "--formulation", "rncf"]) == 2
-    assert "inertial-frame model" in capsys.readouterr().err
+    # the full-order floating-frame model, alone and as the reference
+    calls.clear()
+    assert main(argv[:-9] + ["--formulation", "rncf", "--json"]) == 0
+    assert [kw.get("formulation", "ancf") for _, kw in calls] == ["rncf"]
+    calls.clear()
+    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--reference", "rncf", "--json"]) == 0
+    assert [kw.get("formulation", "ancf") for _, kw in calls] == ["rncf", "nr-rncf"]
+    capsys.readouterr()
+    assert main(["pendulum", "--formulation", "rncf", "--vms", "3"]) == 2
+    assert "go with --formulation nr-rncf" in capsys.readouterr().err
     assert main(["pendulum", "--vms", "3"]) == 2
     assert "go with --formulation nr-rncf" in capsys.readouterr().err
 

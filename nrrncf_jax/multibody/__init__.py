@@ -5,10 +5,14 @@
   ``integrate.GeneralizedAlphaIndex3``; ``placed`` moves a body into place.
 - ``floating``: ``FloatingFrameSystem`` of bodies in free-floating frames (Euler parameters)
   with reduced deformation (``FloatingBody``): NR-RNCF for jointed systems.
+- ``full_order_frame``: ``full_floating_body``, a floating-frame body with every free nodal
+  coordinate kept and the elements' own elastic force: the full-order RNCF.
 """
 
 from .floating import FloatingBody as FloatingBody
 from .floating import FloatingFrameSystem as FloatingFrameSystem
+from .full_order_frame import NodalElasticForce as NodalElasticForce
+from .full_order_frame import full_floating_body as full_floating_body
 from .joints import GROUND as GROUND
 from .joints import AbstractJoint as AbstractJoint
 from .joints import Fixed as Fixed

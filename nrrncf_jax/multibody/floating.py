@@ -109,11 +109,12 @@ class FloatingBody(eqx.Module):
     """A body in a floating frame, deformation reduced: ``body`` in its own frame (its ``q_hat``
     the stress-free state in frame coordinates), the deformation basis ``basis`` (n_dof × k,
     zero on the reference conditions), its ``tensors`` (``reduction.elastic_tensors(body,
-    body.q_hat, basis)``), and the frame's initial origin ``R0`` and orientation ``A0``."""
+    body.q_hat, basis)``; or ``full_order_frame.NodalElasticForce``, the elements' own force, for
+    the full-order RNCF body), and the frame's initial origin ``R0`` and orientation ``A0``."""
 
     body: Body
     basis: Float[Array, "ndof k"]
-    tensors: ElasticTensors
+    tensors: ElasticTensors  # or full_order_frame.NodalElasticForce: n_coordinates, force, force_and_jacobian
     R0: Float[Array, " 3"]
     e0: Float[Array, " 4"]
     is_position: Float[Array, " nv"]  # 1.0 on position vectors, 0.0 on gradient vectors
@@ -131,8 +132,8 @@ class FloatingBody(eqx.Module):
         basis = jnp.asarray(basis)
         if basis.ndim != 2 or basis.shape[0] != body.n_dof:
             raise ValueError(f"basis must be (n_dof, k) = ({body.n_dof}, k), got {basis.shape}")
-        if tensors.K.shape != (basis.shape[1], basis.shape[1]):
-            raise ValueError(f"tensors are for {tensors.K.shape[0]} coordinates, the basis has {basis.shape[1]}")
+        if tensors.n_coordinates != basis.shape[1]:
+            raise ValueError(f"tensors are for {tensors.n_coordinates} coordinates, the basis has {basis.shape[1]}")
         self.body, self.basis, self.tensors = body, basis, tensors
         self.R0 = jnp.asarray(R0, dtype=float).reshape(3)
         self.e0 = jnp.asarray(euler_parameters(np.eye(3) if A0 is None else A0))

@@ -55,6 +55,10 @@ class ElasticTensors(eqx.Module):
         unpack[t2[0], t2[1]] = unpack[t2[1], t2[0]] = np.arange(t2.shape[1])
         self.unpack = jnp.asarray(unpack)
 
+    @property
+    def n_coordinates(self) -> int:
+        return int(self.f.shape[0])
+
     def scaled(self, s) -> "ElasticTensors":
         """The tensors times ``s``: κ is linear in Young's modulus, so with the basis held fixed
         ``tensors(E) = (E / E0) · tensors(E0)``; differentiable in ``s``."""

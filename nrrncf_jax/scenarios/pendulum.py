@@ -33,7 +33,15 @@ from ..integrate import GeneralizedAlphaIndex3
 from ..integrate.simulate import simulate_timed
 from ..material import Material
 from ..mesh import straight_reference
-from ..multibody import FloatingBody, FloatingFrameSystem, MultibodySystem, Revolute, placed
+from ..multibody import (
+    FloatingBody,
+    FloatingFrameSystem,
+    MultibodySystem,
+    NodalElasticForce,
+    Revolute,
+    full_floating_body,
+    placed,
+)
 from ..section import TubeSection
 
 # The C1 beam's nodal vectors at a node: r, r_x, r_y, r_xy, r_z, r_xz
@@ -87,6 +95,28 @@ def build_pendulum(spec: PendulumSpec = PendulumSpec()) -> MultibodySystem:
     beam = _beam(spec)
     bodies = [placed(beam, translation=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
     return MultibodySystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
+
+
+LEFT_END_FRAME = ((_R, 0), (_R, 1), (_R, 2), (_RY, 0), (_RY, 2), (_RZ, 0))
+"""The full-order RNCF's reference conditions, (nodal vector, component) of each beam's left node
+held in its frame: the position (3), and the frame the left end's local frame, the
+Gram-Schmidt frame of its section vectors: x normal to r_y and r_z (their x components zero),
+y along r_y (its z component zero). Six conditions for the frame's six motions, so the model is
+the ANCF one in other coordinates (the two converge together: ``tests/test_floating.py``). The
+NR-RNCF basis holds the section vectors entirely (``REFERENCE_CONDITIONS``, a cantilever's
+clamp), a subspace of this one."""
+
+
+def build_rncf_pendulum(spec: PendulumSpec = PendulumSpec()) -> FloatingFrameSystem:
+    """The full-order RNCF pendulum (the paper's reference): each beam in the floating frame of
+    its left end (``LEFT_END_FRAME``) with all its other nodal coordinates as deformation
+    coordinates and its elements' own elastic force (``multibody.full_floating_body``), the same
+    joints as ``build_pendulum``. 3 × (7 + 192) coordinates on the paper's 10-element beams."""
+    beam = _beam(spec)
+    free = np.ones(beam.n_dof, bool)
+    free[[3 * v + i for v, i in LEFT_END_FRAME]] = False
+    bodies = [full_floating_body(beam, free, R0=(k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
+    return FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
 
 
 def boundary_modes(beam, free, vectors) -> np.ndarray:
@@ -300,7 +330,7 @@ class PendulumRun:
                     "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup})}
 
 
-FORMULATIONS = ("ancf", "nr-rncf")
+FORMULATIONS = ("ancf", "rncf", "nr-rncf")
 
 
 def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out: float = 0.001,
@@ -308,14 +338,17 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
                  max_steps: int = 500_000, formulation: str = "ancf", n_vms: int = 5, pairs="all",
                  joint_modes: bool = False, newton_tol: float = 1e-2, craig_bampton: bool = False,
                  body_pairs=None) -> PendulumRun:
-    """The pendulum released from rest: full order (``"ancf"``: ANCF bodies) or NR-RNCF
-    (``"nr-rncf"``: ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=...,
+    """The pendulum released from rest: full order (``"ancf"``: ANCF bodies, ``build_pendulum``;
+    ``"rncf"``: floating frames, ``build_rncf_pendulum``) or NR-RNCF (``"nr-rncf"``:
+    ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=...,
     body_pairs=...)``), index-3 generalized-α."""
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     info = None
     if formulation == "ancf":
         system = build_pendulum(spec)
+    elif formulation == "rncf":
+        system = build_rncf_pendulum(spec)
     else:
         system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=craig_bampton,
                                               body_pairs=body_pairs)
@@ -328,10 +361,11 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
               rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
               max_steps: int = 500_000, newton_tol: float = 1e-2) -> PendulumRun:
     """Any chain of C1 beams joined into a ``MultibodySystem`` (``"ancf"``) or a
-    ``FloatingFrameSystem`` (``"nr-rncf"``), from its reference state at rest, index-3
-    generalized-α: the ``PendulumRun`` record (every node's position, the left ends' slopes,
-    energies, the joints' violation, the statistics). ``run_pendulum`` is this for the paper's
-    pendulum; a notebook builds its own system and runs it here.
+    ``FloatingFrameSystem`` (``"rncf"`` with full-order bodies, else ``"nr-rncf"``), from its
+    reference state at rest, index-3 generalized-α: the ``PendulumRun`` record (every node's
+    position, the left ends' slopes, energies, the joints' violation, the statistics).
+    ``run_pendulum`` is this for the paper's pendulum; a notebook builds its own system and runs
+    it here.
 
     ``newton_tol``: Newton stops when its correction is below this fraction of the step's error
     tolerance. 1 % here, against ``simulate``'s 0.1 %: the reduced pendulum's modified Newton
@@ -342,7 +376,8 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
 
     ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
     if isinstance(system, FloatingFrameSystem):
-        formulation, n_vectors = "nr-rncf", system.bodies[0].body.n_vectors
+        formulation = "rncf" if isinstance(system.bodies[0].tensors, NodalElasticForce) else "nr-rncf"
+        n_vectors = system.bodies[0].body.n_vectors
 
         def vectors(z, v):
             return system.nodal_vectors(z), system.kinetic_energy(z, v)
@@ -370,5 +405,6 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
                        run_s=run_s)
 
 
-__all__ = ["FORMULATIONS", "REFERENCE_CONDITIONS", "SHAPE_TIMES", "PendulumRun", "PendulumSpec", "build_pendulum",
-           "boundary_modes", "build_reduced_pendulum", "mmi_per_body", "run_chain", "run_pendulum", "tip_vectors"]
+__all__ = ["FORMULATIONS", "LEFT_END_FRAME", "REFERENCE_CONDITIONS", "SHAPE_TIMES", "PendulumRun", "PendulumSpec",
+           "build_pendulum", "boundary_modes", "build_reduced_pendulum", "build_rncf_pendulum", "mmi_per_body",
+           "run_chain", "run_pendulum", "tip_vectors"]
