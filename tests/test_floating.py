@@ -245,8 +245,9 @@ def test_full_order_frame_is_the_ancf_body_in_other_coordinates():
 
 
 def test_closed_form_kinematics_are_the_maps_derivatives():
-    """J, J z̈ + J̇ż, J ᵀF, the mass matrix from the inertia invariants, the joints' C_z and C_zᵀλ, written
-    in closed form, against automatic differentiation of x = f(z) and C(f(z)) (and J ᵀM J), at a
+    """J, J z̈ + J̇ż, J ᵀF, the mass matrix from the inertia invariants, the inertia terms' derivatives
+    with respect to p and ṗ (``deformation_tangent``), the joints' C_z and C_zᵀλ, written in closed
+    form, against automatic differentiation of x = f(z) and C(f(z)) (and J ᵀM J), at a
     random state off the constraints (round-off); and the stacked (vmapped) evaluation of equal
     bodies against the loop over them."""
     import equinox as eqx
@@ -274,6 +275,17 @@ def test_closed_form_kinematics_are_the_maps_derivatives():
     lam = rng.normal(size=system.n_constraints)
     np.testing.assert_allclose(system.constraint_force(z, lam), system.constraint_jacobian(z).T @ lam, rtol=0,
                                atol=1e-13 * scale * float(np.abs(lam).sum()))
+    # the inertia terms' p columns (deformation_tangent) against differentiating the body's residual
+    c_C, c_K = 0.3, 0.02
+
+    def body_residual(y, w):
+        F = body.mass @ body.acceleration(y, w, ab) - body.weights[:, None] * system.gravity[None, :]
+        return body.generalized(y, F)
+
+    exact = c_K * jax.jacfwd(body_residual)(zb, vb)[:, 7:] + c_C * jax.jacfwd(body_residual, 1)(zb, vb)[:, 7:]
+    F = body.mass @ body.acceleration(zb, vb, ab) - body.weights[:, None] * system.gravity[None, :]
+    np.testing.assert_allclose(body.deformation_tangent(zb, vb, ab, F, c_C, c_K), exact, rtol=0,
+                               atol=1e-13 * float(np.abs(exact).max()))
     looped = eqx.tree_at(lambda s: s.stacked, system, None, is_leaf=lambda x: x is None)
     r = system.residual(0.0, z, v, a)
     np.testing.assert_allclose(looped.residual(0.0, z, v, a), r, rtol=0, atol=1e-13 * float(np.abs(r).max()))

@@ -110,6 +110,21 @@ def test_pivoted_lu_forms_agree_and_need_no_permutation_loop():
         np.testing.assert_allclose(dx1, dx, rtol=1e-9, atol=1e-11)
     np.testing.assert_allclose(DenseLU.factor(A).solve(np.stack([b, db], axis=1)),
                                np.linalg.solve(A, np.stack([b, db], axis=1)), rtol=1e-11, atol=1e-12)
+    # Above EXPLICIT_INVERSE_MAX: the permutation kept, the same solution and derivative.
+    from nrrncf_jax.linalg.dense import EXPLICIT_INVERSE_MAX
+
+    n = EXPLICIT_INVERSE_MAX + 3
+    A2 = rng.normal(size=(n, n))
+    A2[0, 0] = 1e-4
+    b2, dA2, db2 = rng.normal(size=n), rng.normal(size=(n, n)), rng.normal(size=n)
+    x2 = np.linalg.solve(A2, b2)
+    dx2 = np.linalg.solve(A2, db2 - dA2 @ x2)
+    assert DenseLU.factor(A2).perm is not None and DenseLU.factor(A).perm is None
+    x3, dx3 = jax.jvp(lambda A, b: DenseLU.factor(A).solve(b), (jnp.asarray(A2), jnp.asarray(b2)),
+                      (jnp.asarray(dA2), jnp.asarray(db2)))
+    cond = np.linalg.cond(A2)
+    np.testing.assert_allclose(x3, x2, rtol=0, atol=1e-13 * cond * np.abs(x2).max())
+    np.testing.assert_allclose(dx3, dx2, rtol=0, atol=1e-13 * cond**2 * np.abs(dx2).max())
     if jax.default_backend() == "cpu":
         text = jax.jit(lambda A, b: DenseLU.factor(A).solve(b)).lower(A, b).compile().as_text()
         assert " while(" not in text and "while." not in text

@@ -98,9 +98,9 @@ def test_floating_frame_pendulum_runs_with_the_ancf_one(pendulum_run):
     end, every other nodal coordinate kept) is the ANCF model in other coordinates, so the two
     runs differ by their time-integration errors alone: at rtol 1e-5 the tips agree to 8.4e-6 m
     over 0-0.4 s, and each model's own error there (against itself at rtol 1e-7) is 9.6e-6 m
-    (ANCF) and 1.2e-5 m (RNCF); the bound 1e-4 m is 8× those, and a model that holds the section vectors entirely (the NR-RNCF cantilever clamp,
-    ``REFERENCE_CONDITIONS``) misses it (3.4e-4 m). Energy (ρ∞ = 1) and the joints as the ANCF
-    run's."""
+    (ANCF) and 1.2e-5 m (RNCF); the bound 1e-4 m is 8× those, and a model that holds the section
+    vectors entirely (the NR-RNCF cantilever clamp, ``REFERENCE_CONDITIONS``) misses it
+    (3.4e-4 m). Energy (ρ∞ = 1) and the joints as the ANCF run's."""
     from nrrncf_jax.scenarios.pendulum import run_pendulum
 
     run = run_pendulum(PendulumSpec(elements=2), formulation="rncf", **PENDULUM_RUN)

@@ -34,10 +34,15 @@ Choices, and why:
   is per XLA operation. The elastic force, the costly part at full order, is the reduced cubic
   one.
 - The iteration matrix is block-diagonal, one dense block a body (z_b has a few tens of
-  coordinates): the mass matrix J ᵀM J and the reduced elastic stiffness K + 2Lp + 3Npp; the
-  inertia terms' derivatives through J and the joints' Hessian are left to Newton's iterations
-  (``iteration_matrix``). The constrained matrix is factored body by body with the joints' Schur
-  complement (``factor_augmented``).
+  coordinates): the mass matrix J ᵀM J and the reduced elastic stiffness K + 2Lp + 3Npp, and,
+  in the index-3 step, the inertia terms' derivatives with respect to p and ṗ in closed form
+  (``FloatingBody.deformation_tangent``: the frame's angular acceleration, centrifugal and
+  Coriolis terms on the deformation, and J_e's change with p against the body's forces). Those
+  with respect to the frame's coordinates and the rest of the joints' Hessian are left to
+  Newton's iterations: with them, modified Newton contracted by 1.2e-3 an iteration on the
+  full-order pendulum (0.41 without: 6.6 iterations a step) and 1.3e-4 on the reduced one
+  (1.4e-3 without), at a state of the 10-element pendulum's run, h = 0.2 ms. The constrained
+  matrix is factored body by body with the joints' Schur complement (``factor_augmented``).
 - ``project_velocities``: the index-3 step (``integrate.GeneralizedAlphaIndex3``) projects ż onto
   C_z ż = 0 after each step. Without it the frames' accelerations oscillated from step to step
   (the O(h) velocity-constraint violation that index 3 leaves), which stalled the step size, and
@@ -127,6 +132,7 @@ class FloatingBody(eqx.Module):
     U0: Float[Array, "3 3"]  # Σ M_vw q̂_v q̂_wᵀ
     G: Float[Array, "3 3 k"]  # Σ M_vw q̂_va Ψ_wbj
     H: Float[Array, "3 3 k k"]  # Σ M_vw Ψ_vaj Ψ_wbl
+    H_trace: Float[Array, "k k"]  # Σ_a H_aa = Ψᵀ (M_b ⊗ I) Ψ
 
     def __init__(self, body: Body, basis, tensors: ElasticTensors, R0=(0.0, 0.0, 0.0), A0=None):
         basis = jnp.asarray(basis)
@@ -149,6 +155,7 @@ class FloatingBody(eqx.Module):
         self.U0 = jnp.asarray(q_hat.T @ M @ q_hat)
         self.G = jnp.asarray(np.einsum("va,vbj->abj", q_hat, MPsi))
         self.H = jnp.asarray(np.einsum("vaj,vbl->abjl", Psi, MPsi))
+        self.H_trace = jnp.asarray(np.einsum("vaj,val->jl", Psi, MPsi))
 
     @property
     def k(self) -> int:
@@ -212,9 +219,11 @@ class FloatingBody(eqx.Module):
         with the constant coefficients ``c0, C, U0, G, H``) and D_k = ∂Â/∂e_k,
 
             M_RR = m I,  M_Re = [D_k c]_k,  M_Rp = Â C,  M_ee = [Σ D_k:(D_l U)]_kl,
-            M_ep = [Σ D_k:(Â V_m)]_km,  M_pp = Σ Â_ia Â_ib H_ab.
+            M_ep = [Σ D_k:(Â V_m)]_km,  M_pp = Σ Â_ia Â_ib H_ab = |e|⁴ Σ_a H_aa
 
-        A few 3 × 3 × k × k products instead of J ᵀM J over every nodal vector (0.37 → 0.06 ms on
+        (Â(e) = |e|² A(e) with A orthogonal, so ÂᵀÂ = |e|⁴ I: M_pp is the constant ``H_trace``
+        scaled, a k × k product saved, which on the full-order body, k = 192, was the largest).
+        A few 3 × 3 × k products instead of J ᵀM J over every nodal vector (0.37 → 0.06 ms on
         the pendulum's 10-element beams); equal to it to round-off (tests/test_floating.py)."""
         e, p = z[3:7], z[7:]
         A, D = _A_hat(e), _dA_hat(e)
@@ -226,10 +235,39 @@ class FloatingBody(eqx.Module):
         M_Rp = A @ self.C
         M_ee = jnp.einsum("kia,lib,ab->kl", D, D, U)
         M_ep = jnp.einsum("kia,ib,abm->km", D, A, V)
-        M_pp = jnp.einsum("ia,ib,abmn->mn", A, A, self.H)
+        M_pp = (e @ e) ** 2 * self.H_trace
         return jnp.block([[self.m_total * jnp.eye(3), M_Re, M_Rp],
                           [M_Re.T, M_ee, M_ep],
                           [M_Rp.T, M_ep.T, M_pp]])
+
+    def deformation_tangent(self, z, v, a, F: Float[Array, "nv 3"], c_C, c_K) -> Float[Array, "nz k"]:
+        """The columns for p (and ṗ) of the residual's derivative that ``mass_matrix`` and the
+        elastic stiffness leave out, c_K ∂r/∂p + c_C ∂r/∂ṗ of r = J ᵀF with F = M ẍ − Q held:
+
+            c_K (∂J/∂p)ᵀ F + J ᵀM Y Ψ,   Y = c_K (Σ_k ∂Â/∂e_k ë_k + ∂²Â(ė, ė)) + 2 c_C Ȧ,
+
+        as ẍ = J z̈ + J̇ ż has ∂ẍ/∂p = (Σ_k ∂Â/∂e_k ë_k + ∂²Â(ė, ė)) Ψ (the frame's angular
+        acceleration and centrifugal terms acting on the deformation) and ∂ẍ/∂ṗ = 2 Ȧ Ψ
+        (Coriolis), and only J_e = ∂Â/∂e u depends on p (∂J_e/∂p = ∂Â/∂e Ψ, contracted with F).
+        From the inertia invariants: R rows Y C, e rows Σ D_k:(Y V) + c_K Σ D_k:(Fᵀ Ψ), p rows
+        Σ (ÂᵀY)_ab H_ab. ``F`` is the body's total nodal force, the joints' reactions included
+        (their Hessian's part through J). Small against c_M M_z in most directions, but on the
+        full-order body a frame rotation undone by its deformation coordinates moves only the
+        left node's section vectors, whose inertia is tiny: there these terms are not small, and
+        without them modified Newton contracted by 0.41 an iteration (0.0012 with them) on the
+        10-element pendulum's beams."""
+        e, p, de, dp = z[3:7], z[7:], v[3:7], v[7:]
+        del dp
+        A, D = _A_hat(e), _dA_hat(e)
+        A_dd = 2.0 * jnp.einsum("k,l,klij->ij", de, de, jnp.asarray(_B)) + jnp.einsum("k,kij->ij", a[3:7], D)
+        Y = c_K * A_dd + 2.0 * c_C * jnp.einsum("k,kij->ij", de, D)
+        V = self.G + jnp.einsum("abjm,j->abm", self.H, p)
+        Psi = self.basis.reshape(self.body.n_vectors, 3, -1)
+        W = jnp.einsum("vi,vjm->ijm", F, Psi)
+        rows_R = Y @ self.C
+        rows_e = jnp.einsum("kia,ib,abm->km", D, Y, V) + c_K * jnp.einsum("kij,ijm->km", D, W)
+        rows_p = jnp.einsum("ia,ib,abmn->mn", A, Y, self.H)
+        return jnp.concatenate([rows_R, rows_e, rows_p], axis=0)
 
     def initial(self) -> Float[Array, " nz"]:
         return jnp.concatenate([self.R0, self.e0, jnp.zeros(self.k)])
@@ -323,11 +361,13 @@ class FloatingFrameSystem(AbstractModel):
     def _map(self, fn, *vectors) -> list:
         """``[fn(body_b, *(each vector's part b))]``: one vmapped call over the stacked bodies when
         they share one structure (a chain of equal beams: a third of the operations for three
-        bodies, and XLA's time here is per operation), else a loop."""
+        bodies, and XLA's time here is per operation), else a loop. A vector is split by the
+        bodies' coordinates; a tuple holds its parts already (one a body)."""
+        parts = [x if isinstance(x, tuple) else self.split(x) for x in vectors]
         if self.stacked is None:
-            return [fn(b, *parts) for b, *parts in zip(self.bodies, *(self.split(x) for x in vectors))]
+            return [fn(b, *ps) for b, *ps in zip(self.bodies, *parts)]
         nb = len(self.bodies)
-        out = jax.vmap(fn)(self.stacked, *(x.reshape(nb, -1) for x in vectors))
+        out = jax.vmap(fn)(self.stacked, *(jnp.stack(ps) for ps in parts))
         return [jax.tree_util.tree_map(lambda y, i=i: y[i], out) for i in range(nb)]
 
     def nodal_vectors(self, z: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
@@ -419,31 +459,54 @@ class FloatingFrameSystem(AbstractModel):
     def iteration_matrix(self, t, z, v, c_M, c_C, c_K):
         """``c_M M_z + c_K ∂F/∂z``: the mass matrix and the reduced elastic stiffness. The
         derivatives of the inertia terms through J (centrifugal, gyroscopic, the load's change of
-        direction) are left out: they are of order c_K ω² M and c_C ω M against M, small at the
-        steps the motion needs, and Newton's iterations absorb them (a modified Newton on this
-        matrix converges linearly, at that rate, to the same solution)."""
+        direction) are left out here: they are of order c_K ω² M and c_C ω M against M, and a
+        modified Newton on this matrix converges linearly, at that rate, to the same solution.
+        ``factor_augmented`` with the state's acceleration adds their p columns (the module
+        docstring says why)."""
         return jax.scipy.linalg.block_diag(*self._blocks(z, c_M, c_K))
 
-    def _blocks(self, z, c_M, c_K) -> list:
-        """The ``iteration_matrix``'s diagonal blocks, one a body."""
-        def block(b, zb):
-            _, K = b.tensors.force_and_jacobian(zb[7:])
-            return (c_M * b.mass_matrix(zb)).at[7:, 7:].add(c_K * K)
+    def _blocks(self, z, c_M, c_K, v=None, a=None, lam=None, c_C=0.0) -> list:
+        """The ``iteration_matrix``'s diagonal blocks, one a body; with the state's velocity
+        ``v``, acceleration ``a`` and multipliers ``lam``, also the p columns of the inertia
+        terms' derivatives (``FloatingBody.deformation_tangent``)."""
+        if a is None:
+            def block(b, zb):
+                _, K = b.tensors.force_and_jacobian(zb[7:])
+                return (c_M * b.mass_matrix(zb)).at[7:, 7:].add(c_K * K)
 
-        return self._map(block, z)
+            return self._map(block, z)
+        reactions = self._nodal_reactions(z, lam)
+
+        def block_with_inertia(b, zb, vb, ab, Fj):
+            _, K = b.tensors.force_and_jacobian(zb[7:])
+            F = b.mass @ b.acceleration(zb, vb, ab) - b.weights[:, None] * self.gravity[None, :] + Fj
+            S = (c_M * b.mass_matrix(zb)).at[7:, 7:].add(c_K * K)
+            return S.at[:, 7:].add(b.deformation_tangent(zb, vb, ab, F, c_C, c_K))
+
+        return self._map(block_with_inertia, z, v, a, tuple(reactions))
+
+    def _nodal_reactions(self, z, lam) -> tuple:
+        """The joints' forces on each body's nodal vectors, C_xᵀλ (zero without joints)."""
+        xs = self.nodal_vectors(z)
+        if not self.joints:
+            return tuple(jnp.zeros_like(x) for x in xs)
+        m = sum(j.n_equations for j in self.joints)
+        _, pullback = jax.vjp(self._joint_equations, xs)
+        return pullback(lam[:m])[0]
 
     def factor_iteration_matrix(self, t, z, v, c_M, c_C, c_K):
         return DenseLU.factor(self.iteration_matrix(t, z, v, c_M, c_C, c_K))
 
-    def factor_augmented(self, t, z, v, lam, c_C, c_K) -> AugmentedFactor:
+    def factor_augmented(self, t, z, v, lam, c_C, c_K, a=None) -> AugmentedFactor:
         """``[[S, C_zᵀ], [C_z, 0]]`` factored body by body: each body's block of S, the
-        ``iteration_matrix``, on its own, and the joints by the m × m Schur complement
+        ``iteration_matrix`` (with ``a``, the step's acceleration, plus the inertia terms' p
+        columns, ``FloatingBody.deformation_tangent``), on its own, and the joints by the m × m Schur complement
         C_z S⁻¹ C_zᵀ (as ``MultibodySystem``'s ``"bodies"`` solver). The joints' Hessian c_K H_λ
         is left out as well: of the order of the reactions times c_K. Three LU factorisations of
         27 × 27 and one of 18 × 18 on the reduced pendulum, against one of 99 × 99: 9 % of its
         arithmetic, and on a CPU a 99 × 99 LU costs more than the step's other operations."""
         B = self.constraint_jacobian(z)
-        factors = tuple(DenseLU.factor(S_b) for S_b in self._blocks(z, 1.0, c_K))
+        factors = tuple(DenseLU.factor(S_b) for S_b in self._blocks(z, 1.0, c_K, v, a, lam, c_C))
         sizes = tuple(b.n_z for b in self.bodies)
         S_inv_Bt = _solve_bodies(factors, self.offsets, sizes, B.T)
         return AugmentedFactor(bodies=factors, offsets=self.offsets, sizes=sizes, B=B, S_inv_Bt=S_inv_Bt,

@@ -193,7 +193,7 @@ class MultibodySystem(AbstractModel):
     def factor_iteration_matrix(self, t, x, v, c_M, c_C, c_K):
         return DenseLU.factor(self.iteration_matrix(t, x, v, c_M, c_C, c_K))
 
-    def factor_augmented(self, t, x, v, lam, c_C, c_K) -> "AugmentedFactor":
+    def factor_augmented(self, t, x, v, lam, c_C, c_K, a=None) -> "AugmentedFactor":
         """The step's constrained iteration matrix ``[[S + c_K H_λ, C_xᵀ], [C_x, 0]]`` factored
         (``integrate.GeneralizedAlphaIndex3``), S = M + c_K K(x). ``solver="dense"``: one dense LU
         of the whole matrix, with the joints' Hessian H_λ = ∂(C_xᵀλ)/∂x. ``"bodies"`` (the default
@@ -201,7 +201,8 @@ class MultibodySystem(AbstractModel):
         chains) and the joints by the m × m Schur complement C_x S⁻¹ C_xᵀ: O(n) instead of
         O(n³). It leaves H_λ out, which couples the bodies at their joints: Newton then converges
         linearly, at a rate of about c_K |H_λ| / |M| (the reactions times h²β against the nodal
-        masses: small), to the same solution."""
+        masses: small), to the same solution. ``a`` (the step's acceleration) is not used: the
+        inertial frame's mass matrix is constant."""
         B = self.constraint_jacobian(x)
         if self.solver == "dense":
             S = self.iteration_matrix(t, x, v, 1.0, c_C, c_K) + c_K * self.constraint_hessian(x, lam)
@@ -274,6 +275,13 @@ class AugmentedFactor(eqx.Module):
     B: Float[Array, "m n"] | None = None
     S_inv_Bt: Float[Array, "n m"] | None = None
     schur: DenseLU | None = None
+
+    def with_constraints(self, B: Float[Array, "m n"]) -> "AugmentedFactor":
+        """The same bodies' factors with the constraint Jacobian ``B`` (its Schur complement
+        refactored: m × m), for the velocity projection at the step's end
+        (``integrate.GeneralizedAlphaIndex3``). The body-by-body form only."""
+        S_inv_Bt = _solve_bodies(self.bodies, self.offsets, self.sizes, B.T)
+        return eqx.tree_at(lambda f: (f.B, f.S_inv_Bt, f.schur), self, (B, S_inv_Bt, DenseLU.factor(B @ S_inv_Bt)))
 
     def solve(self, F: Float[Array, " nm"]) -> Float[Array, " nm"]:
         if self.dense is not None:
