@@ -6,18 +6,20 @@ E = 5 MPa, ν = 0.3 (a soft rubber-like rod: as a cantilever its first two bendi
 origin), the beams are joined end to end by revolute joints about Z, and the chain is released
 from rest in a straight horizontal line along +x, gravity −9.81 m/s² along Y.
 
-Two models: ``build_pendulum``, inertial-frame (ANCF) bodies joined by ``multibody`` joints
+Three models: ``build_pendulum``, inertial-frame (ANCF) bodies joined by ``multibody`` joints
 and integrated by the index-3 generalized-α (``integrate.GeneralizedAlphaIndex3``), the
-full-order reference; and ``build_reduced_pendulum``, NR-RNCF: each beam in a floating frame
+full-order reference; ``build_rncf_pendulum``, the same beams at full order in floating frames
+(the paper's full RNCF, the ANCF model in other coordinates); and ``build_reduced_pendulum``,
+NR-RNCF: each beam in a floating frame
 (``multibody.floating``) with its deformation reduced to cantilever modes and their modal
 derivatives (optionally with the right-end joint's static modes, ``boundary_modes``), or to the
 extended Craig-Bampton basis (``reduction.craig_bampton``: the joint's position as boundary
 coordinates, fixed-interface modes and their MDs); ``mmi_per_body`` picks each beam's MDs by
-maximum modal interaction. On the paper's mesh the reduced model (81 DOFs, χ_rel 1.14 %) runs
-6.3-9.9× faster than the full one at the same tolerance and 10-19× at a 3× looser one, which its
-own time-integration error allows; with 8 MDs a beam by MMI (60 DOFs) χ_rel 1.17 % and 20.6×;
-the Craig-Bampton one (87 DOFs) is within χ_rel 0.33 % (``benchmarks/results/pendulum.md``,
-issue 17).
+maximum modal interaction. On the paper's mesh the reduced model (81 DOFs, χ_rel 1.13 %) ran
+11.4× faster than the full ANCF one and 58× faster than the full RNCF one at the same tolerance
+(earlier runs: 6.3-9.9× against ANCF), 16.6× at a 3× looser one, which its own time-integration
+error allows; with 8 MDs a beam by MMI (60 DOFs) χ_rel 1.17 % and 18.5×; the Craig-Bampton one
+(87 DOFs) is within χ_rel 0.33 % (``benchmarks/results/pendulum.md``, issue 17).
 """
 
 import dataclasses
