@@ -110,7 +110,7 @@ def measure(Ge, dofs, n, solver, repeats, chain_block=None):
     if solver == "sparse":
         lu = sparse_module._factors.get(int(fac.handle))
         if lu is not None:
-            host = (lu.L.nnz + lu.U.nnz) * (8 + 4) + 2 * n * 4
+            host = lu.nbytes  # ScaledSuperLU: values and row indices of L and U, and the permutations
     return t_compile, t_run, t_solve, nbytes, host
 
 

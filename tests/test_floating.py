@@ -242,6 +242,10 @@ def test_full_order_frame_is_the_ancf_body_in_other_coordinates():
     np.testing.assert_allclose(K, K3, rtol=0, atol=1e-12 * float(np.abs(K3).max()))
     with pytest.raises(ValueError, match="mask of the body's 36"):
         full_floating_body(beam, free[:-1])
+    with pytest.raises(ValueError, match="distinct coordinate indices"):
+        NodalElasticForce(beam, [3, 3, 4])
+    with pytest.raises(ValueError, match="tensors are for 29 coordinates, the basis has 30"):
+        FloatingBody(beam, body.basis, NodalElasticForce(beam, np.flatnonzero(free)[:-1]))
 
 
 def test_closed_form_kinematics_are_the_maps_derivatives():
