@@ -240,6 +240,11 @@ class FloatingBody(eqx.Module):
                           [M_Re.T, M_ee, M_ep],
                           [M_Rp.T, M_ep.T, M_pp]])
 
+    def nodal_force(self, z, v, a, gravity) -> Float[Array, "nv 3"]:
+        """F = M_b ẍ − ϱ g on the nodal vectors, ẍ = J z̈ + J̇ ż: the inertia and weight whose
+        J ᵀF is the residual's frame and inertia part."""
+        return self.mass @ self.acceleration(z, v, a) - self.weights[:, None] * gravity[None, :]
+
     def deformation_tangent(self, z, v, a, F: Float[Array, "nv 3"], c_C, c_K) -> Float[Array, "nz k"]:
         """The columns for p (and ṗ) of the residual's derivative that ``mass_matrix`` and the
         elastic stiffness leave out, c_K ∂r/∂p + c_C ∂r/∂ṗ of r = J ᵀF with F = M ẍ − Q held:
@@ -446,7 +451,7 @@ class FloatingFrameSystem(AbstractModel):
         (a dozen 3 × 3 × k × k contractions) it took twice as long on the pendulum's beams (0.12
         against 0.06 ms a body), XLA's time here being per operation."""
         def body_residual(b, zb, vb, ab):
-            F = b.mass @ b.acceleration(zb, vb, ab) - b.weights[:, None] * self.gravity[None, :]
+            F = b.nodal_force(zb, vb, ab, self.gravity)
             return b.generalized(zb, F).at[7:].add(b.tensors.force(zb[7:]))
 
         return jnp.concatenate(self._map(body_residual, z, v, a))
@@ -468,21 +473,18 @@ class FloatingFrameSystem(AbstractModel):
         """The ``iteration_matrix``'s diagonal blocks, one a body; with the state's velocity
         ``v``, acceleration ``a`` and multipliers ``lam``, also the p columns of the inertia
         terms' derivatives (``FloatingBody.deformation_tangent``)."""
-        if a is None:
-            def block(b, zb):
-                _, K = b.tensors.force_and_jacobian(zb[7:])
-                return (c_M * b.mass_matrix(zb)).at[7:, 7:].add(c_K * K)
-
-            return self._map(block, z)
-        reactions = self._nodal_reactions(z, lam)
-
-        def block_with_inertia(b, zb, vb, ab, Fj):
+        def block(b, zb, *state):
             _, K = b.tensors.force_and_jacobian(zb[7:])
-            F = b.mass @ b.acceleration(zb, vb, ab) - b.weights[:, None] * self.gravity[None, :] + Fj
             S = (c_M * b.mass_matrix(zb)).at[7:, 7:].add(c_K * K)
+            if not state:
+                return S
+            vb, ab, reaction = state
+            F = b.nodal_force(zb, vb, ab, self.gravity) + reaction
             return S.at[:, 7:].add(b.deformation_tangent(zb, vb, ab, F, c_C, c_K))
 
-        return self._map(block_with_inertia, z, v, a, tuple(reactions))
+        if a is None:
+            return self._map(block, z)
+        return self._map(block, z, v, a, tuple(self._nodal_reactions(z, lam)))
 
     def _nodal_reactions(self, z, lam) -> tuple:
         """The joints' forces on each body's nodal vectors, C_xᵀλ (zero without joints)."""

@@ -66,11 +66,8 @@ def full_floating_body(body: Body, free, R0=(0.0, 0.0, 0.0), A0=None) -> Floatin
     """``body`` in a floating frame at ``R0``, ``A0`` with every coordinate of the ``free`` mask
     (n_dof booleans: False on the reference conditions, which hold the frame) a deformation
     coordinate: the full-order RNCF body."""
-    free = np.asarray(free, dtype=bool)
-    if free.shape != (body.n_dof,):
-        raise ValueError(f"free must be a mask of the body's {body.n_dof} coordinates, got {free.shape}")
-    basis = np.eye(body.n_dof)[:, free]
-    return FloatingBody(body, basis, NodalElasticForce(body, free), R0=R0, A0=A0)
+    force = NodalElasticForce(body, np.asarray(free, dtype=bool))  # checks the mask
+    return FloatingBody(body, np.eye(body.n_dof)[:, np.asarray(force.free)], force, R0=R0, A0=A0)
 
 
 __all__ = ["NodalElasticForce", "full_floating_body"]
