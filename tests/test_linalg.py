@@ -384,3 +384,23 @@ def test_sparse_factors_live_on_one_host_thread():
     worker = sparse._superlu_thread.submit(threading.get_ident).result()
     threads = {lu.thread for lu in sparse._factors.values() if lu is not None}
     assert threads == {worker}
+
+
+def test_sparse_callbacks_read_xla_buffers_on_the_cpu():
+    """On the CPU the factor and solve callbacks get XLA's own buffers (``buffer_callback``), not
+    ``jax.Array`` copies placed by ``device_put`` that the callback then waits for: that wait
+    deadlocked on one core (``sparse._host_call``). The compiled solve holds no other callback,
+    so the pure_callback branch (for other platforms) is not lowered here; and the solve is
+    right."""
+    import re
+
+    m, nb = 3, 5
+    Ge, dofs = chain_parts(nb, m, seed=8)
+    free = jnp.asarray(np.arange(m * nb) >= m)
+    b = jnp.asarray(np.random.default_rng(9).normal(size=m * nb))
+    solve = jax.jit(lambda G, b: assemble_and_factor([(G, dofs)], free, solver="sparse").solve(b))
+    targets = set(re.findall(r"custom_call @(\w+)", solve.lower(Ge, b).as_text()))
+    assert targets == {"xla_buffer_python_cpu_callback"}
+    A = dense_reference([(Ge, dofs)], free)
+    np.testing.assert_allclose(solve(Ge, b), np.linalg.solve(A, b), rtol=0,
+                               atol=roundoff_tol(A) * np.abs(np.linalg.solve(A, b)).max())

@@ -2,7 +2,7 @@
 
 - ``dense``: any mesh; LU of the whole matrix (small models).
 - ``block_tridiagonal``: a chain of nodes (beams); block LU by ``lax.scan`` over the nodes.
-- ``sparse``: any mesh, large models; SciPy's SuperLU on the host through ``jax.pure_callback``.
+- ``sparse``: any mesh, large models; SciPy's SuperLU on the host through a host callback.
 
 ``assemble_and_factor(parts, free, chain_block=..., solver=...)`` assembles element groups into
 one of them and factors (``assembly``); every result has ``.solve(b)``

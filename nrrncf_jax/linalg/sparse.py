@@ -1,6 +1,7 @@
 """Sparse direct LU of the iteration matrix, for large models (tens of thousands of DOFs).
 
-SciPy's SuperLU (``scipy.sparse.linalg.splu``) on the host through ``jax.pure_callback``, with the
+SciPy's SuperLU (``scipy.sparse.linalg.splu``) on the host through a host callback (``_host_call``:
+``jax.experimental.buffer_callback`` on the CPU, ``jax.pure_callback`` elsewhere), with the
 derivative from ``lax.custom_linear_solve``. Neither JAX nor lineax has a sparse direct
 factorisation on the CPU (``jax.experimental.sparse.linalg.spsolve`` calls SciPy's ``spsolve``,
 which refactors on every solve; lineax's sparse path is iterative), so the parts written here are
@@ -25,7 +26,7 @@ Supported: ``jit``, use inside ``lax.while_loop``/``scan`` bodies, ``jvp``/``gra
 to the element matrices and the right-hand side, several solves per factorisation.
 Not supported, or not fast:
 
-- ``vmap``: falls back to a loop (``pure_callback``'s ``vmap_method="sequential"`` and a
+- ``vmap``: falls back to a loop (the callback's ``vmap_method="sequential"`` and a
   ``lax.map`` over the members): the members are factored and solved one after another on the
   host; with more members than ``CACHE_SIZE``, the oldest are factored again at their first
   solve. Correct, but no faster than a Python loop.
@@ -55,6 +56,11 @@ from jax import lax
 from .._types import Array, Bool, Float, Int
 from .._validate import is_concrete
 from .base import AbstractFactorization, Parts
+
+try:  # JAX >= 0.6.1
+    from jax.experimental.buffer_callback import buffer_callback as _buffer_callback
+except ImportError:  # pragma: no cover - older JAX: pure_callback everywhere
+    _buffer_callback = None
 
 CACHE_SIZE = 8
 """SuperLU factorisations kept on the host for later solves (least recently used dropped first)."""
@@ -312,6 +318,37 @@ def _host_refactor_solve(pattern: SparsityPattern, trans: str, data: np.ndarray,
     return _on_superlu_thread(refactor_solve)
 
 
+def _host_call(fn, result_shape_dtypes, *args, vmap_method: str | None = None):
+    """``fn(*args)`` on the host, with NumPy arrays in and out (``result_shape_dtypes``: a tuple of
+    ``jax.ShapeDtypeStruct``, ``fn`` returns a tuple of arrays of those shapes and dtypes).
+
+    Why not ``jax.pure_callback`` alone: it hands the callback its arguments as ``jax.Array``s,
+    placed with ``device_put`` from the running computation's buffers, and reading one
+    (``np.asarray``) waits for that copy. On a machine where XLA's CPU client has one thread (one
+    core: ``taskset -c 0``, a one-CPU container), the copy can be queued behind the very
+    computation that waits for it: a 20,000-DOF sparse solve hung in 2 of 5 runs pinned to one
+    core (jax-ml/jax#24255 is the same deadlock). ``buffer_callback`` hands over XLA's own buffers
+    (valid during the call; copied here before anything keeps them), with no transfer to wait
+    for. It reads buffers as NumPy arrays on the CPU only, so other platforms keep
+    ``pure_callback`` (``lax.platform_dependent`` lowers just the branch of the platform)."""
+    def with_pure_callback(*a):
+        return jax.pure_callback(fn, result_shape_dtypes, *a, vmap_method=vmap_method)
+
+    if _buffer_callback is None:
+        return with_pure_callback(*args)
+
+    def fill(ctx, outs, *buffers):
+        del ctx
+        results = fn(*(np.asarray(b).copy() for b in buffers))
+        for out, result in zip(outs, results):
+            np.asarray(out)[...] = result
+
+    def with_buffers(*a):
+        return tuple(_buffer_callback(fill, tuple(result_shape_dtypes), vmap_method=vmap_method)(*a))
+
+    return lax.platform_dependent(*args, cpu=with_buffers, default=with_pure_callback)
+
+
 def _solve(pattern: SparsityPattern, trans: str, data, handle, b):
     """``A⁻¹ b`` (``trans="N"``) or ``A⁻ᵀ b`` (``"T"``) with the factors under ``handle``. The
     values go to the host only when the factors have been dropped (``lax.cond``): passing the
@@ -319,12 +356,11 @@ def _solve(pattern: SparsityPattern, trans: str, data, handle, b):
 
     @jax.custom_batching.custom_vmap
     def solve(data, handle, b):
-        x, found = jax.pure_callback(lambda h, v: _host_solve(trans, h, v),
-                                     (jax.ShapeDtypeStruct(b.shape, b.dtype), jax.ShapeDtypeStruct((), jnp.bool_)),
-                                     handle, b)
-        return lax.cond(found, lambda: x, lambda: jax.pure_callback(
-            lambda d, h, v: _host_refactor_solve(pattern, trans, d, h, v), jax.ShapeDtypeStruct(b.shape, b.dtype),
-            data, handle, b))
+        x, found = _host_call(lambda h, v: _host_solve(trans, h, v),
+                              (jax.ShapeDtypeStruct(b.shape, b.dtype), jax.ShapeDtypeStruct((), jnp.bool_)), handle, b)
+        return lax.cond(found, lambda: x, lambda: _host_call(
+            lambda d, h, v: (_host_refactor_solve(pattern, trans, d, h, v),),
+            (jax.ShapeDtypeStruct(b.shape, b.dtype),), data, handle, b)[0])
 
     @solve.def_vmap
     def _solve_batched(axis_size, in_batched, data, handle, b):
@@ -348,8 +384,8 @@ class SparseLU(AbstractFactorization):
     @classmethod
     def factor(cls, data: Float[Array, " nnz"], pattern: SparsityPattern) -> "SparseLU":
         data = jnp.asarray(data)
-        handle = jax.pure_callback(lambda d: _host_factor(pattern, d), jax.ShapeDtypeStruct((), jnp.int32),
-                                   lax.stop_gradient(data), vmap_method="sequential")
+        handle, = _host_call(lambda d: (_host_factor(pattern, d),), (jax.ShapeDtypeStruct((), jnp.int32),),
+                             lax.stop_gradient(data), vmap_method="sequential")
         return cls(data=data, handle=handle, pattern=pattern)
 
     def solve(self, b: Float[Array, " n"]) -> Float[Array, " n"]:
