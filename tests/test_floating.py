@@ -240,6 +240,12 @@ def test_full_order_frame_is_the_ancf_body_in_other_coordinates():
     F3, K3 = tensors.force_and_jacobian(p)
     np.testing.assert_allclose(F, F3, rtol=0, atol=1e-12 * float(np.abs(F3).max()))
     np.testing.assert_allclose(K, K3, rtol=0, atol=1e-12 * float(np.abs(K3).max()))
+    # The strain energy: the cubic force's potential equals the elements' energy (quartic in q for
+    # constant κ), and its gradient is the force.
+    U = float(NodalElasticForce(beam, free).energy(p))
+    assert U > 0.0
+    np.testing.assert_allclose(float(tensors.energy(p)), U, rtol=1e-11)
+    np.testing.assert_allclose(jax.grad(tensors.energy)(p), F3, rtol=0, atol=1e-12 * float(np.abs(F3).max()))
     with pytest.raises(ValueError, match="mask of the body's 36"):
         full_floating_body(beam, free[:-1])
     with pytest.raises(ValueError, match="distinct coordinate indices"):

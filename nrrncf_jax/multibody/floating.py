@@ -526,13 +526,16 @@ class FloatingFrameSystem(AbstractModel):
         """½ Σ_b ẋ_bᵀ M_b ẋ_b, ẋ_b = J_b ż_b."""
         return sum(0.5 * jnp.sum(xv * (b.mass @ xv)) for b, xv in zip(self.bodies, self.nodal_velocities(z, v)))
 
-    def energy(self, z, v) -> Float[Array, ""]:
-        """Kinetic + strain + gravity potential energy (conserved without damping)."""
-        total = self.kinetic_energy(z, v)
+    def potential_energy(self, z) -> Float[Array, ""]:
+        """Strain energy (the bodies' ``tensors.energy``: the reduced cubic force's potential, or
+        the elements' own on full-order bodies) plus the gravity potential −Σ ϱ_α x_α·g."""
+        total = 0.0
         for b, zb, x in zip(self.bodies, self.split(z), self.nodal_vectors(z)):
-            potential = -jnp.sum(b.weights[:, None] * x * self.gravity[None, :])
-            total = total + b.body.strain_energy(b._local(zb[7:])) + potential
+            total = total + b.tensors.energy(zb[7:]) - jnp.sum(b.weights[:, None] * x * self.gravity[None, :])
         return total
 
+    def energy(self, z, v) -> Float[Array, ""]:
+        """Kinetic + strain + gravity potential energy (conserved without damping)."""
+        return self.kinetic_energy(z, v) + self.potential_energy(z)
 
 __all__ = ["FloatingBody", "FloatingFrameSystem", "euler_parameters", "rotation"]

@@ -56,6 +56,10 @@ class NodalElasticForce(eqx.Module):
     def force(self, p: Float[Array, " k"]) -> Float[Array, " k"]:
         return self.body.elastic_force(self._q(p)).reshape(-1)[self.free]
 
+    def energy(self, p: Float[Array, " k"]) -> Float[Array, ""]:
+        """The elements' strain energy at q̂ + Ψp (zero at the stress-free q̂)."""
+        return self.body.strain_energy(self._q(p))
+
     def force_and_jacobian(self, p: Float[Array, " k"]):
         q = self._q(p)
         K = self.body.stiffness_matrix(q)

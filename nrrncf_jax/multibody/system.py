@@ -247,12 +247,18 @@ class MultibodySystem(AbstractModel):
             k += j.n_equations
         return out
 
-    def energy(self, x, v) -> Float[Array, ""]:
-        """Kinetic + strain + gravity potential energy (conserved without damping)."""
+    def kinetic_energy(self, x, v) -> Float[Array, ""]:
+        return 0.5 * v @ (self.M @ v)
+
+    def potential_energy(self, x) -> Float[Array, ""]:
+        """Strain energy plus the gravity potential −Σ ϱ_α x_α·g."""
         xs = self.split(x)
         U = sum(b.strain_energy(q) for b, q in zip(self.bodies, xs))
-        V = -sum(jnp.sum(b.varrho()[:, None] * q * self.gravity[None, :]) for b, q in zip(self.bodies, xs))
-        return 0.5 * v @ (self.M @ v) + U + V
+        return U - sum(jnp.sum(b.varrho()[:, None] * q * self.gravity[None, :]) for b, q in zip(self.bodies, xs))
+
+    def energy(self, x, v) -> Float[Array, ""]:
+        """Kinetic + strain + gravity potential energy (conserved without damping)."""
+        return self.kinetic_energy(x, v) + self.potential_energy(x)
 
 
 def _solve_bodies(factors, offsets, sizes, X):

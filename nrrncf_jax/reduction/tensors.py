@@ -70,6 +70,15 @@ class ElasticTensors(eqx.Module):
         j, k, l = self.triples
         return self.f + self.K @ p + (self.L @ p) @ p + self.N3 @ (p[j] * p[k] * p[l])
 
+    def energy(self, p: Float[Array, " km"]) -> Float[Array, ""]:
+        """The strain energy U(p) − U(0) = p·(f + K p / 2 + L p p / 3 + N p p p / 4), whose
+        gradient is ``force`` (κ constant: U is a quartic polynomial in p, and its terms of degree
+        d are p·(their force)/d). Exact, not an approximation of the reduced model's energy: equal
+        to the body's element strain energy at q̂ + Ψp, minus its value at q̂ (round-off,
+        ``tests/test_nr_rncf.py``), for a few contractions instead of every element's quadrature."""
+        j, k, l = self.triples
+        return p @ (self.f + self.K @ p / 2.0 + (self.L @ p) @ p / 3.0 + self.N3 @ (p[j] * p[k] * p[l]) / 4.0)
+
     def force_and_jacobian(self, p: Float[Array, " km"]):
         """``(F(p), ∂F/∂p)`` (Eq. 25) sharing the contractions."""
         k, l = self.pairs

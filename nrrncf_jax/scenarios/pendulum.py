@@ -379,23 +379,17 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
     if isinstance(system, FloatingFrameSystem):
         formulation = "rncf" if isinstance(system.bodies[0].tensors, NodalElasticForce) else "nr-rncf"
-        n_vectors = system.bodies[0].body.n_vectors
-
-        def vectors(z, v):
-            return system.nodal_vectors(z), system.kinetic_energy(z, v)
+        n_vectors, vectors = system.bodies[0].body.n_vectors, system.nodal_vectors
     elif isinstance(system, MultibodySystem):
-        formulation, n_vectors = "ancf", system.bodies[0].n_vectors
-
-        def vectors(x, v):
-            return system.split(x), 0.5 * v @ (system.M @ v)
+        formulation, n_vectors, vectors = "ancf", system.bodies[0].n_vectors, system.split
     else:
         raise ValueError(f"system must be a MultibodySystem or a FloatingFrameSystem, got {type(system).__name__}")
     nodes = _PER_NODE * np.arange(n_vectors // _PER_NODE) + _R
 
     def observe(t, x, v):
-        xs, kinetic = vectors(x, v)
-        return (jnp.stack([xb[nodes] for xb in xs]), jnp.stack([xb[_RX] for xb in xs]), system.energy(x, v),
-                kinetic, jnp.max(jnp.abs(system.constraints(x))))
+        xs, kinetic = vectors(x), system.kinetic_energy(x, v)
+        return (jnp.stack([xb[nodes] for xb in xs]), jnp.stack([xb[_RX] for xb in xs]),
+                kinetic + system.potential_energy(x), kinetic, jnp.max(jnp.abs(system.constraints(x))))
 
     sol, compile_s, run_s = simulate_timed(system, jnp.asarray(ts), solver=GeneralizedAlphaIndex3(rho_inf), rtol=rtol,
                                            atol=atol, observe=observe, progress=progress, max_steps=max_steps,
