@@ -101,7 +101,8 @@ def main(argv=None):
     full = runs[coarse]
     lines += ["", f"The full-order RNCF model on the {coarse}-element mesh (`--formulation rncf`, "
               "`multibody.full_order_frame`): each beam in the floating frame of its left end (Euler parameters; "
-              "the left node's position and the Gram-Schmidt frame of its section vectors held, six conditions), "
+              "the left node's position, its centre line's tangent and the plane of it and r_y held, "
+              "six conditions: `scenarios.pendulum.LEFT_END_FRAME`), "
               "every other nodal coordinate kept, the elements' own elastic force; each body's iteration-matrix "
               "block dense (the frame couples with every coordinate through the mass matrix). The ANCF model in "
               "other coordinates: the two differ by their time-integration errors.", "",

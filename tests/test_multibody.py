@@ -96,13 +96,16 @@ def test_pendulum_run_views():
 def test_floating_frame_pendulum_runs_with_the_ancf_one(pendulum_run):
     """The full-order RNCF pendulum (``build_rncf_pendulum``: each beam in the frame of its left
     end, every other nodal coordinate kept) is the ANCF model in other coordinates, so the two
-    runs differ by their time-integration errors alone: at rtol 1e-5 the tips agree to 8.4e-6 m
-    over 0-0.4 s, and each model's own error there (against itself at rtol 1e-7) is 9.6e-6 m
-    (ANCF) and 1.2e-5 m (RNCF); the bound 1e-4 m is 8× those, and a model that holds the section
-    vectors entirely (the NR-RNCF cantilever clamp, ``REFERENCE_CONDITIONS``) misses it
-    (3.4e-4 m). Energy (ρ∞ = 1) and the joints as the ANCF run's."""
-    from nrrncf_jax.scenarios.pendulum import run_pendulum
+    runs differ by their time-integration errors alone: at rtol 1e-5 the tips agree to 9.6e-6 m
+    over 0-0.4 s (1.0e-5 m in the section vectors' frame, ``LEFT_SECTION_FRAME``), and each
+    model's own error there (against itself at rtol 1e-7) is 9.6e-6 m (ANCF) and 1.3e-5 m (RNCF);
+    the bound 1e-4 m is 8× those, and a model that holds the section vectors entirely (the NR-RNCF
+    cantilever clamp, ``REFERENCE_CONDITIONS``) misses it (3.4e-4 m). Energy (ρ∞ = 1) and the
+    joints as the ANCF run's. A frame of other than six conditions is refused."""
+    from nrrncf_jax.scenarios.pendulum import LEFT_END_FRAME, build_rncf_pendulum, run_pendulum
 
+    with pytest.raises(ValueError, match="six distinct"):
+        build_rncf_pendulum(PendulumSpec(elements=2), frame=LEFT_END_FRAME[:5] + LEFT_END_FRAME[:1])
     run = run_pendulum(PendulumSpec(elements=2), formulation="rncf", **PENDULUM_RUN)
     assert run.formulation == "rncf" and run.dofs == 3 * (7 + 54 - 6)
     assert np.abs(run.tips - pendulum_run.tips).max() < 1e-4
