@@ -40,7 +40,8 @@ Choices, and why:
   Coriolis terms on the deformation, and J_e's change with p against the body's forces). Those
   with respect to the frame's coordinates and the rest of the joints' Hessian are left to
   Newton's iterations: with them, modified Newton contracted by 1.2e-3 an iteration on the
-  full-order pendulum (0.41 without: 6.6 iterations a step) and 1.3e-4 on the reduced one
+  full-order pendulum in its section vectors' frame (``scenarios.pendulum.LEFT_SECTION_FRAME``;
+  0.41 without: 6.6 iterations a step) and 1.3e-4 on the reduced one
   (1.4e-3 without), at a state of the 10-element pendulum's run, h = 0.2 ms. The constrained
   matrix is factored body by body with the joints' Schur complement (``factor_augmented``).
 - ``project_velocities``: the index-3 step (``integrate.GeneralizedAlphaIndex3``) projects ż onto
@@ -258,9 +259,10 @@ class FloatingBody(eqx.Module):
         Σ (ÂᵀY)_ab H_ab. ``F`` is the body's total nodal force, the joints' reactions included
         (their Hessian's part through J). Small against c_M M_z in most directions, but on the
         full-order body a frame rotation undone by its deformation coordinates moves only the
-        left node's section vectors, whose inertia is tiny: there these terms are not small, and
-        without them modified Newton contracted by 0.41 an iteration (0.0012 with them) on the
-        10-element pendulum's beams."""
+        few vectors that hold the frame (the left node's section vectors, or its tangent), whose
+        inertia is tiny: there these terms are not small, and without them modified Newton
+        contracted by 0.41 an iteration (0.0012 with them) on the 10-element pendulum's beams in
+        the section vectors' frame."""
         e, p, de = z[3:7], z[7:], v[3:7]
         A, D = _A_hat(e), _dA_hat(e)
         A_dd = 2.0 * jnp.einsum("k,l,klij->ij", de, de, jnp.asarray(_B)) + jnp.einsum("k,kij->ij", a[3:7], D)
