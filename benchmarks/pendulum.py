@@ -3,7 +3,7 @@ full-order ANCF multibody model, energy with ρ∞ = 1, the full-order RNCF mode
 the paper's reference) against it, and NR-RNCF against both, with timings.
 
     python benchmarks/pendulum.py [--elements 10 20 40] [--t-end 2] [--no-energy] [--full-only] [--tips F.npz]
-                                  [--out benchmarks/results/pendulum.md]
+                                  [--repeats 3] [--out benchmarks/results/pendulum.md]
 
 Each beam's right-end position over 0-t_end is compared with the finest run (most elements,
 tightest tolerance): the largest distance over the run and the three tips. ANCF bodies joined by
@@ -34,7 +34,13 @@ import numpy as np  # noqa: E402
 from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax.metrics import chi_rel  # noqa: E402
-from nrrncf_jax.scenarios.pendulum import PendulumSpec, mmi_per_body, run_pendulum  # noqa: E402
+from nrrncf_jax.scenarios.pendulum import (  # noqa: E402
+    PendulumSpec,
+    build_reduced_pendulum,
+    mmi_per_body,
+    run_chain,
+    run_pendulum,
+)
 
 TOLERANCES = {10: 1e-4, 20: 3e-5, 40: 1e-5}
 
@@ -48,6 +54,7 @@ def main(argv=None):
     p.add_argument("--out", default="benchmarks/results/pendulum.md")
     p.add_argument("--all-cores", action="store_true", help="do not pin the process to one core (see the module "
                    "docstring)")
+    p.add_argument("--repeats", type=int, default=3, help="runs of each reduced model; its time is their median")
     p.add_argument("--tips", help="also write each full run's tips (t, beam, xyz) to this .npz, and compare with the "
                                   "runs already in it (a finer mesh run separately)")
     a = p.parse_args(argv)
@@ -122,9 +129,12 @@ def main(argv=None):
               "inertia invariants; the velocities projected onto the joints' and the Euler parameters' velocity "
               "constraints after each step (`integrate.GeneralizedAlphaIndex3`). Newton stops at 1 % of the step's "
               "error tolerance (both models).", "",
+              f"run [s]: the median of {a.repeats} runs of the compiled program (their range beside it): "
+              "this VM's speed varies by a third over minutes, and a run of a few seconds sees one state of "
+              "it, where the full runs' tens of seconds average several.", "",
               "| basis a beam | DOFs | steps (rejected) | Newton it. | offline [s] | compile [s] | run [s] | "
-              "χ_rel [%] | speed-up vs ANCF | speed-up vs RNCF | largest tip distance [m] |",
-              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+              "runs' range [s] | χ_rel [%] | speed-up vs ANCF | speed-up vs RNCF | largest tip distance [m] |",
+              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     # The last rows: the same basis at looser tolerances. Its time-integration error (against its
     # own run at rtol/10, below) stays far below its basis error (χ_rel), so it need not run at the
     # full model's tolerance, which that model needs as the reference.
@@ -141,18 +151,25 @@ def main(argv=None):
                                      (f"5 VMs + 15 MDs, rtol {3 * rtol:g}", "all", "cantilever", 3 * rtol),
                                      (f"5 VMs + 15 MDs, rtol {10 * rtol:g}", "all", "cantilever", 10 * rtol)):
         try:  # a cap on the steps, in case the step size collapses
-            r = run_pendulum(PendulumSpec(elements=coarse), t_end=a.t_end, dt_out=0.01, rtol=tol, atol=tol / 10,
-                             formulation="nr-rncf", n_vms=5, pairs=pairs, joint_modes=basis == "joint modes",
-                             craig_bampton=basis == "craig-bampton", max_steps=40_000,
-                             body_pairs=[sel.pairs for sel in selections] if basis == "mmi" else None).compare(full)
+            system, info = build_reduced_pendulum(PendulumSpec(elements=coarse), 5, pairs, basis == "joint modes",
+                                                  craig_bampton=basis == "craig-bampton",
+                                                  body_pairs=[sel.pairs for sel in selections] if basis == "mmi"
+                                                  else None)
+            runs = [run_chain(system, a.t_end, 0.01, 0.9, tol, tol / 10, max_steps=40_000)
+                    for _ in range(a.repeats)]
+            r = runs[0]
+            r.offline, r.run_s = info, float(np.median([x.run_s for x in runs]))
+            r.compare(full)
+            spread = f"{min(x.run_s for x in runs):.2f}-{max(x.run_s for x in runs):.2f}"
         except Exception as e:  # noqa: BLE001 - reported in the table
-            lines.append(f"| {label} | – | failed: {str(e).splitlines()[0][:120]} | | | | | | | | |")
+            lines.append(f"| {label} | – | failed: {str(e).splitlines()[0][:120]} | | | | | | | | | |")
             continue
         if pairs == "all" and basis == "cantilever":
             reduced[tol] = r
         d = np.linalg.norm(r.tips - full.tips, axis=2).max()
         lines.append(f"| {label} | {r.dofs} | {r.steps} ({r.rejected}) | {r.newton_iters} | "
-                     f"{r.offline['offline_s']:.1f} | {r.compile_s:.1f} | {r.run_s:.2f} | {r.chi_rel_percent:.2f} | "
+                     f"{r.offline['offline_s']:.1f} | {r.compile_s:.1f} | {r.run_s:.2f} | {spread} | "
+                     f"{r.chi_rel_percent:.2f} | "
                      f"{r.speedup:.2f} | {rncf.run_s / r.run_s:.2f} | {d:.3f} |")
         sys.stdout.write(lines[-1] + "\n")
         sys.stdout.flush()

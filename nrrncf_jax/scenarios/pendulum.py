@@ -16,10 +16,10 @@ derivatives (optionally with the right-end joint's static modes, ``boundary_mode
 extended Craig-Bampton basis (``reduction.craig_bampton``: the joint's position as boundary
 coordinates, fixed-interface modes and their MDs); ``mmi_per_body`` picks each beam's MDs by
 maximum modal interaction. On the paper's mesh the reduced model (81 DOFs, χ_rel 1.13 %) ran
-10.2× faster than the full ANCF one and 24× faster than the full RNCF one at the same tolerance
-(other runs: 6.3-11.4× against ANCF; this VM's timings vary by a third), 19× at a 10× looser
-one, which its own time-integration error allows; with 8 MDs a beam by MMI (60 DOFs) χ_rel
-1.17 % and 13×; the Craig-Bampton one (87 DOFs) is within χ_rel 0.33 %
+9-10× faster than the full ANCF one and 24-29× faster than the full RNCF one at the same
+tolerance (other runs: 6.3-11.4× against ANCF; this VM's timings vary by a third), 14-19× at
+looser ones, which its own time-integration error allows; with 8 MDs a beam by MMI (60 DOFs)
+χ_rel 1.17 % and 12-13×; the Craig-Bampton one (87 DOFs) is within χ_rel 0.33 %
 (``benchmarks/results/pendulum.md``, issue 17).
 """
 
