@@ -248,6 +248,7 @@ class MultibodySystem(AbstractModel):
         return out
 
     def kinetic_energy(self, x, v) -> Float[Array, ""]:
+        """½ vᵀ M v (M constant in the inertial nodal vectors)."""
         return 0.5 * v @ (self.M @ v)
 
     def potential_energy(self, x) -> Float[Array, ""]:

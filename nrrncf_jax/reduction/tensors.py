@@ -75,7 +75,7 @@ class ElasticTensors(eqx.Module):
         gradient is ``force`` (κ constant: U is a quartic polynomial in p, and its terms of degree
         d are p·(their force)/d). Exact, not an approximation of the reduced model's energy: equal
         to the body's element strain energy at q̂ + Ψp, minus its value at q̂ (round-off,
-        ``tests/test_nr_rncf.py``), for a few contractions instead of every element's quadrature."""
+        ``tests/test_floating.py``), for a few contractions instead of every element's quadrature."""
         j, k, l = self.triples
         return p @ (self.f + self.K @ p / 2.0 + (self.L @ p) @ p / 3.0 + self.N3 @ (p[j] * p[k] * p[l]) / 4.0)
 

@@ -111,9 +111,9 @@ Why the tangent and not the section vectors (``LEFT_SECTION_FRAME``): a C1 beam'
 vectors shear against its centre line, and their shear and stretch vibrate at the mesh's highest
 frequencies. A frame that follows them carries that vibration into every coordinate of the body
 (each one measured from the frame), and the step-size control of the 10-element pendulum then
-rejected 48 % of its steps: 7517 steps (3612 rejected) and 143.9 s over 0-2 s, against 4624 (736)
-and 79.9 s with the tangent frame, whose step counts follow the ANCF model's (4238, 398) as the
-same equations should. The NR-RNCF basis holds the section vectors entirely
+rejected 48 % of its steps: 7517 steps (3612 rejected) and 143.9 s over 0-2 s, against 4627 (739)
+and 72-83 s with the tangent frame (``benchmarks/results/pendulum.md``), whose step counts follow
+the ANCF model's (4238, 398) as the same equations should. The NR-RNCF basis holds the section vectors entirely
 (``REFERENCE_CONDITIONS``, a cantilever's clamp): its modes have no shear vibration at the clamp
 to carry."""
 
