@@ -17,8 +17,13 @@ def machine() -> str:
     except OSError:
         pass
     dev = jax.devices()[0]
-    return (f"{cpu}; {os.cpu_count()} cores visible; JAX {jax.__version__} on {dev.platform.upper()} "
+    line = (f"{cpu}; {os.cpu_count()} cores visible; JAX {jax.__version__} on {dev.platform.upper()} "
             f"({dev.device_kind}); Python {platform.python_version()}")
+    allowed = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+    if allowed is not None and len(allowed) < (os.cpu_count() or 0):
+        # taskset: one XLA thread and no neighbour on its core; these models time differently so
+        line += f"; the process pinned to {'one core' if len(allowed) == 1 else f'{len(allowed)} cores'}"
+    return line
 
 
 def report(text: str, path: str) -> None:

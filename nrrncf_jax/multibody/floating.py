@@ -39,10 +39,12 @@ Choices, and why:
   (``FloatingBody.deformation_tangent``: the frame's angular acceleration, centrifugal and
   Coriolis terms on the deformation, and J_e's change with p against the body's forces). Those
   with respect to the frame's coordinates and the rest of the joints' Hessian are left to
-  Newton's iterations: with them, modified Newton contracted by 1.2e-3 an iteration on the
-  full-order pendulum in its section vectors' frame (``scenarios.pendulum.LEFT_SECTION_FRAME``;
-  0.41 without: 6.6 iterations a step) and 1.3e-4 on the reduced one
-  (1.4e-3 without), at a state of the 10-element pendulum's run, h = 0.2 ms. The constrained
+  Newton's iterations. With the p columns, modified Newton's corrections shrank by 2.4e-3 to
+  1.1e-2 an iteration on the full-order 10-element pendulum (frames on the left ends' tangents,
+  ``scenarios.pendulum.LEFT_END_FRAME``; without them 0.18 at t = 1 s, 9e-3 to 4.5e-2 at
+  t = 1.5 s) and by 7e-4 to 2.4e-3 on the reduced one (4.5e-3 to 9.7e-3 without), one step of
+  h = 0.2 ms from the states of the rtol 1e-4 runs at t = 1 and 1.5 s
+  (``benchmarks/results/newton_contraction.md``). The constrained
   matrix is factored body by body with the joints' Schur complement (``factor_augmented``).
 - ``project_velocities``: the index-3 step (``integrate.GeneralizedAlphaIndex3``) projects ż onto
   C_z ż = 0 after each step. Without it the frames' accelerations oscillated from step to step
@@ -260,9 +262,11 @@ class FloatingBody(eqx.Module):
         (their Hessian's part through J). Small against c_M M_z in most directions, but on the
         full-order body a frame rotation undone by its deformation coordinates moves only the
         few vectors that hold the frame (the left node's section vectors, or its tangent), whose
-        inertia is tiny: there these terms are not small, and without them modified Newton
-        contracted by 0.41 an iteration (0.0012 with them) on the 10-element pendulum's beams in
-        the section vectors' frame."""
+        inertia is tiny: there these terms are not small. On the 10-element pendulum at t = 1 s
+        (h = 0.2 ms) modified Newton contracted by 0.18 an iteration without them and by
+        2.4e-3 to 4.2e-3 with them in the tangent frame, 0.55-0.74 against 9e-3 to 2.5e-2 in the
+        section vectors' frame (``benchmarks/results/newton_contraction.md``; at t = 1.5 s in the
+        section frame they did not help: 0.16-0.27 with them, 0.02-0.12 without)."""
         e, p, de = z[3:7], z[7:], v[3:7]
         A, D = _A_hat(e), _dA_hat(e)
         A_dd = 2.0 * jnp.einsum("k,l,klij->ij", de, de, jnp.asarray(_B)) + jnp.einsum("k,kij->ij", a[3:7], D)
