@@ -7,7 +7,7 @@ vibration after the manoeuvre runs at a frequency that is a small difference of 
 the paper's ωs = 40 rad/s the rest basis puts the first in-plane frequency of the spinning beam
 2 % too high (8.66 against 8.48 rad/s) and the phase error of the residual vibration dominates
 χ_rel. Adding the first mode of the spinning beam and the modal derivatives of its lowest
-spinning modes fixes that shape (χ_rel 5.4 % → 0.9 % there, ``benchmarks/table3.py``).
+spinning modes fixes that shape (χ_rel 5.5 % → 0.6 % there, ``benchmarks/results/table3.md``).
 
 Whether to enrich is decided without a full simulation (``ritz_frequencies``): the rest basis's
 Rayleigh-Ritz estimate of the spinning body's dominant frequency is compared with the exact one;
