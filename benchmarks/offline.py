@@ -28,7 +28,10 @@ jax.config.update("jax_enable_x64", True)
 cache = sys.argv[2]
 if cache != "none":
     import nrrncf_jax
-    nrrncf_jax.compilation_cache(cache).__enter__()  # for the whole worker process
+    # for the whole worker process; the block is kept referenced, else its generator is collected
+    # at once and its exit restores the settings (so it did from 45e41f6 to 2026-12-02: no cache)
+    block = nrrncf_jax.compilation_cache(cache)
+    block.__enter__()
 import jax.numpy as jnp
 from nrrncf_jax.nr_rncf import nr_rncf
 from nrrncf_jax.scenarios.spinup import build_spinup_model, default_elements, output_times
