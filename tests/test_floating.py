@@ -378,3 +378,64 @@ def test_excited_modes_keep_the_plane_of_the_swing():
         excited_modes(every.phi[:, :4], every.omega[:4], plane_loads(beam), 3)
     with pytest.raises(ValueError, match="normal"):
         mirror_even(3, "x")
+
+
+def test_turned_systems_keep_their_joints_and_turn_every_vector():
+    """``turned(axis, angle)``: the reference state of the floating-frame and of the ANCF pendulum
+    (and of a body held by a fixed joint to the ground) is the old one rotated as a rigid whole,
+    its joints still closed (round-off), the stacked bodies turned with the listed ones, and the
+    frame's Euler parameters still normalised."""
+    import equinox as eqx
+
+    from nrrncf_jax.motion import rotation_about
+    from nrrncf_jax.multibody import Fixed, MultibodySystem
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum, build_reduced_pendulum
+
+    axis, angle = np.array([1.0, 2.0, 2.0]) / 3.0, 0.7
+    A = np.asarray(rotation_about(jnp.asarray(axis), angle))
+    floating, _ = build_reduced_pendulum(PendulumSpec(elements=2), n_vms=2, pairs=[(0, 0)])
+    ancf = build_pendulum(PendulumSpec(elements=2))
+    beam = ancf.bodies[0]
+    clamped = MultibodySystem([beam], [Fixed(0, [0, 1, 2], values=np.asarray(beam.q_hat)[:3])])
+    for system, vectors in ((floating, floating.nodal_vectors), (ancf, ancf.split), (clamped, clamped.split)):
+        turned = system.turned(3.0 * axis, angle)  # any length of axis
+        x0, x1 = (np.concatenate([np.asarray(x) for x in vectors(s.reference())]) for s in (system, turned))
+        np.testing.assert_allclose(x1, x0 @ A.T, rtol=0, atol=1e-14 * np.abs(x0).max())
+        assert np.abs(np.asarray(turned.constraints(turned.reference()))).max() < 1e-14 * np.abs(x0).max()
+    turned = floating.turned(axis, angle)
+    for k, b in enumerate(turned.bodies):
+        np.testing.assert_allclose(np.asarray(rotation(b.e0)), A @ np.asarray(rotation(floating.bodies[k].e0)),
+                                   atol=1e-15)
+        assert abs(float(b.e0 @ b.e0) - 1.0) < 1e-15
+        for name in ("R0", "e0"):
+            np.testing.assert_array_equal(np.asarray(getattr(turned.stacked, name))[k], np.asarray(getattr(b, name)))
+    assert eqx.tree_equal(floating.turned(axis, 0.0).bodies[0].body, floating.bodies[0].body)
+
+
+@pytest.mark.xdist_group("release")
+def test_release_sweep_runs_each_angle_as_its_own_run():
+    """A vmapped batch of pendulums released at θ and π − θ (``release_sweep``): the second is the
+    first's mirror image in the Y axis (gravity along −Y, hinges about Z: the system is symmetric),
+    and the first is the single run of the turned system. Every step decision of the three runs is
+    the same in exact arithmetic; round-off could flip one at its threshold and move a run by about
+    its error tolerance, so the bound is atol (1e-6 m). Bad angles are refused before tracing."""
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, release_sweep
+
+    system, _ = build_reduced_pendulum(PendulumSpec(elements=2), n_vms=2, pairs=[(0, 0)])
+    theta, kw = 0.3, dict(t_end=0.3, dt_out=0.01, rho_inf=1.0, rtol=1e-5, atol=1e-6)
+    sweep = release_sweep(system, [theta, np.pi - theta], **kw)
+    assert sweep.ok.all() and sweep.tips.shape == (2, 31, 3, 3)
+    np.testing.assert_allclose(sweep.tips[0, 0, :, :2], np.outer([1.0, 2.0, 3.0], [np.cos(theta), np.sin(theta)]),
+                               atol=1e-14)
+    mirror = sweep.tips[1] * np.array([-1.0, 1.0, 1.0])
+    assert np.abs(mirror - sweep.tips[0]).max() < kw["atol"]
+    assert np.ptp(sweep.tips[0, :, 2, 1]) > 0.2  # it swings: the tip falls by decimetres
+    tip = system.bodies[0].body.n_vectors - 6
+    single = simulate(system.turned((0.0, 0.0, 1.0), theta), jnp.asarray(sweep.ts),
+                      solver=GeneralizedAlphaIndex3(1.0), rtol=1e-5, atol=1e-6, newton_tol=1e-2,
+                      observe=lambda t, x, v: jnp.stack([xb[tip] for xb in system.nodal_vectors(x)]))
+    assert np.abs(np.asarray(single.ys) - sweep.tips[0]).max() < kw["atol"]
+    assert int(single.num_steps) == int(sweep.steps[0])
+    for bad in ([], [0.1, np.nan]):
+        with pytest.raises(ValueError, match="angles"):
+            release_sweep(system, bad, **kw)

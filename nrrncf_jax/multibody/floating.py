@@ -61,6 +61,7 @@ from .._types import Array, Bool, Float, Scalar
 from ..body import Body
 from ..linalg import DenseLU
 from ..models.base import AbstractModel
+from ..motion import unit_axis
 from ..reduction.tensors import ElasticTensors
 from .joints import AbstractJoint
 from .system import AugmentedFactor, _solve_bodies
@@ -87,6 +88,20 @@ def euler_parameters(A) -> np.ndarray:
         [A[1, 0] - A[0, 1], A[0, 2] + A[2, 0], A[1, 2] + A[2, 1], A[2, 2] - A[0, 0] - A[1, 1]]]) / 3.0)
     e = V[:, -1]
     return e if e[0] >= 0 else -e
+
+
+def axis_angle(axis, angle) -> Float[Array, " 4"]:
+    """Euler parameters of the rotation by ``angle`` [rad] about the unit vector ``axis``:
+    (cos(θ/2), sin(θ/2) n). Traceable (``FloatingFrameSystem.turned`` under ``vmap``)."""
+    n = jnp.asarray(axis, dtype=float).reshape(3)
+    half = 0.5 * jnp.asarray(angle, dtype=float)
+    return jnp.concatenate([jnp.cos(half)[None], jnp.sin(half) * n])
+
+
+def _compose(a: Float[Array, " 4"], b: Float[Array, " 4"]) -> Float[Array, " 4"]:
+    """The Euler parameters of the rotation A(a) A(b) (the quaternion product a ⊗ b)."""
+    return jnp.concatenate([(a[0] * b[0] - a[1:] @ b[1:])[None],
+                            a[0] * b[1:] + b[0] * a[1:] + jnp.cross(a[1:], b[1:])])
 
 
 def _rotation_basis() -> np.ndarray:
@@ -296,6 +311,11 @@ def _stack(bodies) -> FloatingBody | None:
     return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *bodies)
 
 
+def _compose_last(a, b):
+    """``_compose(a, b)`` over b's leading axes (a stacked body's e0 is (bodies, 4))."""
+    return _compose(a, b) if b.ndim == 1 else jax.vmap(lambda y: _compose(a, y))(b)
+
+
 def _A_hat(e):
     return jnp.einsum("k,l,klij->ij", e, e, jnp.asarray(_B))
 
@@ -390,6 +410,22 @@ class FloatingFrameSystem(AbstractModel):
 
     def reference(self) -> Float[Array, " n"]:
         return jnp.concatenate([b.initial() for b in self.bodies])
+
+    def turned(self, axis, angle) -> "FloatingFrameSystem":
+        """The system turned as a whole by ``angle`` [rad] about ``axis`` through the origin: each
+        frame's origin and orientation (so the initial state, ``reference``) and the joints' fixed
+        data in space (``AbstractJoint.turned``); gravity stays. The deformation, measured in the
+        frames, does not change. Traceable in ``angle``: a batch of release angles is a ``vmap``
+        over it (``scenarios.pendulum.release_sweep``)."""
+        e = axis_angle(unit_axis(axis), angle)
+        A = rotation(e)
+
+        def turn(b):
+            return eqx.tree_at(lambda b: (b.R0, b.e0), b, (b.R0 @ A.T, _compose_last(e, b.e0)))
+
+        out = eqx.tree_at(lambda s: (s.bodies, s.joints), self,
+                          (tuple(turn(b) for b in self.bodies), tuple(j.turned(A) for j in self.joints)))
+        return out if self.stacked is None else eqx.tree_at(lambda s: s.stacked, out, turn(self.stacked))
 
     def free_mask(self) -> Bool[Array, " n"]:
         return jnp.ones(self.n_dof, bool)
@@ -544,4 +580,4 @@ class FloatingFrameSystem(AbstractModel):
         """Kinetic + strain + gravity potential energy (conserved without damping)."""
         return self.kinetic_energy(z, v) + self.potential_energy(z)
 
-__all__ = ["FloatingBody", "FloatingFrameSystem", "euler_parameters", "rotation"]
+__all__ = ["FloatingBody", "FloatingFrameSystem", "axis_angle", "euler_parameters", "rotation"]

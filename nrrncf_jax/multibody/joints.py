@@ -55,6 +55,12 @@ class AbstractJoint(eqx.Module):
     def bodies(self) -> set[int]:
         return {b for b, _ in self.references()}
 
+    def turned(self, A: Float[Array, "3 3"]) -> "AbstractJoint":
+        """The joint with its fixed data in space (ground points, axes, values) rotated by ``A``
+        about the origin, for a system turned as a whole (``MultibodySystem.turned``,
+        ``FloatingFrameSystem.turned``). A joint between bodies holds none: itself."""
+        return self
+
 
 def _vector(xs, body, vector):
     return xs[body][vector]
@@ -82,6 +88,9 @@ class Spherical(AbstractJoint):
 
     def references(self):
         return [(self.body_a, self.vector_a)] + ([] if self.body_b is None else [(self.body_b, self.vector_b)])
+
+    def turned(self, A):
+        return eqx.tree_at(lambda j: j.point, self, A @ self.point)
 
     def __call__(self, xs):
         other = self.point if self.body_b is None else _vector(xs, self.body_b, self.vector_b)
@@ -127,6 +136,9 @@ class Revolute(AbstractJoint):
             refs += [(self.body_a, self.position_a)] + [(self.body_a, v) for v in self.normals_a]
         return refs
 
+    def turned(self, A):
+        return eqx.tree_at(lambda j: (j.point, j.ground_normals), self, (A @ self.point, self.ground_normals @ A.T))
+
     def __call__(self, xs):
         d = _vector(xs, self.body_b, self.axis_b)
         r_b = _vector(xs, self.body_b, self.position_b)
@@ -169,6 +181,10 @@ class Fixed(AbstractJoint):
     def references(self):
         refs = [(self.body_a, v) for v in self.vectors_a]
         return refs + ([] if self.body_b is None else [(self.body_b, v) for v in self.vectors_b])
+
+    def turned(self, A):
+        # a position and gradient vectors alike: v → A v (a rotation about the origin is linear)
+        return self if self.values is None else eqx.tree_at(lambda j: j.values, self, self.values @ A.T)
 
     def __call__(self, xs):
         a = jnp.stack([_vector(xs, self.body_a, v) for v in self.vectors_a])

@@ -27,6 +27,7 @@ from .._validate import is_concrete
 from ..body import Body
 from ..linalg import DenseLU, assemble_and_factor
 from ..models.base import AbstractModel
+from ..motion import rotation_about, unit_axis
 from .joints import AbstractJoint
 
 
@@ -135,6 +136,15 @@ class MultibodySystem(AbstractModel):
 
     def free_mask(self) -> Bool[Array, " n"]:
         return jnp.ones(self.n_dof, bool)
+
+    def turned(self, axis, angle) -> "MultibodySystem":
+        """The system turned as a whole by ``angle`` [rad] about ``axis`` through the origin: every
+        body's nodal vectors (its stress-free, initial state, as ``placed``) and the joints' fixed
+        data in space (``AbstractJoint.turned``); gravity stays. Traceable in ``angle`` (a batch
+        of release angles: ``scenarios.pendulum.release_sweep``)."""
+        A = rotation_about(unit_axis(axis), jnp.asarray(angle, dtype=float))
+        bodies = tuple(eqx.tree_at(lambda b: b.q_hat, b, b.q_hat @ A.T) for b in self.bodies)
+        return eqx.tree_at(lambda s: (s.bodies, s.joints), self, (bodies, tuple(j.turned(A) for j in self.joints)))
 
     def initial_state(self, t0: Scalar):
         x0 = self.reference()
