@@ -17,10 +17,10 @@ extended Craig-Bampton basis (``reduction.craig_bampton``: the joint's position 
 coordinates, fixed-interface modes and their MDs); ``mmi_per_body`` picks each beam's MDs by
 maximum modal interaction; ``release_sweep`` runs any of them released at a batch of angles in
 one compiled, vmapped loop. On the paper's mesh the reduced model (81 DOFs, χ_rel 1.13 %) ran
-9-10× faster than the full ANCF one and 24-29× faster than the full RNCF one at the same
-tolerance (other runs: 6.3-11.4× against ANCF; this VM's timings vary by a third), 14-19× at
+9-11× faster than the full ANCF one and 24-29× faster than the full RNCF one at the same
+tolerance (other runs: 6.3-11.4× against ANCF; this VM's timings vary by a third), 14-24× at
 looser ones, which its own time-integration error allows; with 8 MDs a beam by MMI (60 DOFs)
-χ_rel 1.17 % and 12-13×; the Craig-Bampton one (87 DOFs) is within χ_rel 0.33 %
+χ_rel 1.16-1.17 % and 12-16×; the Craig-Bampton one (87 DOFs) is within χ_rel 0.33 %
 (``benchmarks/results/pendulum.md``, issue 17).
 """
 
@@ -112,8 +112,8 @@ Why the tangent and not the section vectors (``LEFT_SECTION_FRAME``): a C1 beam'
 vectors shear against its centre line, and their shear and stretch vibrate at the mesh's highest
 frequencies. A frame that follows them carries that vibration into every coordinate of the body
 (each one measured from the frame), and the step-size control of the 10-element pendulum then
-rejected 48 % of its steps: 7517 steps (3612 rejected) and 143.9 s over 0-2 s, against 4627 (739)
-and 72-83 s with the tangent frame (``benchmarks/results/pendulum.md``), whose step counts follow
+rejected 48 % of its steps: 7517 steps (3612 rejected) and 143.9 s over 0-2 s, against 4627-4676
+(710-739) and 68-83 s with the tangent frame (``benchmarks/results/pendulum.md``), whose step counts follow
 the ANCF model's (4238, 398) as the same equations should. The NR-RNCF basis holds the section vectors entirely
 (``REFERENCE_CONDITIONS``, a cantilever's clamp): its modes have no shear vibration at the clamp
 to carry."""
