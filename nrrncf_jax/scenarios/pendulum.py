@@ -379,6 +379,21 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
     return run
 
 
+def _chain(system) -> tuple[str, object, np.ndarray]:
+    """``(formulation, vectors, nodes)`` of a chain of C1 beams: ``"ancf"`` for a
+    ``MultibodySystem``, ``"rncf"`` or ``"nr-rncf"`` for a ``FloatingFrameSystem`` (full-order or
+    reduced bodies); ``vectors(x)`` its bodies' inertial nodal vectors; ``nodes`` the index of
+    each node's position vector in a body."""
+    if isinstance(system, FloatingFrameSystem):
+        formulation = "rncf" if isinstance(system.bodies[0].tensors, NodalElasticForce) else "nr-rncf"
+        n_vectors, vectors = system.bodies[0].body.n_vectors, system.nodal_vectors
+    elif isinstance(system, MultibodySystem):
+        formulation, n_vectors, vectors = "ancf", system.bodies[0].n_vectors, system.split
+    else:
+        raise ValueError(f"system must be a MultibodySystem or a FloatingFrameSystem, got {type(system).__name__}")
+    return formulation, vectors, _PER_NODE * np.arange(n_vectors // _PER_NODE) + _R
+
+
 def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0, dt_out: float = 0.001,
               rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
               max_steps: int = 500_000, newton_tol: float = 1e-2) -> PendulumRun:
@@ -399,14 +414,7 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     from .spinup import _check_run_args
 
     ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
-    if isinstance(system, FloatingFrameSystem):
-        formulation = "rncf" if isinstance(system.bodies[0].tensors, NodalElasticForce) else "nr-rncf"
-        n_vectors, vectors = system.bodies[0].body.n_vectors, system.nodal_vectors
-    elif isinstance(system, MultibodySystem):
-        formulation, n_vectors, vectors = "ancf", system.bodies[0].n_vectors, system.split
-    else:
-        raise ValueError(f"system must be a MultibodySystem or a FloatingFrameSystem, got {type(system).__name__}")
-    nodes = _PER_NODE * np.arange(n_vectors // _PER_NODE) + _R
+    formulation, vectors, nodes = _chain(system)
 
     def observe(t, x, v):
         xs, kinetic = vectors(x), system.kinetic_energy(x, v)
@@ -465,12 +473,8 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
     angles = np.asarray(angles, dtype=float).reshape(-1)
     if angles.size == 0 or not np.all(np.isfinite(angles)):
         raise ValueError(f"angles must be a non-empty sequence of finite release angles [rad], got {angles!r}")
-    if not isinstance(system, (MultibodySystem, FloatingFrameSystem)):
-        raise ValueError(f"system must be a MultibodySystem or a FloatingFrameSystem, got {type(system).__name__}")
-    floating = isinstance(system, FloatingFrameSystem)
-    n_vectors = (system.bodies[0].body if floating else system.bodies[0]).n_vectors
-    tip = _PER_NODE * (n_vectors // _PER_NODE - 1) + _R
-    vectors = system.nodal_vectors if floating else system.split
+    _, vectors, nodes = _chain(system)
+    tip = nodes[-1]
     lanes = angles.size if lanes is None else positive_int("lanes", lanes)
 
     def observe(t, x, v):
