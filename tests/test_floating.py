@@ -403,12 +403,15 @@ def test_turned_systems_keep_their_joints_and_turn_every_vector():
         np.testing.assert_allclose(x1, x0 @ A.T, rtol=0, atol=1e-14 * np.abs(x0).max())
         assert np.abs(np.asarray(turned.constraints(turned.reference()))).max() < 1e-14 * np.abs(x0).max()
     turned = floating.turned(axis, angle)
+    # Rodrigues' A against the Euler parameters' product, and the stacked (vmapped) turn against
+    # the loop: different operations on numbers of order 1, so a few tens of eps apart at most
     for k, b in enumerate(turned.bodies):
         np.testing.assert_allclose(np.asarray(rotation(b.e0)), A @ np.asarray(rotation(floating.bodies[k].e0)),
-                                   atol=1e-15)
-        assert abs(float(b.e0 @ b.e0) - 1.0) < 1e-15
+                                   atol=1e-14)
+        assert abs(float(b.e0 @ b.e0) - 1.0) < 1e-14
         for name in ("R0", "e0"):
-            np.testing.assert_array_equal(np.asarray(getattr(turned.stacked, name))[k], np.asarray(getattr(b, name)))
+            np.testing.assert_allclose(np.asarray(getattr(turned.stacked, name))[k], np.asarray(getattr(b, name)),
+                                       rtol=0, atol=1e-14)
     assert eqx.tree_equal(floating.turned(axis, 0.0).bodies[0].body, floating.bodies[0].body)
 
 
@@ -435,7 +438,8 @@ def test_release_sweep_runs_each_angle_as_its_own_run():
                       solver=GeneralizedAlphaIndex3(1.0), rtol=1e-5, atol=1e-6, newton_tol=1e-2,
                       observe=lambda t, x, v: jnp.stack([xb[tip] for xb in system.nodal_vectors(x)]))
     assert np.abs(np.asarray(single.ys) - sweep.tips[0]).max() < kw["atol"]
-    assert int(single.num_steps) == int(sweep.steps[0])
+    # the same steps but for a decision that round-off might flip (306 here, equal)
+    assert abs(int(single.num_steps) - int(sweep.steps[0])) <= 0.02 * int(single.num_steps)
     for bad in ([], [0.1, np.nan]):
         with pytest.raises(ValueError, match="angles"):
             release_sweep(system, bad, **kw)
