@@ -26,6 +26,14 @@ def machine() -> str:
     return line
 
 
+def pin_to_one_core() -> None:
+    """Pin this process to its lowest allowed core (``machine()`` then says so). The pendulum's
+    models are too small to gain from a second core, and XLA's hand-offs of their small operations
+    between two made their times vary twofold. Only on a CPU: a GPU run keeps its host cores."""
+    if hasattr(os, "sched_setaffinity") and jax.devices()[0].platform == "cpu":
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+
+
 def report(text: str, path: str) -> None:
     """Print a benchmark's Markdown report and write it to ``path`` (folders made as needed)."""
     print(text)

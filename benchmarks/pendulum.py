@@ -31,7 +31,7 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
-from _machine import machine, report  # noqa: E402
+from _machine import machine, pin_to_one_core, report  # noqa: E402
 
 from nrrncf_jax.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import (  # noqa: E402
@@ -66,8 +66,8 @@ def main(argv=None):
     p.add_argument("--tips", help="also write each full run's tips (t, beam, xyz) to this .npz, and compare with the "
                                   "runs already in it (a finer mesh run separately)")
     a = p.parse_args(argv)
-    if not a.all_cores and hasattr(os, "sched_setaffinity"):
-        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})  # machine() says so
+    if not a.all_cores:
+        pin_to_one_core()
     lines = ["# The three-beam pendulum (paper Sec. 4.4)", "",
              f"Produced by `benchmarks/pendulum.py --elements {' '.join(map(str, a.elements))} --t-end {a.t_end:g}"
              f"{' --no-energy' if a.no_energy else ''}`. "

@@ -16,7 +16,8 @@ as long as its costliest member. Above the horizontal the chain falls onto its h
 beams (E = 5 MPa: a beam's Euler load, ~6 mN, is under 1 % of its weight) buckle: released at
 +60°, 42,183 steps over 0-2 s against 3,011 at 0°, which is why the default range stays below
 the horizontal (a lowered chain stretches its beams instead). On a machine
-with a GPU, ``benchmarks/gpu_sweep.sh`` runs it with n = 256 (the issue's GPU row).
+with a GPU, ``benchmarks/gpu_sweep.sh`` runs it with n = 256 (the issue's GPU row). On a CPU the
+process is pinned to one core (``--all-cores`` not to), as ``pendulum.py``.
 """
 
 import argparse
@@ -32,7 +33,7 @@ import numpy as np  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, release_sweep  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _machine import machine, report  # noqa: E402
+from _machine import machine, pin_to_one_core, report  # noqa: E402
 
 
 def main(argv=None):
@@ -44,7 +45,10 @@ def main(argv=None):
     ap.add_argument("--t-end", type=float, default=2.0)
     ap.add_argument("--rtol", type=float, default=1e-4)
     ap.add_argument("--out", default="benchmarks/results/pendulum_batch.md")
+    ap.add_argument("--all-cores", action="store_true", help="do not pin the process to one core (on a CPU)")
     a = ap.parse_args(argv)
+    if not a.all_cores:
+        pin_to_one_core()
     system, info = build_reduced_pendulum(PendulumSpec(elements=a.elements), 5)
     lines = ["# NR-RNCF pendulums released at different angles, one batched run", "",
              f"Produced by `benchmarks/pendulum_batch.py --sizes {' '.join(map(str, a.sizes))} --range "

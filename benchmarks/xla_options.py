@@ -36,7 +36,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _machine import machine, report  # noqa: E402
+from _machine import machine, pin_to_one_core, report  # noqa: E402
 
 from nrrncf_jax.integrate import GeneralizedAlphaIndex3  # noqa: E402
 from nrrncf_jax.integrate.simulate import _prepare, _simulate, _simulate_arguments  # noqa: E402
@@ -116,8 +116,8 @@ def main(argv=None):
     p.add_argument("--all-cores", action="store_true")
     p.add_argument("--out", default="benchmarks/results/xla_options.md")
     a = p.parse_args(argv)
-    if not a.all_cores and hasattr(os, "sched_setaffinity"):
-        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    if not a.all_cores:
+        pin_to_one_core()
     lines = ["# Compile time against run time under XLA's CPU options", "",
              f"Produced by `benchmarks/xla_options.py --cases {' '.join(a.cases)} --repeats {a.repeats}`. "
              f"Machine: {machine()}.", "",
