@@ -206,12 +206,12 @@ def simulate_diffrax(model, ts, *, t0=0.0, rtol=1e-4, atol=1e-6, dt0=None, dtmax
 # --------------------------------------------------------------------------------------------
 
 def _build(omega_s, n_el, t_end):
-    from nrrncf_jax.body import beam_body
-    from nrrncf_jax.material import Material
-    from nrrncf_jax.mesh import straight_reference
+    from nrrncf_jax.bodies.body import beam_body
+    from nrrncf_jax.bodies.mesh import straight_reference
+    from nrrncf_jax.elements.material import Material
+    from nrrncf_jax.elements.section import TubeSection
     from nrrncf_jax.models import RotatingFrameModel
     from nrrncf_jax.motion import SpinUp
-    from nrrncf_jax.section import TubeSection
 
     body = beam_body(Material(70e9, 2700.0, 0.3), TubeSection(0.02, 0.005724), straight_reference(8.0, n_el))
     model = RotatingFrameModel(body, SpinUp(omega_s, 15.0))

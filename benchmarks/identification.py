@@ -27,7 +27,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax.integrate.simulate import simulate  # noqa: E402
-from nrrncf_jax.nr_rncf import nr_rncf  # noqa: E402
+from nrrncf_jax.reduction.pipeline import nr_rncf  # noqa: E402
 from nrrncf_jax.scenarios.identification import identification_demo  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model, output_times  # noqa: E402
 from nrrncf_jax.studies.families import SpinupFamily  # noqa: E402

@@ -33,7 +33,7 @@ if cache != "none":
     block = nrrncf_jax.compilation_cache(cache)
     block.__enter__()
 import jax.numpy as jnp
-from nrrncf_jax.nr_rncf import nr_rncf
+from nrrncf_jax.reduction.pipeline import nr_rncf
 from nrrncf_jax.scenarios.spinup import build_spinup_model, default_elements, output_times
 omega = float(sys.argv[1])
 t0 = time.perf_counter()

@@ -24,8 +24,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 from _machine import machine, report  # noqa: E402
 
-from nrrncf_jax.nr_rncf import nr_rncf  # noqa: E402
-from nrrncf_jax.observe import tip_index  # noqa: E402
+from nrrncf_jax.models.observe import tip_index  # noqa: E402
+from nrrncf_jax.reduction.pipeline import nr_rncf  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model  # noqa: E402
 from nrrncf_jax.studies.control import optimal_spinup, residual_amplitude, tip_response  # noqa: E402
 

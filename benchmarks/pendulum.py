@@ -33,7 +33,7 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 
-from nrrncf_jax.metrics import chi_rel  # noqa: E402
+from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import (  # noqa: E402
     PendulumSpec,
     build_reduced_pendulum,

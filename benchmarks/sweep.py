@@ -43,7 +43,7 @@ def _build(a, path):
     import numpy as np
 
     jax.config.update("jax_enable_x64", True)
-    from nrrncf_jax.studies.sweep import sweep_reduction
+    from nrrncf_jax.scenarios.spinup import sweep_reduction
 
     red = sweep_reduction("paper", _grid(a), t_end=a.t_end, dt_out=a.dt_out)
     with open(path, "wb") as f:

@@ -24,7 +24,7 @@ jax.config.update("jax_enable_x64", True)
 from _machine import machine  # noqa: E402
 
 from nrrncf_jax import chi_rel  # noqa: E402
-from nrrncf_jax.plotting import plot_mmi, plot_tip  # noqa: E402
+from nrrncf_jax.post.plotting import plot_mmi, plot_tip  # noqa: E402
 from nrrncf_jax.scenarios import run_spinup  # noqa: E402
 from nrrncf_jax.scenarios.spinup import default_elements, run_nr_rncf_spinup  # noqa: E402
 

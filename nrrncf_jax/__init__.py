@@ -12,37 +12,27 @@ and ``from nrrncf_jax import simulate`` work as usual.
 
 import importlib
 import importlib.util
-import sys
-import types
 
 __version__ = "0.1.0"
 
 _EXPORTS = {
-    "body": ("Body", "beam_body"),
-    "compilation_cache": ("compilation_cache",),
-    "damping": ("RayleighDamping",),
-    "integrate": ("GeneralizedAlpha", "SimulationError", "Solution", "simulate", "simulate_batch"),
-    "integrate.simulate": ("simulate_timed",),
-    "integrate.static": ("static_equilibrium",),
-    "material": ("Material",),
-    "mesh": ("BeamReference", "arc_reference", "centerline_reference", "straight_reference"),
-    "metrics": ("chi_rel",),
-    "frame": ("Frame", "frame_body"),
-    "models": ("AbstractModel", "Harmonic", "InertialFrameModel", "LinearModel", "Loads", "ReducedRotatingModel",
-               "RotatingFrameModel", "reduce_rotating_model"),
-    "motion": ("AbstractMotion", "AbstractAxisMotion", "ComposedMotion", "HarmonicTranslation", "SpinUp",
-               "Stationary", "SteadySpin"),
-    "nr_rncf": ("Reduction", "nr_rncf"),
-    "observe": ("tip_index",),
-    "profiles": ("FourierSpinUp",),
-    "reduction": ("ModalDerivatives", "VibrationModes", "deflate", "modal_derivatives", "vibration_modes"),
-    "scenarios": ("BEAMS", "beam_preset", "run_spinup"),
+    "bodies": ("Body", "beam_body", "Frame", "frame_body", "BeamReference",
+               "arc_reference", "centerline_reference", "straight_reference"),
+    "elements": ("Material", "TubeSection"),
+    "integrate": ("GeneralizedAlpha", "SimulationError", "Solution", "simulate", "simulate_batch", "simulate_timed",
+                  "static_equilibrium", "compilation_cache"),
+    "models": ("AbstractModel", "Harmonic", "InertialFrameModel", "LinearModel", "Loads", "RayleighDamping",
+               "RotatingFrameModel", "tip_index"),
+    "motion": ("AbstractMotion", "AbstractAxisMotion", "ComposedMotion", "FourierSpinUp", "HarmonicTranslation",
+               "SpinUp", "Stationary", "SteadySpin"),
+    "post": ("chi_rel",),
+    "reduction": ("ModalDerivatives", "ReducedRotatingModel", "Reduction", "VibrationModes", "deflate",
+                  "modal_derivatives", "nr_rncf", "reduce_rotating_model",
+                  "vibration_modes"),
+    "scenarios": ("BEAMS", "beam_preset", "run_spinup", "sweep_reduction"),
     "scenarios.truss": ("TrussSpec", "build_truss"),
-    "section": ("TubeSection",),
-    "studies.control": ("OptimalSpinup", "optimal_spinup", "tip_response"),
-    "studies.families": ("SpinupFamily", "offline_family"),
-    "studies.identification": ("Measurement", "identify", "misfit"),
-    "studies.sweep": ("SweepGrid", "SweepResult", "spinup_sweep", "sweep_grid", "sweep_reduction"),
+    "studies": ("Measurement", "OptimalSpinup", "SpinupFamily", "SweepGrid", "SweepResult", "identify", "misfit",
+                "offline_family", "optimal_spinup", "spinup_sweep", "sweep_grid", "tip_response"),
 }
 """Public names by the submodule (relative to this package) that defines them."""
 
@@ -66,19 +56,3 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_WHERE))
-
-
-class _Package(types.ModuleType):
-    """This package's module type: a submodule that shares its name with a function exported here
-    (``nr_rncf``, ``compilation_cache``) does not replace the function as the package's attribute
-    when it is imported (the import system sets each submodule on its package), so
-    ``nrrncf_jax.nr_rncf`` is the function, as it was when the package imported everything at once;
-    the submodule stays in ``sys.modules``."""
-
-    def __setattr__(self, name, value):
-        if isinstance(value, types.ModuleType) and name in _WHERE and value.__name__ == f"{__name__}.{name}":
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package

@@ -106,3 +106,21 @@ def parse_range(spec: str, name: str = "value") -> np.ndarray:
         raise ValueError(f"{name}: the start of {spec!r} must be smaller than its stop (start:stop:count), "
                          f"got {_show(a)} >= {_show(b)}")
     return np.linspace(a, b, n)
+
+
+def output_times(t_end: float, dt_out: float) -> np.ndarray:
+    """The output (and MMI sampling) times 0, dt_out, ..., t_end."""
+    positive("t_end", t_end)
+    positive("dt_out (output interval)", dt_out)
+    ts = np.arange(0.0, t_end + 0.5 * dt_out, dt_out)
+    return ts[ts <= t_end + 1e-12]
+
+
+def run_options(t_end, dt_out, rho_inf, rtol, atol) -> np.ndarray:
+    """Check a scenario run's options (output times, ρ∞ in [0, 1], tolerances); return the output
+    times."""
+    ts = output_times(t_end, dt_out)
+    if not 0.0 <= rho_inf <= 1.0:
+        raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf!r}")
+    tolerances(rtol, atol)
+    return ts

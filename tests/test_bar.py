@@ -8,7 +8,7 @@ import pytest
 from conftest import paper_body
 
 from nrrncf_jax import Loads, RotatingFrameModel, Stationary, static_equilibrium
-from nrrncf_jax.body import Body, element_group, truss_body
+from nrrncf_jax.bodies.body import Body, element_group, truss_body
 from nrrncf_jax.elements import Bar
 
 E, RHO, AREA = 70e9, 2700.0, 1e-4

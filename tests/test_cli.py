@@ -14,8 +14,8 @@ import pytest
 import nrrncf_jax.cli as cli
 from nrrncf_jax.cli import build_parser, main
 from nrrncf_jax.cli._common import BEAM_NAMES
-from nrrncf_jax.nr_rncf import Reduction, nr_rncf
 from nrrncf_jax.reduction import SpinCheck
+from nrrncf_jax.reduction.pipeline import Reduction, nr_rncf
 from nrrncf_jax.scenarios import BEAMS
 from nrrncf_jax.scenarios.spinup import build_spinup_model, output_times
 

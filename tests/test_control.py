@@ -10,8 +10,8 @@ import pytest
 from conftest import RTOL_ROUNDOFF, paper_body
 
 from nrrncf_jax import RotatingFrameModel, SpinUp, reduce_rotating_model, vibration_modes
-from nrrncf_jax.observe import tip_index, tip_observer
-from nrrncf_jax.profiles import FourierSpinUp
+from nrrncf_jax.models.observe import tip_index, tip_observer
+from nrrncf_jax.motion.profiles import FourierSpinUp
 from nrrncf_jax.studies.control import optimal_spinup, residual_amplitude, residual_mean_square, tip_response
 
 OMEGA_S, T_S, T_END = 1.0, 3.0, 5.0  # a short manoeuvre; still tip deflections of ~0.8 m

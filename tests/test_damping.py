@@ -8,8 +8,8 @@ from conftest import RTOL_ROUNDOFF, paper_body
 
 from nrrncf_jax import RayleighDamping, RotatingFrameModel, SpinUp, Stationary, simulate
 from nrrncf_jax.integrate import GeneralizedAlpha
-from nrrncf_jax.models import InertialFrameModel, reduce_rotating_model
-from nrrncf_jax.reduction import vibration_modes
+from nrrncf_jax.models import InertialFrameModel
+from nrrncf_jax.reduction import reduce_rotating_model, vibration_modes
 
 
 def test_rayleigh_ratio_at_the_two_frequencies():

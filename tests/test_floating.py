@@ -27,17 +27,17 @@ import pytest
 from scipy.spatial.transform import Rotation
 from scipy.special import ellipk
 
-from nrrncf_jax.body import beam_body
+from nrrncf_jax.bodies.body import beam_body
+from nrrncf_jax.bodies.mesh import straight_reference
+from nrrncf_jax.elements.material import Material
+from nrrncf_jax.elements.section import TubeSection
 from nrrncf_jax.integrate import GeneralizedAlphaIndex3, simulate
-from nrrncf_jax.material import Material
-from nrrncf_jax.mesh import straight_reference
 from nrrncf_jax.models import RotatingFrameModel
 from nrrncf_jax.motion import Stationary
 from nrrncf_jax.multibody import FloatingBody, FloatingFrameSystem, Revolute
 from nrrncf_jax.multibody.floating import euler_parameters, rotation
 from nrrncf_jax.reduction import elastic_tensors, excited_modes, plane_loads, vibration_modes
 from nrrncf_jax.scenarios.pendulum import REFERENCE_CONDITIONS
-from nrrncf_jax.section import TubeSection
 
 G = 9.81
 

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from nrrncf_jax.bodies.frame import frame_body
 from nrrncf_jax.elements import Bar, C1Beam, JointLink
-from nrrncf_jax.frame import frame_body
-from nrrncf_jax.material import Material
-from nrrncf_jax.section import TubeSection
+from nrrncf_jax.elements.material import Material
+from nrrncf_jax.elements.section import TubeSection
 
 MAT = Material(70e9, 2700.0, 0.33)
 SEC = TubeSection(0.01, 0.008)

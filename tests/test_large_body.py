@@ -37,7 +37,7 @@ import scipy.sparse.linalg as spla
 from scipy.optimize import brentq
 from test_linalg import roundoff_tol
 
-from nrrncf_jax.body import Body, element_group, truss_body
+from nrrncf_jax.bodies.body import Body, element_group, truss_body
 from nrrncf_jax.elements import Bar
 from nrrncf_jax.linalg import assemble_and_factor, assemble_sparse, sparse_modes
 from nrrncf_jax.linalg import sparse as sparse_module

@@ -24,9 +24,9 @@ from nrrncf_jax import (
     SpinUp,
     Stationary,
 )
-from nrrncf_jax.models.reduced import reduce_rotating_model
 from nrrncf_jax.motion import skew
 from nrrncf_jax.reduction import vibration_modes
+from nrrncf_jax.reduction.reduced_model import reduce_rotating_model
 
 TOL = 1e-12
 

@@ -17,13 +17,13 @@ import pytest
 from conftest import PENDULUM_RUN
 from scipy.special import ellipk
 
-from nrrncf_jax.body import beam_body
+from nrrncf_jax.bodies.body import beam_body
+from nrrncf_jax.bodies.mesh import straight_reference
+from nrrncf_jax.elements.material import Material
+from nrrncf_jax.elements.section import TubeSection
 from nrrncf_jax.integrate import GeneralizedAlpha, GeneralizedAlphaIndex3, simulate
-from nrrncf_jax.material import Material
-from nrrncf_jax.mesh import straight_reference
 from nrrncf_jax.multibody import Fixed, MultibodySystem, Revolute, Spherical, placed
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum
-from nrrncf_jax.section import TubeSection
 
 G = 9.81
 

@@ -27,11 +27,11 @@ from scipy.optimize import brentq
 from scipy.special import jv, yv
 
 from nrrncf_jax import vibration_modes
-from nrrncf_jax.body import element_group
+from nrrncf_jax.bodies.body import element_group
+from nrrncf_jax.bodies.plate_mesh import annulus, check_mesh, hexagonal_disk, plate_body, plate_layout
 from nrrncf_jax.elements import TrianglePlate
 from nrrncf_jax.elements.plate import TRIANGLE_POINTS, TRIANGLE_WEIGHTS
 from nrrncf_jax.linalg import assemble_sparse
-from nrrncf_jax.plate_mesh import annulus, check_mesh, hexagonal_disk, plate_body, plate_layout
 
 E, RHO, NU, A_HUB, H = 1.0, 1.0, 0.3, 0.1, 0.01
 G = E / (2 * (1 + NU))

@@ -155,7 +155,7 @@ def test_mmi_and_selection():
 def test_closed_form_modal_response_equals_the_integrated_linear_model(curved):
     """The MMI's exact first-order-hold response == the linear model (Eq. 39) integrated by
     the time integrator at tight tolerance; and a damped oscillator against its closed form."""
-    from nrrncf_jax.models.reduced import modal_loads
+    from nrrncf_jax.reduction.reduced_model import modal_loads
     from nrrncf_jax.reduction.selection import modal_response
 
     body, full, modes = curved

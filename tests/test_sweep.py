@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from nrrncf_jax.cli import main
+from nrrncf_jax.scenarios.spinup import sweep_reduction
 from nrrncf_jax.studies.sweep import (
     SweepGrid,
     case_model,
@@ -26,7 +27,6 @@ from nrrncf_jax.studies.sweep import (
     single_run,
     spinup_sweep,
     sweep_grid,
-    sweep_reduction,
 )
 
 E0 = 70e9  # the paper beam's Young's modulus

@@ -78,7 +78,7 @@ def test_harmonic_point_load_in_the_residuals(paper4):
     r = np.asarray(full.residual(t, q0, v0, v0)).reshape(-1, 3)
     expected = -P[0] * np.sin(2 * np.pi * 0.7 * t + 0.3)
     np.testing.assert_allclose(r[tip], expected, rtol=0, atol=1e-14)
-    from nrrncf_jax.models import reduce_rotating_model
+    from nrrncf_jax.reduction import reduce_rotating_model
 
     Psi = np.asarray(vibration_modes(body, full.free_mask(), 3).phi)
     red = reduce_rotating_model(full, Psi)

@@ -95,7 +95,7 @@ def _run(args) -> int:
 
     import jax
 
-    from ..compilation_cache import cli_cache_enabled, compilation_cache
+    from ..integrate.cache import cli_cache_enabled, compilation_cache
 
     cache = compilation_cache() if cli_cache_enabled() else contextlib.nullcontext()
     # float64 and the compilation cache for this command only; the global settings are left alone

@@ -44,11 +44,11 @@ def _run(args) -> int:
         run = run_membrane(args.case, omega, "nr-rncf", spec, vms=args.vms, mds=mds, n_modes=args.modes,
                            reference=ref if ref is not None else False, **kw)
     if args.plot:
-        from ..plotting import plot_membrane_rim
+        from ..post.plotting import plot_membrane_rim
 
         plot_membrane_rim(args.plot, [run] + ([ref] if ref is not None and ref is not run else []))
     if args.vtk:
-        from ..vtk import write_plate_vtk
+        from ..post.vtk import write_plate_vtk
 
         m = build_membrane(spec)
         fields, times = run.displacement_fields(m.body)

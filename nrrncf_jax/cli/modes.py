@@ -15,8 +15,8 @@ def _mmi(args) -> dict:
     import jax.numpy as jnp
     import numpy as np
 
-    from ..nr_rncf import nr_rncf
-    from ..plotting import mmi_quarter
+    from ..post.plotting import mmi_quarter
+    from ..reduction.pipeline import nr_rncf
     from ..scenarios.spinup import build_spinup_model, output_times
 
     ts = output_times(args.t_end, args.dt_out)
@@ -24,7 +24,7 @@ def _mmi(args) -> dict:
     red = nr_rncf(full, jnp.asarray(ts), n_modes=args.count)
     sel = red.selection
     if args.plot:
-        from ..plotting import plot_mmi
+        from ..post.plotting import plot_mmi
 
         plot_mmi(args.plot, sel.W, sel, red.omega,
                  title=f"MMI, {args.beam} beam, {args.elements} el., $\\omega_s$ = {args.omega:g} rad/s")

@@ -55,15 +55,15 @@ def _run(args) -> int:
     if args.out:
         np.savetxt(args.out, run.table(), delimiter=",", header=run.table_header(), comments="", fmt="%.9g")
     if args.plot:
-        from ..plotting import plot_pendulum
+        from ..post.plotting import plot_pendulum
 
         plot_pendulum(args.plot, [run] + ([ref] if ref is not None and ref is not run else []), times=SHAPE_TIMES)
     if args.animate:
-        from ..plotting import animate_pendulum
+        from ..post.plotting import animate_pendulum
 
         animate_pendulum(args.animate, run)
     if args.vtk:
-        from ..vtk import write_polyline_series
+        from ..post.vtk import write_polyline_series
 
         every = max(1, len(run.ts) // 100)
         beams, nodes = run.nodes.shape[1:3]

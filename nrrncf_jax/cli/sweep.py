@@ -68,7 +68,8 @@ def _sweep(args) -> int:
 
     from .._progress import note
     from ..scenarios import beam_preset
-    from ..studies.sweep import spinup_sweep, sweep_grid, sweep_reduction
+    from ..scenarios.spinup import sweep_reduction
+    from ..studies.sweep import spinup_sweep, sweep_grid
 
     progress = not args.no_progress
     preset = beam_preset(args.beam)

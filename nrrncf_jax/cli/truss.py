@@ -40,11 +40,11 @@ def _modes(args) -> int:
     types = mode_types(truss, phi)
     eq = equivalent_beam(spec)
     if args.plot:
-        from ..plotting import plot_truss_modes
+        from ..post.plotting import plot_truss_modes
 
         plot_truss_modes(args.plot, truss, phi, f, types)
     if args.vtk:
-        from ..vtk import write_frame_vtk
+        from ..post.vtk import write_frame_vtk
 
         write_frame_vtk(args.vtk, truss.frame, {f"mode_{i:02d}": phi[:, i] for i in range(phi.shape[1])})
     d = {"bays": spec.bays, "dofs": truss.body.n_dof, "beams": truss.frame.n_beams, "bars": truss.frame.n_bars,
@@ -77,12 +77,12 @@ def _dynamics(args) -> int:
         run = run_truss("nr-rncf", spec, vms=args.vms, mds=args.mds, n_modes=args.modes,
                         reference=ref if ref is not None else False, **kw)
     if args.plot:
-        from ..plotting import plot_truss_tip
+        from ..post.plotting import plot_truss_tip
 
         plot_truss_tip(args.plot, [run] + ([ref] if ref is not None and ref is not run else []))
     if args.vtk:
+        from ..post.vtk import write_frame_vtk
         from ..scenarios.truss import build_truss
-        from ..vtk import write_frame_vtk
 
         truss = build_truss(spec)
         write_frame_vtk(args.vtk, truss.frame, run.displacement_fields(truss.body)[0])

@@ -33,9 +33,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._types import Array, Float
-from ..material import Material
-from ..section import TubeSection
 from .base import AbstractElement, ElementIntegrals, local_frame
+from .material import Material
+from .section import TubeSection
 
 NODAL_VECTORS_PER_NODE = 6
 """Per node: r, r_x, r_y, r_xy, r_z, r_xz."""

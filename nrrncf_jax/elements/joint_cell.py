@@ -32,8 +32,8 @@ import jax.numpy as jnp
 
 from .. import _validate
 from .._types import Array, Float, ScalarLike
-from ..material import Material
 from .base import AbstractElement, ElementIntegrals
+from .material import Material
 
 
 class JointCell(AbstractElement):

@@ -1,6 +1,11 @@
-"""Equations of motion: residuals and iteration matrices that the integrator solves."""
+"""Full-order equations of motion of one body: the residuals and iteration matrices that the
+integrator solves (``base.AbstractModel``), for the RNCF body in a moving frame and the ANCF body
+in the inertial frame (``full_order``), a linear model (``linear``), Rayleigh damping
+(``damping``) and the tip observer (``observe``). The reduced NR-RNCF model is
+``reduction.reduced_model``; constrained systems of bodies are ``multibody``."""
 
 from .base import AbstractModel as AbstractModel
+from .damping import RayleighDamping as RayleighDamping
 from .full_order import (
     Harmonic as Harmonic,
 )
@@ -14,5 +19,6 @@ from .full_order import (
     RotatingFrameModel as RotatingFrameModel,
 )
 from .linear import LinearModel as LinearModel
-from .reduced import ReducedRotatingModel as ReducedRotatingModel
-from .reduced import reduce_rotating_model as reduce_rotating_model
+from .observe import TipObserver as TipObserver
+from .observe import tip_index as tip_index
+from .observe import tip_observer as tip_observer

@@ -23,11 +23,11 @@ import numpy as np
 
 from .._types import Array, Bool, Float, Int, Scalar
 from .._validate import is_concrete
-from ..body import DENSE_MASS_MAX_VECTORS, Body
-from ..damping import RayleighDamping
+from ..bodies.body import DENSE_MASS_MAX_VECTORS, Body
 from ..linalg import SparsityPattern, assemble_and_factor, choose_solver
 from ..motion import AbstractMotion, skew
 from .base import AbstractModel
+from .damping import RayleighDamping
 
 
 class Harmonic(eqx.Module):

@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._types import Array, Float, Int
-from ..body import Body
+from ..bodies.body import Body
 from .floating import FloatingBody
 
 

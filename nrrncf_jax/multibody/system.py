@@ -21,10 +21,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import scipy.linalg
 
 from .._types import Array, Bool, Float, Scalar
 from .._validate import is_concrete
-from ..body import Body
+from ..bodies.body import Body
 from ..linalg import DenseLU, assemble_and_factor
 from ..models.base import AbstractModel
 from ..motion import rotation_about, unit_axis
@@ -77,11 +78,11 @@ class MultibodySystem(AbstractModel):
         self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
         sizes = [b.n_dof for b in self.bodies]
         self.offsets = tuple(int(o) for o in np.concatenate([[0], np.cumsum(sizes)[:-1]]))
-        n = sum(sizes)
-        M = np.zeros((n, n))
-        for b, o in zip(self.bodies, self.offsets):
-            M[o:o + b.n_dof, o:o + b.n_dof] = np.kron(np.asarray(b.mass_matrix()), np.eye(3))
-        self.M = jnp.asarray(M)
+        blocks = [jnp.kron(b.mass_matrix(), jnp.eye(3)) for b in self.bodies]
+        if all(is_concrete(x) for x in blocks):  # NumPy outside a trace: no op-by-op compiles on a cold start
+            self.M = jnp.asarray(scipy.linalg.block_diag(*(np.asarray(x) for x in blocks)))
+        else:
+            self.M = jax.scipy.linalg.block_diag(*blocks)
         self._check()
 
     # --- checks before any tracing -----------------------------------------------------------

@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._types import Array, Float
-from ..body import Body
+from ..bodies.body import Body
 from .deflation import deflate
 from .modal_derivatives import modal_derivatives
 from .modes import vibration_modes

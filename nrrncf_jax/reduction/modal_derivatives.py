@@ -15,7 +15,7 @@ import numpy as np
 
 from .._types import Array, Bool, Float
 from .._validate import is_concrete
-from ..body import Body
+from ..bodies.body import Body
 from ..linalg import DENSE_MAX_DOFS, ScaledSuperLU, assemble_sparse
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from jax import lax
 
 from .._types import Array, Float, Int
-from ..body import DENSE_MASS_MAX_VECTORS, Body
+from ..bodies.body import DENSE_MASS_MAX_VECTORS, Body
 
 
 class ElasticTensors(eqx.Module):

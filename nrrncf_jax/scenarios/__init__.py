@@ -18,3 +18,4 @@ from .spinup import (
 from .spinup import (
     run_spinup as run_spinup,
 )
+from .spinup import sweep_reduction as sweep_reduction

@@ -5,10 +5,10 @@ import dataclasses
 import numpy as np
 
 from .. import _validate
-from ..body import Body, beam_body
-from ..material import Material
-from ..mesh import BeamReference, arc_reference, straight_reference
-from ..section import TubeSection
+from ..bodies.body import Body, beam_body
+from ..bodies.mesh import BeamReference, arc_reference, straight_reference
+from ..elements.material import Material
+from ..elements.section import TubeSection
 
 
 @dataclasses.dataclass(frozen=True)

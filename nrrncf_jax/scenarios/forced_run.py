@@ -83,7 +83,7 @@ class ForcedRun:
 
     def compare(self, reference: "ForcedRun") -> "ForcedRun":
         """Fill in χ_rel and the speed-up against a full run on the same body and output times."""
-        from ..metrics import chi_rel
+        from ..post.metrics import chi_rel
 
         if reference.positions.shape != self.positions.shape:
             raise ValueError("the reference must be a full RNCF run of the same body and output times")
@@ -101,7 +101,7 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     ``nr_rncf``) to the output times
     ``ts``, observing the mean displacement of ``point_vectors``. Returns a ``cls`` (a
     ``ForcedRun``) with ``fields`` added."""
-    from ..nr_rncf import nr_rncf
+    from ..reduction.pipeline import nr_rncf
 
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")

@@ -19,12 +19,12 @@ import numpy as np
 
 from .. import _validate
 from .._progress import note
-from ..damping import RayleighDamping
 from ..integrate.simulate import simulate
+from ..models.damping import RayleighDamping
 from ..models.full_order import RotatingFrameModel
+from ..models.observe import tip_observer
 from ..motion import SpinUp
-from ..nr_rncf import nr_rncf
-from ..observe import tip_observer
+from ..reduction.pipeline import nr_rncf
 from ..studies.families import SpinupFamily
 from ..studies.identification import IdentificationResult, Measurement, Observation, identify, tip_deflection
 from .beams import beam_preset

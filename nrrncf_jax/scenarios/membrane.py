@@ -36,10 +36,11 @@ import time
 
 import numpy as np
 
+from .. import _validate
+from ..bodies.plate_mesh import PlateBody, hexagonal_disk, plate_body
 from ..elements import TrianglePlate
 from ..models import RotatingFrameModel
 from ..motion import ComposedMotion, HarmonicTranslation, SpinUp
-from ..plate_mesh import PlateBody, hexagonal_disk, plate_body
 from .forced_run import FORMULATIONS, ForcedRun, run_forced
 
 CASES = ("in-plane", "bending-torsion")
@@ -228,14 +229,13 @@ def run_membrane(case: str = "in-plane", omega_s: float | None = None, formulati
     error of either model is then of the order of the reduction's (the 8-ring disk in
     bending-torsion: χ_rel of the paper's basis 2.2 % at rtol 1e-4, 0.20 % at 1e-6, where the
     full model's steps grow from 97 to 348). The default 1e-5 is the compromise."""
-    from .spinup import _check_run_args
 
     if case not in CASES:
         raise ValueError(f"case must be one of {CASES}, got {case!r}")
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     omega_s = DEFAULT_OMEGA[case] if omega_s is None else omega_s
-    ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
+    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     membrane = build_membrane(spec)
     full = membrane_model(membrane, case, omega_s, T_s)
     modes, modes_s = None, 0.0

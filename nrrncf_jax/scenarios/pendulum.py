@@ -30,13 +30,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _validate
 from .._validate import positive_int
-from ..body import beam_body
+from ..bodies.body import beam_body
+from ..bodies.mesh import straight_reference
 from ..elements.beam import mirror_even
+from ..elements.material import Material
+from ..elements.section import TubeSection
 from ..integrate import GeneralizedAlphaIndex3, simulate_batch
 from ..integrate.simulate import simulate_timed
-from ..material import Material
-from ..mesh import straight_reference
 from ..multibody import (
     FloatingBody,
     FloatingFrameSystem,
@@ -46,7 +48,6 @@ from ..multibody import (
     full_floating_body,
     placed,
 )
-from ..section import TubeSection
 
 # The C1 beam's nodal vectors at a node: r, r_x, r_y, r_xy, r_z, r_xz
 _R, _RX, _RY, _RZ, _PER_NODE = 0, 1, 2, 4, 6
@@ -299,7 +300,7 @@ class PendulumRun:
     def compare(self, reference: "PendulumRun") -> "PendulumRun":
         """χ_rel (THEORY §9) of every node's displacement over all output times against a full
         run on the same output times, and the speed-up."""
-        from ..metrics import chi_rel
+        from ..post.metrics import chi_rel
 
         if reference.nodes.shape != self.nodes.shape:
             raise ValueError("the reference must be a run of the same pendulum and output times")
@@ -411,9 +412,8 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     same χ_rel (1.129 %, 10 elements, 0–2 s; measured before the index-3 step also stopped on the
     error left, ``integrate.index3``, with which it takes 2.0). The full model's Newton stops after
     its second correction either way."""
-    from .spinup import _check_run_args
 
-    ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
+    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     formulation, vectors, nodes = _chain(system)
 
     def observe(t, x, v):
@@ -467,9 +467,8 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
     with the tips. A member that fails (Newton, step size) is flagged in ``ok``, not raised."""
     import time
 
-    from .spinup import _check_run_args
 
-    ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
+    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     angles = np.asarray(angles, dtype=float).reshape(-1)
     if angles.size == 0 or not np.all(np.isfinite(angles)):
         raise ValueError(f"angles must be a non-empty sequence of finite release angles [rad], got {angles!r}")

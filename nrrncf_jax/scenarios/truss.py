@@ -34,12 +34,12 @@ import functools
 import numpy as np
 
 from .. import _validate
+from ..bodies.frame import Frame, frame_body
 from ..elements import Bar, C1Beam
-from ..frame import Frame, frame_body
-from ..material import Material
+from ..elements.material import Material
+from ..elements.section import TubeSection
 from ..models import Harmonic, Loads, RotatingFrameModel
 from ..motion import Stationary
-from ..section import TubeSection
 from .forced_run import FORMULATIONS, ForcedRun, run_forced
 
 
@@ -268,11 +268,10 @@ def run_truss(formulation: str = "nr-rncf", spec: TrussSpec = TrussSpec(), F0: f
     (``'nr-rncf'``: ``vms`` VMs and ``mds`` MDs chosen by MMI among ``n_modes`` candidates over the
     output times). With ``reference`` (True, or a full ``TrussRun`` on the same output times)
     χ_rel and the speed-up are filled in."""
-    from .spinup import _check_run_args
 
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
-    ts = _check_run_args(t_end, dt_out, rho_inf, rtol, atol)
+    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     truss = build_truss(spec)
     if F0 is None or frequency is None:
         F0_auto, f_auto = resonant_force(truss, deflection * spec.length, t_end)

@@ -8,6 +8,19 @@ reduction, integrator), which never imports this package.
 - ``sweep``: batched, vmapped and device-sharded sweeps over (ωs, Ts, E).
 - ``optimize``: the one L-BFGS / line-search driver shared by identification and control.
 
-The public names are exported by the package (``nrrncf_jax.identify``, ``nrrncf_jax.spinup_sweep``,
-...); the submodules are imported only when used.
+The public names are exported here and by the package (``nrrncf_jax.identify``, ``nrrncf_jax.spinup_sweep``,
+...).
 """
+
+from .control import OptimalSpinup as OptimalSpinup
+from .control import optimal_spinup as optimal_spinup
+from .control import tip_response as tip_response
+from .families import SpinupFamily as SpinupFamily
+from .families import offline_family as offline_family
+from .identification import Measurement as Measurement
+from .identification import identify as identify
+from .identification import misfit as misfit
+from .sweep import SweepGrid as SweepGrid
+from .sweep import SweepResult as SweepResult
+from .sweep import spinup_sweep as spinup_sweep
+from .sweep import sweep_grid as sweep_grid

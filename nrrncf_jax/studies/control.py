@@ -22,9 +22,9 @@ import optax
 from .. import _validate
 from .._types import Array, Float
 from ..integrate.simulate import simulate
+from ..models.observe import TipObserver, tip_observer
 from ..motion import SpinUp
-from ..observe import TipObserver, tip_observer
-from ..profiles import FourierSpinUp
+from ..motion.profiles import FourierSpinUp
 from .optimize import lbfgs
 
 

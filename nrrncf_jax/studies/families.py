@@ -28,14 +28,14 @@ import numpy as np
 
 from .. import _validate
 from .._types import Array, Float
-from ..body import beam_body
-from ..damping import RayleighDamping
-from ..material import Material
+from ..bodies.body import beam_body
+from ..elements.material import Material
+from ..models.damping import RayleighDamping
 from ..models.full_order import Loads, RotatingFrameModel
-from ..models.reduced import ReducedRotatingModel, reduce_rotating_model
 from ..reduction.deflation import deflation_map
 from ..reduction.modal_derivatives import modal_derivatives
 from ..reduction.modes import vibration_modes
+from ..reduction.reduced_model import ReducedRotatingModel, reduce_rotating_model
 
 PARAMETERS = ("E", "zeta", "omega_s", "T_s")
 """Parameters of a ``SpinupFamily``: Young's modulus [Pa], Rayleigh damping ratio ζ, steady

@@ -21,8 +21,8 @@ from .._progress import note
 from .._types import Array, Float
 from ..integrate.generalized_alpha import GeneralizedAlpha
 from ..integrate.simulate import simulate
-from ..models.reduced import ReducedRotatingModel
-from ..observe import beam_tip
+from ..models.observe import beam_tip
+from ..reduction.reduced_model import ReducedRotatingModel
 from .families import OFFLINE_PARAMETERS, PARAMETERS, OfflineSpinupFamily, check_params
 from .optimize import lbfgs
 

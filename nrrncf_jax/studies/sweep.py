@@ -50,9 +50,9 @@ from .._progress import note
 from .._validate import parse_range as parse_range  # the CLI's grid syntax, checked without JAX
 from ..integrate import GeneralizedAlpha
 from ..integrate.simulate import RESULTS, SimulationError, simulate, simulate_batch, simulate_timed
-from ..models.reduced import ReducedRotatingModel
+from ..models.observe import beam_tip, tip_observer
 from ..motion import SpinUp
-from ..observe import beam_tip, tip_observer
+from ..reduction.reduced_model import ReducedRotatingModel
 
 _AXIS = "cases"
 _CPU_SHARDED_LANES = 16
@@ -362,7 +362,7 @@ class SweepResult:
     def plot(self, path: str, title: str | None = None, dpi: int = 120) -> None:
         """Peak transverse and axial tip deflection, and the residual vibration amplitude, against
         ωs: one line per (Ts, E) of the grid."""
-        from ..plotting import _pyplot
+        from ..post.plotting import _pyplot
 
         plt = _pyplot()
         g = self.grid
@@ -443,12 +443,11 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
 
     Returns a ``SweepResult``. Every check on the input runs before anything is traced.
     """
-    from ..scenarios.spinup import output_times
 
     model = _as_model(model_or_reduction)
     if not isinstance(grid, SweepGrid):
         raise ValueError(f"grid must be a SweepGrid (see sweep_grid), got {type(grid).__name__}")
-    ts = output_times(t_end, dt_out)
+    ts = _validate.output_times(t_end, dt_out)
     if ts.size < 2:
         raise ValueError(f"t_end={t_end!r} must be at least one output interval dt_out={dt_out!r}")
     _validate.tolerances(rtol, atol)
@@ -537,10 +536,9 @@ def single_run(model_or_reduction, omega_s: float, T_s: float, E_scale: float = 
                dt: float | None = None, max_steps: int = 500_000, tip: int | None = None, timed: bool = False):
     """One case of a sweep run alone, exactly as the sweep runs it: the ``Solution`` (``ys`` the
     tip displacement series); with ``timed=True``, ``(solution, compile_s, run_s)``."""
-    from ..scenarios.spinup import output_times
 
     model = _as_model(model_or_reduction)
-    ts = output_times(t_end, dt_out)
+    ts = _validate.output_times(t_end, dt_out)
     m = case_model(model, jnp.asarray(float(omega_s)), jnp.asarray(float(T_s)),
                    1.0 if float(E_scale) == 1.0 else jnp.asarray(float(E_scale)))
     kw = dict(solver=GeneralizedAlpha(float(rho_inf)), rtol=float(rtol), atol=float(atol),
@@ -549,18 +547,3 @@ def single_run(model_or_reduction, omega_s: float, T_s: float, E_scale: float = 
     if timed:
         return simulate_timed(m, jnp.asarray(ts), **kw)
     return simulate(m, jnp.asarray(ts), **kw)
-
-
-def sweep_reduction(beam, grid: SweepGrid, *, t_end: float, elements: int | None = None, dt_out: float = 0.01,
-                    n_modes: int = 24, vms="auto", mds="auto", max_dofs: int | None = 25):
-    """The NR-RNCF ``Reduction`` one sweep shares: ``nr_rncf`` of the full RNCF model of ``beam``
-    at the grid's hardest case (highest ωs, shortest Ts; the beam's own E), with the MMI
-    simulation over 0..``t_end``. ``elements`` defaults to the paper's mesh for that ωs."""
-    from ..nr_rncf import nr_rncf
-    from ..scenarios.spinup import build_spinup_model, output_times
-
-    if not isinstance(grid, SweepGrid):
-        raise ValueError(f"grid must be a SweepGrid (see sweep_grid), got {type(grid).__name__}")
-    ts = output_times(t_end, dt_out)
-    full = build_spinup_model("rncf", beam, float(grid.omega_s.max()), float(grid.T_s.min()), elements)
-    return nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs)

@@ -10,8 +10,8 @@ itself, so a rigid spin is never damped. In the reduced model (THEORY §4) it be
 import equinox as eqx
 import jax.numpy as jnp
 
-from . import _validate
-from ._types import Array, Float, ScalarLike
+from .. import _validate
+from .._types import Array, Float, ScalarLike
 
 
 class RayleighDamping(eqx.Module):

@@ -9,8 +9,8 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from ._types import Array, Float
-from .elements.beam import NODAL_VECTORS_PER_NODE
+from .._types import Array, Float
+from ..elements.beam import NODAL_VECTORS_PER_NODE
 
 
 class TipObserver(eqx.Module):

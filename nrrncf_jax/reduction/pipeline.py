@@ -10,14 +10,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .models.full_order import RotatingFrameModel
-from .models.reduced import ReducedRotatingModel, modal_loads, reduce_rotating_model
-from .motion import AbstractAxisMotion
-from .reduction.deflation import deflate
-from .reduction.modal_derivatives import modal_derivatives
-from .reduction.modes import vibration_modes
-from .reduction.selection import Selection, align_degenerate_modes, mmi_matrix, modal_response, select
-from .reduction.spin_state import SpinCheck, match_modes, ritz_frequencies, spinning_modes
+from ..models.full_order import RotatingFrameModel
+from ..motion import AbstractAxisMotion
+from .deflation import deflate
+from .modal_derivatives import modal_derivatives
+from .modes import vibration_modes
+from .reduced_model import ReducedRotatingModel, modal_loads, reduce_rotating_model
+from .selection import Selection, align_degenerate_modes, mmi_matrix, modal_response, select
+from .spin_state import SpinCheck, match_modes, ritz_frequencies, spinning_modes
 
 
 @dataclasses.dataclass

@@ -4,8 +4,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from . import _validate
-from ._types import Array, Float, ScalarLike
+from .. import _validate
+from .._types import Array, Float, ScalarLike
 
 
 class TubeSection(eqx.Module):

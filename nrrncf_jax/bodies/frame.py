@@ -36,11 +36,11 @@ import dataclasses
 
 import numpy as np
 
+from ..elements.bar import Bar
+from ..elements.beam import C1Beam
+from ..elements.joint_cell import JointCell
+from ..elements.joint_link import JointLink
 from .body import Body, element_group
-from .elements.bar import Bar
-from .elements.beam import C1Beam
-from .elements.joint_cell import JointCell
-from .elements.joint_link import JointLink
 
 JOINT_VECTORS = 4
 """A joint node's nodal vectors: r, r_X, r_Y, r_Z (position and full gradient)."""

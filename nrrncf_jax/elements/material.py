@@ -3,8 +3,8 @@
 import equinox as eqx
 import jax.numpy as jnp
 
-from . import _validate
-from ._types import Array, Float, ScalarLike
+from .. import _validate
+from .._types import Array, Float, ScalarLike
 
 
 class Material(eqx.Module):

@@ -9,9 +9,9 @@ imposed by a penalty). θ̇ and θ are the exact integrals, in closed form.
 import jax.numpy as jnp
 import numpy as np
 
-from . import _validate
-from ._types import Array, ArrayLike, Float, ScalarLike
-from .motion import AbstractAxisMotion, spin_up_angle, unit_axis
+from .. import _validate
+from .._types import Array, ArrayLike, Float, ScalarLike
+from .prescribed import AbstractAxisMotion, spin_up_angle, unit_axis
 
 
 class FourierSpinUp(AbstractAxisMotion):

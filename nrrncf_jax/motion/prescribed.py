@@ -23,8 +23,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from . import _validate
-from ._types import Array, Float, ScalarLike
+from .. import _validate
+from .._types import Array, Float, ScalarLike
 
 
 def skew(a: Float[Array, " 3"]) -> Float[Array, "3 3"]:

@@ -2,7 +2,7 @@
 
 import jax.numpy as jnp
 
-from ._types import Array, Float
+from .._types import Array, Float
 
 
 def chi_rel(w_ref: Float[Array, "nt ..."], w: Float[Array, "nt ..."]) -> Float[Array, ""]:

@@ -14,24 +14,34 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._types import Array, Bool, Float, Int
-from .elements.base import AbstractElement
-from .elements.beam import C1Beam
-from .material import Material
+from .._static import StaticIndices
+from .._types import Array, Bool, Float, Int
+from ..elements.base import AbstractElement
+from ..elements.beam import C1Beam
+from ..elements.material import Material
+from ..elements.section import TubeSection
 from .mesh import BeamReference
-from .section import TubeSection
 
 
 class ElementGroup(eqx.Module):
     """Elements of one type on a body's nodal vectors: ``elements[e]`` lists the body's nodal
-    vectors of element e (its n_e vectors in the element's order), with their integrals."""
+    vectors of element e (its n_e vectors in the element's order), with their integrals.
+
+    The connectivity is static data (NumPy, ``_static.StaticIndices``): the structure of every
+    assembled matrix, and the solver chosen for it, follow from it before anything is traced, so
+    a model can be built inside ``jit``, ``grad`` or ``vmap``."""
 
     element: AbstractElement
-    elements: Int[Array, "n_el ne"]
+    connectivity: StaticIndices = eqx.field(static=True)
     kappa: Float[Array, "n_el ne ne ne ne"]
     M_e: Float[Array, "n_el ne ne"]
     varrho_e: Float[Array, "n_el ne"]
     m_e: Float[Array, " n_el"]
+
+    @property
+    def elements(self) -> np.ndarray:
+        """``(n_el, n_e)``: element e's nodal vectors (NumPy, read-only)."""
+        return self.connectivity.array
 
     @property
     def n_elements(self) -> int:
@@ -68,10 +78,10 @@ class ElementGroup(eqx.Module):
         geo = jnp.einsum("eaibn,enj->eaibj", kq, qe)
         return geo + jnp.einsum("eab,ij->eaibj", self.theta(q, q_hat), jnp.eye(3))
 
-    def dofs(self) -> Int[Array, "n_el nd"]:
-        """Flat DOF indices (3α + i) of each element."""
+    def dofs(self) -> np.ndarray:
+        """Flat DOF indices (3α + i) of each element, ``(n_el, 3 n_e)`` (NumPy, static)."""
         n_el, ne = self.elements.shape
-        return (3 * self.elements[:, :, None] + jnp.arange(3)).reshape(n_el, 3 * ne)
+        return (3 * self.elements[:, :, None] + np.arange(3)).reshape(n_el, 3 * ne)
 
 
 _integrals_jit = eqx.filter_jit(lambda element, q_hat, length: element.integrals(q_hat, length))
@@ -94,7 +104,7 @@ def element_group(element: AbstractElement, q_hat: Float[Array, "n 3"], elements
     ``κ^{ABCD} = T_αA T_βB T_μC T_νD κ^{αβμν}``, ``Tᵀ M T``, ``Tᵀ ϱ``: constant still, and the
     group computes with them as with any other (Shabana & Mikkola's gradient transformation,
     2003)."""
-    elements = np.asarray(elements) if not isinstance(elements, jax.core.Tracer) else elements
+    elements = StaticIndices(elements).array
     ne = element.vectors
     if elements.ndim != 2 or elements.shape[1] != ne:
         raise ValueError(f"{type(element).__name__} elements need {ne} nodal vectors each: connectivity of shape "
@@ -143,7 +153,8 @@ def element_group(element: AbstractElement, q_hat: Float[Array, "n 3"], elements
         kappa = jnp.einsum("eabmn,eaA,ebB,emC,enD->eABCD", kappa, T, T, T, T)
         M = jnp.einsum("eab,eaA,ebB->eAB", M, T, T)
         varrho = jnp.einsum("ea,eaA->eA", varrho, T)
-    return ElementGroup(element=element, elements=jnp.asarray(elements), kappa=kappa, M_e=M, varrho_e=varrho, m_e=m)
+    return ElementGroup(element=element, connectivity=StaticIndices(elements), kappa=kappa, M_e=M, varrho_e=varrho,
+                        m_e=m)
 
 
 DENSE_MASS_MAX_VECTORS = 1000
@@ -182,13 +193,11 @@ class Body(eqx.Module):
             raise ValueError(f"is_position must have shape ({self.q_hat.shape[0]},), got {self.is_position.shape}")
         if self.chain and len(self.groups) != 1:
             raise ValueError("a chain body has exactly one element group")
-        conn = [g.elements for g in self.groups]
-        if not any(isinstance(c, jax.core.Tracer) for c in conn):
-            used = np.zeros(self.q_hat.shape[0], bool)
-            for c in conn:
-                used[np.asarray(c).reshape(-1)] = True
-            if not used.all():
-                raise ValueError(f"nodal vectors {np.flatnonzero(~used)[:10].tolist()} belong to no element")
+        used = np.zeros(self.q_hat.shape[0], bool)
+        for g in self.groups:
+            used[g.elements.reshape(-1)] = True
+        if not used.all():
+            raise ValueError(f"nodal vectors {np.flatnonzero(~used)[:10].tolist()} belong to no element")
 
     @property
     def n_vectors(self) -> int:

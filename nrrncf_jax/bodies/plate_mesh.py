@@ -23,8 +23,8 @@ import dataclasses
 
 import numpy as np
 
+from ..elements.plate import N_VECTORS, TrianglePlate
 from .body import Body, element_group
-from .elements.plate import N_VECTORS, TrianglePlate
 
 # --- meshes -------------------------------------------------------------------------------------
 

@@ -22,13 +22,13 @@ import numpy as np
 
 from .. import _validate
 from .._types import Array, Bool, Float
-from ..body import Body
-from ..damping import RayleighDamping
+from ..bodies.body import Body
 from ..linalg import DenseLU, solve_once
+from ..models.base import AbstractModel
+from ..models.damping import RayleighDamping
+from ..models.full_order import RotatingFrameModel
 from ..motion import AbstractMotion
-from ..reduction.tensors import ElasticTensors, RotationInertia, elastic_tensors, rotation_inertia, sum_terms
-from .base import AbstractModel
-from .full_order import RotatingFrameModel
+from .tensors import ElasticTensors, RotationInertia, elastic_tensors, rotation_inertia, sum_terms
 
 
 class ReducedRotatingModel(AbstractModel):

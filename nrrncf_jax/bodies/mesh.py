@@ -11,8 +11,8 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from . import _validate
-from ._types import Array, Float, ScalarLike
+from .. import _validate
+from .._types import Array, Float, ScalarLike
 
 
 class BeamReference(eqx.Module):

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 if TYPE_CHECKING:
-    from .reduction.selection import Selection
+    from ..reduction.selection import Selection
 
 
 class TipRecord(Protocol):

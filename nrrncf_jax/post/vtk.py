@@ -11,7 +11,7 @@ import os
 
 import numpy as np
 
-from .frame import Frame
+from ..bodies.frame import Frame
 
 
 def frame_mesh(frame: Frame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,0 +1,28 @@
+"""What builds a flexible body from elements (``elements/``, with their material and section): its
+reference geometry and the body itself, element groups on one set of nodal vectors (THEORY §1-2).
+
+- ``mesh``: beam reference geometry (straight, circular arcs, any framed curve);
+- ``body.Body``: element groups (``elements/``) on one set of nodal vectors, with the elastic
+  force F(q), the tangent stiffness, the mass integrals and the rigid modes; ``beam_body`` and
+  ``truss_body`` build the simple cases;
+- ``frame.frame_body``: straight beams rigidly joined at joints of any angle, and pin-ended bars;
+- ``plate_mesh.plate_body``: triangle meshes (a hexagonal disk, an annulus) of plates and membranes.
+"""
+
+from ..elements.material import Material as Material
+from ..elements.section import TubeSection as TubeSection
+from .body import Body as Body
+from .body import ElementGroup as ElementGroup
+from .body import beam_body as beam_body
+from .body import element_group as element_group
+from .body import truss_body as truss_body
+from .frame import Frame as Frame
+from .frame import frame_body as frame_body
+from .mesh import BeamReference as BeamReference
+from .mesh import arc_reference as arc_reference
+from .mesh import centerline_reference as centerline_reference
+from .mesh import straight_reference as straight_reference
+from .plate_mesh import PlateBody as PlateBody
+from .plate_mesh import annulus as annulus
+from .plate_mesh import hexagonal_disk as hexagonal_disk
+from .plate_mesh import plate_body as plate_body
