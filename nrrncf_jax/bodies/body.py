@@ -132,14 +132,15 @@ def element_group(element: AbstractElement, q_hat: Float[Array, "n 3"], elements
     elif q_e.shape[0] <= _CHUNK:
         # Concrete input: one compiled single-element kernel, called per element (NumPy slices:
         # indexing a jax array costs a dispatch each), so meshes of any size share one
-        # compilation (recompiling per element count costs seconds each).
+        # compilation instead of compiling again for every element count.
         q_np, len_np = np.asarray(q_e), np.asarray(lengths)
         per_element = [_integrals_jit(element, q_np[e], len_np[e]) for e in range(q_np.shape[0])]
         ints = [jnp.stack(parts) for parts in zip(*per_element)]
     else:
         # Large meshes: a vmapped kernel over chunks of _CHUNK elements (the last one padded by
-        # repeating its last element), compiled once for the chunk's shape: 30,000 bars in
-        # about a second, where per-element calls took minutes.
+        # repeating its last element), compiled once for the chunk's shape: per-element calls,
+        # one dispatch each, would dominate the build of a large mesh
+        # (benchmarks/results/design_notes.md).
         n_el = q_e.shape[0]
         pad = -n_el % _CHUNK
         q_np = np.concatenate([np.asarray(q_e), np.repeat(np.asarray(q_e)[-1:], pad, axis=0)])

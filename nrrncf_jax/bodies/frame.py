@@ -21,10 +21,9 @@ independent of the mesh.
 2003) makes each member's end triad *equal* to F times its directions. That ties the members'
 strains at the joint point too, not only their rotations: a batten's section strain along the
 truss axis becomes the longeron's axial strain there, and the element next to the joint carries
-that constraint over its length, an over-stiffening of O(element length). On the 12-bay truss the
-first bending frequency fell 0.53 % from 6/4 to 12/8 elements a member and 0.31 % more to 24/16;
-with links it changes by 9e-6 from 6/4 to 12/8 (``benchmarks/results/truss.md``: 36 bays).
-The price is five more nodal vectors at each member end.
+that constraint over its length, an over-stiffening of O(element length) that refinement removes
+only slowly. With links the frequencies hardly change under refinement
+(``benchmarks/results/truss.md``). The price is five more nodal vectors at each member end.
 
 **Pins**: a bar (``elements.Bar``) joins the position vectors of two joints and nothing else, so
 it carries axial force only.

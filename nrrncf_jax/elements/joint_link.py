@@ -10,8 +10,7 @@ no relative shear), but must leave the member's own stretches alone: making G eq
 (Shabana & Mikkola's gradient transformation, where the members *share* F) also makes a batten's
 section strain along the truss axis equal to the longeron's axial strain at the joint, an
 over-stiffening that the element next to the joint carries over its length, O(element length),
-which refinement removes only slowly (the 36-bay truss's bending frequencies fell 0.6 % from 6/4
-to 12/8 elements a member; on 12 bays 0.5 %, and 0.3 % more to 24/16).
+which refinement removes only slowly (``benchmarks/results/truss.md``).
 
 The link penalises the axis–section entries of ``GᵀF_m`` and the section's relative twist:
 
@@ -23,10 +22,10 @@ entries are the relative rotation about the section axes plus the axis–section
 term is the relative rotation about the axis, and the diagonal (the stretches) and the section's
 own in-plane shear are not penalised. The energy is the same for any choice of section axes
 (e₂, e₃) (a circular tube has none preferred: penalising the in-plane shear g₂·f₃ + g₃·f₂ as well
-split the truss's degenerate bending pairs by 1e-6 in ω²). A common rotation of both triads
-leaves GᵀF_m, and so U, unchanged (rigid motion costs nothing). A relative rotation θ about any
-of the member's axes costs ``U = k sin²θ`` (a rotational spring of stiffness 2k), an axis–section
-shear γ costs ``k γ²/4``.
+would depend on that choice and split a circular member's degenerate bending pairs). A common
+rotation of both triads leaves GᵀF_m, and so U, unchanged (rigid motion costs nothing). A
+relative rotation θ about any of the member's axes costs ``U = k sin²θ`` (a rotational spring of
+stiffness 2k), an axis–section shear γ costs ``k γ²/4``.
 
 Each ``g_i·f_j`` (i ≠ j) is ``2 Q_{i,3+j}`` with ``Q_αβ = ½(q_α·q_β − q̂_α·q̂_β)`` of the six
 vectors [g₁, g₂, g₃, f₁, f₂, f₃] (the reference value is 0), so ``U = ½ κ Q Q`` with the constant

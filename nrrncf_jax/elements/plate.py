@@ -56,15 +56,14 @@ is of degree 4 in X and 2 in ζ). M, ϱ, m by the same rule, with the director's
   gradient of the cubic deflection w: inside an element both are complete quadratics, so it
   can, and a thin plate is driven to a conforming C1 piecewise-cubic Kirchhoff plate. That
   limit still converges (O(ℓ²) in frequency on the meshes tested), but its error is larger
-  than at moderate thickness (measured 2.6× at h/b = 1e-4). The element therefore uses the
+  than at moderate thickness (``benchmarks/results/membrane.md``). The element therefore uses the
   stabilised shear modulus of Pitkäranta and of Lyly, Stenberg and Vihinen,
   ``k G h²/(h² + α ℓ²)``, ℓ = √(2A) the element size, ``α = stabilization`` (default 0.02):
   the transverse shear stiffness of an element is then at most O(1/α) times its bending
-  stiffness, the frequencies hardly depend on h/b (0.7 % from 1e-2 to 1e-4 on a coarse mesh,
-  where the plain element stiffens by 5.8 %; tested), and the change is
-  consistent: it acts as an extra shear compliance O(α ℓ²/h²) that vanishes under refinement
-  (an O(αℓ²/λ²) softening of a mode of wavelength λ). ``stabilization=0`` gives the plain
-  element.
+  stiffness, the frequencies hardly depend on h/b (far less than the plain element's do;
+  tested; ``benchmarks/results/membrane.md``), and the change is consistent: it acts as an
+  extra shear compliance O(α ℓ²/h²) that vanishes under refinement (an O(αℓ²/λ²) softening of
+  a mode of wavelength λ). ``stabilization=0`` gives the plain element.
 
 **Limits.** Straight-sided flat elements: a curved boundary is a polygon (an O(ℓ²) geometric
 error in frequencies and displacements, the largest error in the annulus tests). The normal
@@ -178,7 +177,8 @@ def plate_D(E: Float[Array, ""], nu: Float[Array, ""], G_shear: Float[Array, ""]
 
 
 def _inv3(J: Float[Array, "3 3"]) -> Float[Array, "3 3"]:
-    """3 × 3 inverse by cross products (an LU solve costs about a second of compilation here)."""
+    """3 × 3 inverse by cross products (cheaper to compile than an LU solve inside the element's
+    quadrature kernel)."""
     c0, c1, c2 = J[:, 0], J[:, 1], J[:, 2]
     return jnp.stack([jnp.cross(c1, c2), jnp.cross(c2, c0), jnp.cross(c0, c1)]) / jnp.dot(c0, jnp.cross(c1, c2))
 

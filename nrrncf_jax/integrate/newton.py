@@ -12,21 +12,16 @@ correction larger than the one before from the third on. Each ending has a ``New
 
 Why ``divergence_test`` is a choice, and off in fixed-step runs: Newton from a predictor outside
 its region of fast convergence (the stiff cross-section and axial modes of a beam, which
-generalized-α at ρ∞ = 0.9 barely damps, under a large step) wanders before it converges: on the
-2-element beam spun to 3 rad/s in 2 s at h = 0.05 s, corrections such as 4785, 1011, 763, 321,
-959, … in units of the tolerance, then quadratic convergence, up to 20 corrections in a step.
-The test "a correction grew" failed such steps, and the integrator split them (h/4, h/2, h).
-The splitting changed the step sizes, which stirred those undamped stiff modes: the next
-predictors were worse (first corrections of 146 and 203 after the split at t = 0.85 s, against 30
-and 75 without it), so one failure led to more. Which iteration first tripped the test was decided
-by round-off: the same run took 121 steps, 42 rejected and 730 Newton iterations with AVX-512
-arithmetic, and 590-808 steps, 278-388 rejected and 4124-5882 iterations with AVX2 (FMA) or
-SSE arithmetic (``XLA_FLAGS=--xla_cpu_max_isa=...``), varying with the spin rate in its sixth
-digit; its loss was not a smooth function of the spin rate. Without the test, every step of
-that run converges with each of those arithmetics (60 steps, none rejected). In an adaptive run
-the test stays on: a step whose Newton wanders is usually too large for the error tolerance
-too, and a smaller step is cheaper than the wander; there the step sequence is a
-tolerance-controlled choice anyway.
+generalized-α at ρ∞ = 0.9 barely damps, under a large step) can wander, its corrections growing
+and shrinking, before it converges quadratically. The test "a correction grew" fails such a step,
+and a fixed-step integrator then splits it (h/4, h/2, h); the changed step sizes stir those
+undamped stiff modes, the next predictors are worse, and one failure leads to more. Which
+iteration first trips the test is decided by round-off, so the step sequence, and with it the
+result, would depend on the CPU's floating-point arithmetic and would not be a smooth function of
+the parameters. Without the test such steps converge. In an adaptive run the test stays on: a
+step whose Newton wanders is usually too large for the error tolerance too, and a smaller step is
+cheaper than the wander; there the step sequence is a tolerance-controlled choice anyway. The
+run that showed this: ``benchmarks/results/design_notes.md`` (``integrate/newton.py``).
 """
 
 from collections.abc import Callable

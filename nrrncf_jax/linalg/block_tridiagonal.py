@@ -2,9 +2,10 @@
 DOFs numbered node by node).
 
 Block LU by ``lax.scan`` over the nodes. Hand-written because neither JAX nor lineax has a banded
-or block-tridiagonal direct solver; on the 24-element beam (450 DOF, blocks of 18) it factors and
-solves in about 0.4 ms against 6.5 ms for dense LU on the 2-core CI CPU. Everything is JAX: it
-works under ``jit``, ``vmap`` and both modes of differentiation, on any platform.
+or block-tridiagonal direct solver. O(n m²) time and O(n m) memory for blocks of m, against dense
+LU's O(n³) and O(n²), so it is much faster already on a beam of a few hundred DOFs
+(``benchmarks/results/sparse.md``). Everything is JAX: it works under ``jit``, ``vmap`` and both
+modes of differentiation, on any platform.
 """
 
 import jax

@@ -15,9 +15,9 @@ from .base import AbstractFactorization, Parts
 
 EXPLICIT_INVERSE_MAX = 128
 """Above this order ``DenseLU`` keeps the permutation instead of L⁻¹P: forming L⁻¹P costs n³
-more flops, which at n = 199 (the full-order floating-frame beam) took 4.5 ms for three blocks
-against 1.6 ms for their square LU and its permutation (whose loop of n steps, ~1 µs each, no
-longer matters next to the O(n³) factorisation)."""
+more flops, which for large n outweighs what it saves (the permutation's loop of n small steps,
+which matters next to the factorisation only for small n). The threshold was set by timing; see
+``benchmarks/results/sparse.md``."""
 
 
 class DenseLU(AbstractFactorization):
@@ -53,13 +53,13 @@ def pivoted_lu(A: Float[Array, "n n"]) -> tuple[Float[Array, "n n"], Float[Array
 
     Why not ``lu_factor``'s pivots and ``lu_solve``: ``lu_solve`` turns the pivots into a
     permutation with a loop of n scatter steps, each a few XLA operations, and on a CPU each
-    operation costs about a microsecond whatever its size. On the reduced pendulum (n = 99) that
-    loop took 1 ms of a 1.6 ms step, five times the factorisation. On a CPU, one LAPACK getrf of
-    ``[A | I]`` pivots on A's columns and carries I along: ``P [A | I] = L [U | L⁻¹P]``, no
-    permutation needed (``solve_once`` does the same with one right-hand side). Elsewhere (a
-    GPU, where jaxlib's getrf factors rectangular matrices of a batch one by one but turns the
-    pivots into a permutation in one kernel), the square factorisation and C from that
-    permutation."""
+    operation has a fixed dispatch cost whatever its size, so for the small matrices of reduced
+    models that loop can cost more than the factorisation (``benchmarks/results/sparse.md``).
+    On a CPU, one LAPACK getrf of ``[A | I]`` pivots on A's columns and carries I along:
+    ``P [A | I] = L [U | L⁻¹P]``, no permutation needed (``solve_once`` does the same with one
+    right-hand side). Elsewhere (a GPU, where jaxlib's getrf factors rectangular matrices of a
+    batch one by one but turns the pivots into a permutation in one kernel), the square
+    factorisation and C from that permutation."""
     return lax.platform_dependent(A, cpu=_pivoted_lu_augmented, default=_pivoted_lu_square)
 
 
@@ -84,9 +84,8 @@ def solve_once(A: Float[Array, "n n"], b: Float[Array, " n"]) -> Float[Array, " 
     On a CPU, one LU factorisation of the augmented matrix ``[A | b]``: LAPACK's getrf pivots on
     A's columns and carries b along, so ``P [A | b] = L [U | c]`` and ``x = U⁻¹ c`` is one
     triangular solve. ``lu_factor`` + ``lu_solve`` would turn the pivots into a permutation with
-    a loop of n scatter steps, which under ``vmap`` dominated the solve (a batch of 32 systems
-    with n = 23: that loop cost more than the factorisation). Under ``vmap`` the systems are
-    factored one after another (``_solve_on_cpu``).
+    a loop of n scatter steps, which for small systems under ``vmap`` costs more than the
+    factorisation. Under ``vmap`` the systems are factored one after another (``_solve_on_cpu``).
 
     Elsewhere, the square factorisation and ``lu_solve``: jaxlib's GPU getrf batches square
     matrices only (cuBLAS getrfBatched) and factors a batch of rectangular ones one by one, and
@@ -114,13 +113,12 @@ def _solve_on_cpu(A, b):
 
 @_solve_on_cpu.def_vmap
 def _solve_on_cpu_batched(axis_size, in_batched, A, b):
-    """A batch of systems, one LAPACK call each (``lax.map``), not one batched call: jaxlib
-    0.10.2's batched getrf splits the batch across XLA's CPU thread pool and blocks a pool
-    thread until the parts are done, which deadlocks when every pool thread does so at once:
-    two host devices (``--xla_force_host_platform_device_count``) each in a batched LU on a
-    2-core machine hung a sweep with every thread in ``ParallelBatchMap``'s wait (jaxlib 0.11
-    builds without that path). The one-by-one form costs about 18 % more per batched solve
-    (23 × 23, batch of 32: 184 µs against 156 µs)."""
+    """A batch of systems, one LAPACK call each (``lax.map``), not one batched call: jaxlib's
+    batched getrf on the CPU may split the batch across XLA's CPU thread pool and block a pool
+    thread until the parts are done, which deadlocks when every pool thread does so at once
+    (several host devices, ``--xla_force_host_platform_device_count``, each in a batched LU, on
+    as many cores). The one-by-one form costs a little more per batched solve; the deadlock and
+    the cost: ``benchmarks/results/sweep.md``."""
     A, b = (x if batched else jnp.broadcast_to(x, (axis_size,) + x.shape) for x, batched in zip((A, b), in_batched))
     return lax.map(lambda Ab: _solve_on_cpu(*Ab), (A, b)), True
 

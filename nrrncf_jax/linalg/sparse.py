@@ -67,16 +67,15 @@ CACHE_SIZE = 8
 
 CACHE_BYTES = 1 << 30
 """...and at most this much memory in their factors (the newest is always kept). A plate mesh's
-factors are large (a 2-D mesh fills far more than a chain): eight of the 18,912-DOF rotating
-membrane's held several GB, and a full run's process grew past the 24 GB of the CI machine."""
+factors are large (a 2-D mesh fills far more than a chain): ``CACHE_SIZE`` factorisations of the
+rotating membrane alone would take several GB (``benchmarks/results/membrane.md``)."""
 
 PERMC_SPEC = "MMD_AT_PLUS_A"
 """SuperLU's fill-reducing column ordering. The iteration matrix is structurally symmetric and
 nearly symmetric in value, so a minimum-degree ordering of Aᵀ + A with a preference for diagonal
 pivots (``DIAG_PIVOT_THRESH``, symmetric mode) keeps the fill of a symmetric factorisation: on a
-20,000-DOF 2-D triangle mesh (9 DOFs a node) it factors in about half the time of SciPy's default
-COLAMD with 0.6 times its fill; on a chain the orderings are within noise of each other
-(``benchmarks/results/sparse.md``)."""
+2-D mesh it fills less and factors faster than SciPy's default COLAMD, and on a chain it does as
+well (``benchmarks/results/sparse.md``)."""
 
 DIAG_PIVOT_THRESH = 0.1
 """SuperLU takes the diagonal entry as pivot unless it is smaller than this fraction of its
@@ -170,7 +169,8 @@ class SparsityPattern:
         data = jnp.zeros(self.nnz, dtype)
         for (Ge, dofs), slots in zip(parts, self.slots):
             # Masked per element, not per slot: f[rows]·f[cols] over all nnz slots, with ``free``
-            # a constant, is a gather XLA constant-folds for seconds (9 s at 100,000 DOFs).
+            # a constant, is a large gather that XLA constant-folds at compile time, slowly for
+            # large meshes (benchmarks/results/sparse.md).
             fe = f[jnp.asarray(dofs)]
             data = data.at[slots].add(Ge * fe[:, :, None] * fe[:, None, :])
         return data.at[self.diag].add(1.0 - f)
@@ -201,10 +201,10 @@ _handles = itertools.count(1)
 # Every SuperLU object is made, used and freed on this one thread. SciPy's SuperLU wrapper keeps
 # the memory SuperLU allocates in a per-thread registry and frees only what the freeing thread's
 # registry holds, so factors made on one thread and dropped on another are never freed
-# (scipy/scipy#15921). XLA runs host callbacks on threads of its own, so a full membrane run,
-# factoring on one and evicting from the cache on another, grew by one factorisation a step
-# (about 30 MB/s). Solves go through it too: a solve may hold the last reference to factors
-# another callback has just evicted.
+# (scipy/scipy#15921). XLA runs host callbacks on threads of its own, so factoring on one and
+# evicting from the cache on another would leak one factorisation a step
+# (benchmarks/results/membrane.md). Solves go through it too: a solve may hold the last reference
+# to factors another callback has just evicted.
 _superlu_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="nrrncf-superlu")
 
 
@@ -230,11 +230,11 @@ class ScaledSuperLU:
     Why the symmetric scaling: SuperLU's threshold test (``DIAG_PIVOT_THRESH``) compares a
     diagonal entry with its column's largest, which is not invariant to the units of the
     coordinates. A body whose nodal vectors have very different stiffnesses (a frame's joint
-    gradients against a beam's curvature vectors: diagonal entries from 30 to 2e8 on the truss of
-    ``scenarios.truss``) fails the test on many columns; the pivots then leave the diagonal and the
-    fill-reducing ordering is lost (that truss: 27.6 M factor entries in 13.8 s, against 1.5 M
-    in 0.3 s once scaled; COLAMD without scaling: 4.3 M in 0.4 s). With a unit diagonal the test
-    measures how diagonally dominant a column is, whatever the units."""
+    gradients against a beam's curvature vectors, as on the truss of ``scenarios.truss``) fails
+    the test on many columns; the pivots then leave the diagonal and the fill-reducing ordering is
+    lost, which multiplies the factors' size and the factorisation time
+    (``benchmarks/results/truss.md``). With a unit diagonal the test measures how diagonally
+    dominant a column is, whatever the units."""
 
     def __init__(self, A: sp.spmatrix):
         A = sp.csc_matrix(A)
@@ -326,11 +326,11 @@ def _host_call(fn, result_shape_dtypes, *args, vmap_method: str | None = None):
     placed with ``device_put`` from the running computation's buffers, and reading one
     (``np.asarray``) waits for that copy. On a machine where XLA's CPU client has one thread (one
     core: ``taskset -c 0``, a one-CPU container), the copy can be queued behind the very
-    computation that waits for it: a 20,000-DOF sparse solve hung in 3 of 14 runs pinned to one
-    core, and in 0 of 20 since (jax-ml/jax#24255 is the same deadlock). ``buffer_callback`` hands
-    over XLA's own buffers (valid during the call; copied here before anything keeps them), with
-    no transfer to wait for. It reads buffers as NumPy arrays on the CPU only, so other platforms keep
-    ``pure_callback`` (``lax.platform_dependent`` lowers just the branch of the platform)."""
+    computation that waits for it, a deadlock (jax-ml/jax#24255; ``benchmarks/results/sparse.md``).
+    ``buffer_callback`` hands over XLA's own buffers (valid during the call; copied here before
+    anything keeps them), with no transfer to wait for. It reads buffers as NumPy arrays on the
+    CPU only, so other platforms keep ``pure_callback`` (``lax.platform_dependent`` lowers just
+    the branch of the platform)."""
     def with_pure_callback(*a):
         return jax.pure_callback(fn, result_shape_dtypes, *a, vmap_method=vmap_method)
 
@@ -352,7 +352,8 @@ def _host_call(fn, result_shape_dtypes, *args, vmap_method: str | None = None):
 def _solve(pattern: SparsityPattern, trans: str, data, handle, b):
     """``A⁻¹ b`` (``trans="N"``) or ``A⁻ᵀ b`` (``"T"``) with the factors under ``handle``. The
     values go to the host only when the factors have been dropped (``lax.cond``): passing the
-    nnz values to every callback copied them each time (9 ms of a 15 ms solve at 20,000 DOFs)."""
+    nnz values to every callback would copy them each time, which on a large mesh takes most of
+    a solve's time (``benchmarks/results/sparse.md``)."""
 
     @jax.custom_batching.custom_vmap
     def solve(data, handle, b):

@@ -105,9 +105,9 @@ class AbstractAxisMotion(AbstractMotion):
         return self.axis[:, None]
 
     # The frame terms with the rates factored out, θ̇ ẽ and θ̈ ẽ: fewer products than the general
-    # form, and the floating-point operations the fixed-axis models have always done (so that
-    # runs reproduce bit for bit across this refactoring; inside the integrator's fused loop the
-    # general form rounds differently, which moved an adaptive step decision).
+    # form. The general form rounds differently inside the integrator's fused loop, which can move
+    # an adaptive step decision; this form keeps the fixed-axis models' results unchanged to the
+    # bit (benchmarks/results/design_notes.md).
     def frame_terms(self, t, Q, V):
         _, dth, ddth = self(t)
         e = self.axis

@@ -74,8 +74,7 @@ def modal_derivatives(
     solved with that factorisation on the host (concrete input; not differentiable); otherwise
     by a dense Cholesky inside one compiled kernel. ``pad_to`` solves for at least
     that many pairs (the last one repeated, the surplus dropped): the compiled kernel depends
-    on the number of pairs, so calls with different counts can share one compilation (each
-    costs about half a second).
+    on the number of pairs, so calls with different counts can share one compilation.
     """
     if method not in ("closed_form", "autodiff"):
         raise ValueError(f"method must be 'closed_form' or 'autodiff', got {method!r}")

@@ -59,7 +59,7 @@ class ReducedRotatingModel(AbstractModel):
     speed, since the centrifugal stiffening is nonlinear)."""
     # Full Newton: ``newton_update`` takes F and ∂F/∂p from one cubic contraction, so an iteration
     # with a fresh factor costs about what a modified-Newton residual does, and converges
-    # quadratically (30 s spin-up at 40 rad/s, Km = 23: 2908 iterations against 3053).
+    # quadratically (benchmarks/results/design_notes.md).
     preferred_newton: ClassVar[str] = "full"
 
     @property
@@ -204,8 +204,8 @@ def force_evaluation_costs(body: Body, km: int) -> dict:
 
     tensor: the packed Jacobian contraction (Km² · Km(Km+1)/2) plus the force (Km · triples);
     projected: element tangents (n_el · 3 n_e⁴) and their projection (n_el · (3 n_e)² · Km).
-    Measured on the 24-element paper beam with Km = 20 (30 s spin-up at 40 rad/s, 2-core CPU):
-    tensor 0.21 s, projected 4.9 s; the estimate picks the same winner.
+    Returns ``{"tensor": ..., "projected": ...}``; ``force='auto'`` takes the smaller. The estimate
+    agrees with measured run times (``benchmarks/results/design_notes.md``).
     """
     tensor = km * km * km * (km + 1) // 2 + km * km * (km + 1) * (km + 2) // 6
     projected = sum(g.n_elements * (3 * g.elements.shape[1] ** 4 + (3 * g.elements.shape[1]) ** 2 * km)
@@ -220,9 +220,8 @@ def reduce_rotating_model(full: RotatingFrameModel, Psi: Float[Array, "ndof km"]
     ``error_rows`` (indices of physical coordinates, e.g. those of the position vectors): the
     integrator's step error is measured on these rows of q = q° + Ψp only, instead of all of
     them. Each step maps the error to the physical coordinates (``Ψ e``), which for a large body
-    costs more than the reduced step itself: on the 19,674-DOF truss measuring the 2,952
-    position coordinates made a 10-DOF run five times faster (0.34 s → 0.065 s) at the same
-    accuracy.
+    costs more than the reduced step itself, so measuring it on fewer rows makes the run faster
+    (``benchmarks/results/truss.md``).
 
     ``force='auto'`` evaluates the elastic force the cheaper way for this model (see
     ``force_evaluation_costs``); ``'tensor'`` or ``'projected'`` force a choice. The full

@@ -25,9 +25,9 @@ class ElasticTensors(eqx.Module):
     ``N3`` holds them (multiplicities folded in) for the force alone. The force derives from the
     strain energy, so N is in fact symmetric in all four indices and the Jacobian's cubic part
     ``3 N p p`` is a symmetric matrix: ``N2u`` holds N on the Km(Km+1)/2 distinct (i, j) rows
-    and (k, l) columns, and ``unpack`` maps a symmetric (i, j) back to its row. On the
-    24-element beam with Km = 20 this makes the force 5× and the Jacobian 4× cheaper than
-    contracting the full Km⁴ tensor (the contraction is memory-bound: 0.6 MB instead of 2.6).
+    and (k, l) columns, and ``unpack`` maps a symmetric (i, j) back to its row. The contraction
+    is memory-bound, so reading about a sixth (force) or a quarter (Jacobian) of the Km⁴ entries
+    makes it that much cheaper (``benchmarks/results/design_notes.md``).
     """
 
     f: Float[Array, " km"]

@@ -1,5 +1,5 @@
 """Control design through the differentiable simulator: the spin-up profile with the least
-residual tip vibration (issue 4).
+residual tip vibration.
 
 The profile is a ``FourierSpinUp`` (Eq. 43 plus a zero-mean Fourier correction of θ̈, so
 θ̇(Ts) = ωs for any coefficients). The objective is the mean square of the in-plane tip
@@ -120,9 +120,10 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
     simulation fails shortening the step) from the best Adam iterate: the residual vibration is
     nearly linear in θ̈, so J is nearly quadratic in x, where quasi-Newton converges fast.
     ``grad='reverse'`` differentiates the checkpointed loop (``simulate(adjoint='reverse')``;
-    memory grows with ``max_steps``), ``'forward'`` pushes 2·n_terms tangents (measured 5x slower
-    for 8 coefficients). ``rtol``, ``atol``, ``adaptive``, ``dt0`` and ``max_steps`` go to
-    ``simulate``; adaptive step sizes are held fixed under differentiation. One
+    memory grows with ``max_steps``), ``'forward'`` pushes 2·n_terms tangents (constant memory,
+    but slower than reverse mode at the default 8 coefficients;
+    ``benchmarks/results/optimal_spinup.md``). ``rtol``, ``atol``, ``adaptive``, ``dt0`` and
+    ``max_steps`` go to ``simulate``; adaptive step sizes are held fixed under differentiation. One
     value-and-gradient function is compiled and reused for every evaluation. Returns an
     ``OptimalSpinup`` with the iterate of least loss.
     """
