@@ -28,7 +28,7 @@ import numpy as np  # noqa: E402
 
 from nrrncf_jax.integrate import GeneralizedAlphaIndex3  # noqa: E402
 from nrrncf_jax.integrate.simulate import simulate  # noqa: E402
-from nrrncf_jax.integrate.state import GeneralizedAlphaState  # noqa: E402
+from nrrncf_jax.integrate.base import GeneralizedAlphaState  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import (  # noqa: E402
     LEFT_END_FRAME,
     LEFT_SECTION_FRAME,

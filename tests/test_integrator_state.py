@@ -11,7 +11,7 @@ import numpy as np
 from conftest import paper_body
 
 from nrrncf_jax import GeneralizedAlpha, LinearModel, RotatingFrameModel, SpinUp, simulate
-from nrrncf_jax.integrate import AbstractStepper, GeneralizedAlphaState, NewtonOptions
+from nrrncf_jax.integrate import AbstractSolver, GeneralizedAlphaState, NewtonOptions
 
 EPS = float(jnp.finfo(jnp.float64).eps)
 H = 2.0**-4  # a binary fraction: t = i·H and the output times are exact, so is every step's size
@@ -79,7 +79,7 @@ def test_state_is_a_typed_pytree():
     assert isinstance(through, GeneralizedAlphaState) and np.array_equal(through.abar, 2.0 * abar)
     lam = jnp.ones(2)
     assert np.array_equal(GeneralizedAlphaState(q, v, a, abar, lam).lam, lam)
-    assert isinstance(GeneralizedAlpha(0.9), AbstractStepper)
+    assert isinstance(GeneralizedAlpha(0.9), AbstractSolver)
 
 
 def test_init_gives_the_consistent_acceleration():

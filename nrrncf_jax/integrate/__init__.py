@@ -1,29 +1,45 @@
-"""Time integration: adaptive generalized-α for second-order models, and its index-3 form for
-constrained (multibody) models."""
+"""Time integration: ``simulate(model, solver, controller, ts)``.
 
+- solvers (``base.AbstractSolver``): ``GeneralizedAlpha`` (THEORY §8, Arnold-Brüls form) for
+  models with prescribed coordinates, ``GeneralizedAlphaIndex3`` for constrained systems (joints,
+  Lagrange multipliers in the state);
+- step-size controllers (``step_size``): ``AdaptiveStepSize`` (error control), ``ConstantStepSize``;
+- ``Newton``: each step's implicit solve (modified or full Newton, ``newton``);
+- ``simulate``, ``simulate_batch`` (a batch of models in one loop, each with its own steps),
+  ``simulate_timed`` (compile and run timed apart); ``Solution`` and ``SimulationResult``;
+- ``static_equilibrium``: load-stepped static solutions; ``compilation_cache``: JAX's persistent
+  compilation cache as a context manager.
+
+The whole simulation is one jit-compiled loop. Each step solves for the new acceleration by Newton
+(full Newton stops on the error its last update leaves, estimated from the observed contraction;
+a Newton failure or a non-finite state retries a shorter step), a Zienkiewicz-Xie local error
+estimate drives the step size, and dense output gives the requested output times. The loop works
+under ``jax.vmap`` and is differentiable with ``jax.grad``: reverse mode runs a checkpointed loop
+with implicit differentiation of each step's Newton solve, so its memory grows with the number of
+checkpoints, not of steps (``benchmarks/results/identification.md``). A run that stops early (a
+non-finite state, Newton failing at the smallest step, the step limit) raises ``SimulationError``
+naming the time reached. ``benchmarks/results/diffrax_vs_loop.md`` compares the loop with the same
+step written as a diffrax solver, ``tolerance.md`` splits χ_rel into integration and reduction
+error.
+"""
+
+from .base import AbstractSolver as AbstractSolver
+from .base import GeneralizedAlphaState as GeneralizedAlphaState
+from .base import Newton as Newton
+from .base import NewtonOptions as NewtonOptions
 from .cache import compilation_cache as compilation_cache
+from .generalized_alpha import AbstractGeneralizedAlpha as AbstractGeneralizedAlpha
 from .generalized_alpha import GeneralizedAlpha as GeneralizedAlpha
 from .index3 import GeneralizedAlphaIndex3 as GeneralizedAlphaIndex3
 from .newton import NewtonResult as NewtonResult
 from .newton import NewtonSolution as NewtonSolution
-from .newton import newton as newton
-from .simulate import (
-    RESULTS as RESULTS,
-)
-from .simulate import (
-    SimulationError as SimulationError,
-)
-from .simulate import (
-    Solution as Solution,
-)
-from .simulate import (
-    simulate as simulate,
-)
-from .simulate import (
-    simulate_batch as simulate_batch,
-)
+from .results import SimulationError as SimulationError
+from .results import SimulationResult as SimulationResult
+from .simulate import Solution as Solution
+from .simulate import simulate as simulate
+from .simulate import simulate_batch as simulate_batch
 from .simulate import simulate_timed as simulate_timed
-from .state import AbstractStepper as AbstractStepper
-from .state import GeneralizedAlphaState as GeneralizedAlphaState
-from .state import NewtonOptions as NewtonOptions
 from .static import static_equilibrium as static_equilibrium
+from .step_size import AbstractStepSizeController as AbstractStepSizeController
+from .step_size import AdaptiveStepSize as AdaptiveStepSize
+from .step_size import ConstantStepSize as ConstantStepSize

@@ -1,11 +1,11 @@
-"""The adaptive loop's interface to its stepping method (THEORY §8): the typed state a method
-carries from step to step, the Newton options of a step, and the ``init``/``step`` contract.
+"""The adaptive loop's interface to its solver (THEORY §8): the ``init``/``step`` contract
+(``AbstractSolver``), the typed state a solver carries from step to step, and the Newton
+settings of a step (``Newton``, the user's; ``NewtonOptions``, as a step receives them).
 
-The loop (``simulate.py``) controls the step size, rejects and retries steps, interpolates the
-outputs and batches runs; the stepping method (``GeneralizedAlpha``, Arnold-Brüls form) owns
-the discrete equations: what it carries, how a step is solved, and its local error estimate.
-A constrained method (index-3 multibody joints, Lagrange multipliers λ) is written as another
-``AbstractStepper`` beside ``GeneralizedAlpha`` and runs in the same loop.
+The loop (``simulate.py``) runs the step-size controller (``step_size``), rejects and retries
+steps, interpolates the outputs and batches runs; the solver (``GeneralizedAlpha``,
+``GeneralizedAlphaIndex3``) owns the discrete equations: what it carries, how a step is solved,
+and its local error estimate.
 """
 
 import abc
@@ -14,7 +14,9 @@ from typing import Literal
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
+from .. import _validate
 from .._types import Array, Float, Scalar
 from .newton import NewtonSolution
 
@@ -39,8 +41,42 @@ class GeneralizedAlphaState(eqx.Module):
         self.lam = jnp.zeros((0,), jnp.result_type(q)) if lam is None else lam
 
 
+class Newton(eqx.Module):
+    """How each step solves its implicit equations (``integrate.newton``), as the user sets it.
+
+    ``tol``: Newton stops when its correction (or, with the contraction test, the error the
+    correction leaves) is below ``tol`` times the step's error tolerance; ``max_iter``: the most
+    corrections a step (default 10 with adaptive steps, where a Newton that wanders is better
+    split, 50 with constant steps); ``kind``: ``"modified"`` (iteration matrix factored once a
+    step), ``"full"`` (once a correction) or ``"auto"``, the model's ``preferred_newton``.
+    """
+
+    tol: Scalar
+    max_iter: int | None = eqx.field(static=True)
+    kind: Literal["auto", "modified", "full"] = eqx.field(static=True)
+
+    def __init__(self, tol=1e-3, max_iter: int | None = None, kind: Literal["auto", "modified", "full"] = "auto"):
+        if isinstance(tol, (int, float, np.floating)) and not tol > 0.0:
+            raise ValueError(f"Newton tol must be > 0, got tol={tol!r}")
+        if max_iter is not None:
+            max_iter = _validate.positive_int("Newton max_iter", max_iter)
+        if kind not in ("auto", "modified", "full"):
+            raise ValueError(f"Newton kind must be 'auto', 'modified' or 'full', got {kind!r}")
+        self.tol = jnp.asarray(tol, dtype=float)
+        self.max_iter = max_iter
+        self.kind = kind
+
+    def options(self, model, adaptive: bool, implicit: bool) -> "NewtonOptions":
+        """The options a step receives: ``kind`` and ``max_iter`` resolved for this model and
+        controller, the divergence test on with adaptive steps, and ``implicit`` in reverse mode."""
+        max_iter = self.max_iter if self.max_iter is not None else (10 if adaptive else 50)
+        variant = model.preferred_newton if self.kind == "auto" else self.kind
+        return NewtonOptions(tol=self.tol, max_iter=max_iter, variant=variant, divergence_test=adaptive,
+                             implicit=implicit)
+
+
 class NewtonOptions(eqx.Module):
-    """How a step solves its implicit equations (``integrate.newton``).
+    """How a step solves its implicit equations (``integrate.newton``), resolved (``Newton.options``).
 
     ``tol``: the stopping tolerance on a correction's size, as ``step``'s ``norm`` measures
     it; ``max_iter``: the most corrections; ``variant``: ``"modified"`` (iteration matrix
@@ -57,10 +93,10 @@ class NewtonOptions(eqx.Module):
     implicit: bool = eqx.field(static=True)
 
 
-class AbstractStepper(eqx.Module):
+class AbstractSolver(eqx.Module):
     """A one-step method for ``M(q) a + g(t, q, v) = 0`` that the adaptive loop can drive.
 
-    The contract (``GeneralizedAlpha`` implements it; a constrained sibling would too):
+    The contract (``GeneralizedAlpha`` and ``GeneralizedAlphaIndex3`` implement it):
 
     - ``init(model, t0, q0, v0) -> state``: the state at ``t0`` from the initial coordinates
       and velocities, with its accelerations (and multipliers) consistent with the equations
@@ -98,5 +134,9 @@ class AbstractStepper(eqx.Module):
              ) -> tuple[eqx.Module, Float[Array, " n"], NewtonSolution]:
         """``(state1, error, solution)`` of one step (see the class docstring)."""
 
+    @abc.abstractmethod
+    def check(self, model) -> None:
+        """Raise ``ValueError`` before tracing if this solver cannot run ``model``."""
 
-__all__ = ["AbstractStepper", "GeneralizedAlphaState", "NewtonOptions"]
+
+__all__ = ["AbstractSolver", "GeneralizedAlphaState", "Newton", "NewtonOptions"]

@@ -11,36 +11,40 @@ so that with a_{n+1} as the Newton unknown, ∂q/∂a = h²β(1−α_f)/(1−α_
 ∂v/∂a = hγ(1−α_f)/(1−α_m). Second order for every ρ∞ ∈ [0, 1]; for ρ∞ = 1 and linear
 problems it conserves energy exactly.
 
-As a stepping method of the adaptive loop (``state.AbstractStepper``): ``init`` finds the
+As a solver of the adaptive loop (``base.AbstractSolver``): ``init`` finds the
 consistent initial acceleration, ``step`` solves for a_{n+1} by Newton and returns the new
 state with the local error estimate of q.
 """
 
 from collections.abc import Callable
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jax import lax
 
 from .._types import Array, Float, Scalar
+from ..models.constrained import AbstractConstrainedModel
+from .base import AbstractSolver, GeneralizedAlphaState, NewtonOptions
 from .newton import NewtonSolution
 from .newton import newton as newton_iteration
-from .state import AbstractStepper, GeneralizedAlphaState, NewtonOptions
 
 
-class GeneralizedAlpha(AbstractStepper):
-    """Chung-Hulbert parameters from the spectral radius at infinity ρ∞ ∈ [0, 1], and the
-    generalized-α step (THEORY §8) as the adaptive loop's stepping method.
+def _rho_inf(rho_inf) -> Float[Array, ""]:
+    if not isinstance(rho_inf, jax.core.Tracer) and not (0.0 <= float(rho_inf) <= 1.0):
+        raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={float(rho_inf)!r}")
+    return jnp.asarray(rho_inf, dtype=float)
+
+
+class AbstractGeneralizedAlpha(AbstractSolver):
+    """Chung-Hulbert parameters from the spectral radius at infinity ρ∞ ∈ [0, 1] and the
+    generalized-α kinematics (THEORY §8), shared by the unconstrained step (``GeneralizedAlpha``)
+    and the index-3 step of constrained systems (``GeneralizedAlphaIndex3``).
 
     ρ∞ is an array, so runs with different ρ∞ share one compilation (and can be vmapped).
     """
 
-    rho_inf: Float[Array, ""]
-
-    def __init__(self, rho_inf=0.9):
-        if not isinstance(rho_inf, jax.core.Tracer) and not (0.0 <= float(rho_inf) <= 1.0):
-            raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={float(rho_inf)!r}")
-        self.rho_inf = jnp.asarray(rho_inf, dtype=float)
+    rho_inf: eqx.AbstractVar[Float[Array, ""]]
 
     @property
     def alpha_m(self) -> float:
@@ -76,6 +80,32 @@ class GeneralizedAlpha(AbstractStepper):
     def error_estimate(self, h, a, a1):
         """Local error of q, Zienkiewicz-Xie: ``h²(β − 1/6)(a_{n+1} − a_n)``."""
         return h**2 * (self.beta - 1.0 / 6.0) * (a1 - a)
+
+    def _stage(self, model, t1, h, state: GeneralizedAlphaState) -> Callable:
+        """(q1, v1, a1, ā1) of the step as functions of the new acceleration a1."""
+        q, v, a, abar = state.q, state.v, state.a, state.abar
+
+        def stage(a1):
+            q1, v1, abar1 = self.kinematics(h, q, v, a, abar, a1)
+            q1, v1, a1 = model.constrain(t1, q1, v1, a1)
+            return q1, v1, a1, abar1
+
+        return stage
+
+
+class GeneralizedAlpha(AbstractGeneralizedAlpha):
+    """The generalized-α step (THEORY §8) for unconstrained models (prescribed coordinates only):
+    ``init`` finds the consistent initial acceleration, ``step`` solves for a_{n+1} by Newton."""
+
+    rho_inf: Float[Array, ""]
+
+    def __init__(self, rho_inf=0.9):
+        self.rho_inf = _rho_inf(rho_inf)
+
+    def check(self, model) -> None:
+        if isinstance(model, AbstractConstrainedModel):
+            raise ValueError(f"{type(model).__name__} has joint constraints: it needs a constrained solver "
+                             "(GeneralizedAlphaIndex3); GeneralizedAlpha would ignore its joints")
 
     def init(self, model, t0: Scalar, q0: Float[Array, " n"], v0: Float[Array, " n"]) -> GeneralizedAlphaState:
         """The state at ``t0``: prescribed coordinates imposed, and the consistent acceleration
@@ -118,17 +148,6 @@ class GeneralizedAlpha(AbstractStepper):
         state1 = GeneralizedAlphaState(q1, v1, a1, abar1, state.lam)
         return state1, self.error_estimate(h, state.a, a1), sol
 
-    def _stage(self, model, t1, h, state: GeneralizedAlphaState) -> Callable:
-        """(q1, v1, a1, ā1) of the step as functions of the new acceleration a1."""
-        q, v, a, abar = state.q, state.v, state.a, state.abar
-
-        def stage(a1):
-            q1, v1, abar1 = self.kinematics(h, q, v, a, abar, a1)
-            q1, v1, a1 = model.constrain(t1, q1, v1, a1)
-            return q1, v1, a1, abar1
-
-        return stage
-
     def _solve(self, model, t1, h, state: GeneralizedAlphaState, newton: NewtonOptions, norm: Callable):
         """Solve r(a1) = 0 for the step's true acceleration by damped Newton (``newton.py``),
         modified or full, from the predictor a1 = a; returns ``(solution, stage, c_C, c_K)``.
@@ -166,4 +185,4 @@ def hermite_interpolate(s, h, q0, v0, q1, v1):
     return q, v
 
 
-__all__ = ["GeneralizedAlpha", "hermite_interpolate"]
+__all__ = ["AbstractGeneralizedAlpha", "GeneralizedAlpha", "hermite_interpolate"]

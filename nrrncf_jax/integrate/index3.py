@@ -59,23 +59,32 @@ from collections.abc import Callable
 import jax.numpy as jnp
 
 from .._types import Array, Float, Scalar
-from .generalized_alpha import GeneralizedAlpha
+from ..models.constrained import AbstractConstrainedModel
+from .base import GeneralizedAlphaState, NewtonOptions
+from .generalized_alpha import AbstractGeneralizedAlpha, _rho_inf
 from .newton import NewtonSolution
 from .newton import newton as newton_iteration
-from .state import GeneralizedAlphaState, NewtonOptions
 
 
-class GeneralizedAlphaIndex3(GeneralizedAlpha):
-    """Generalized-α (``GeneralizedAlpha``'s coefficients from ρ∞) for a model with joint
-    constraints: a ``multibody.MultibodySystem`` (``constraints``, ``constraint_jacobian``,
-    ``constraint_force`` (C_qᵀλ), ``factor_augmented``, ``consistent_accelerations``). Forward mode
-    only: differentiating a run goes through the Newton iterations (``jax.jacfwd``/``jvp``)."""
+class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
+    """Generalized-α (the coefficients from ρ∞) for a model with joint constraints, any
+    ``models.constrained.AbstractConstrainedModel`` (``multibody.MultibodySystem``,
+    ``multibody.FloatingFrameSystem``). Forward mode only: differentiating a run goes through the
+    Newton iterations (``jax.jacfwd``/``jvp``)."""
+
+    rho_inf: Float[Array, ""]
+
+    def __init__(self, rho_inf=0.9):
+        self.rho_inf = _rho_inf(rho_inf)
+
+    def check(self, model) -> None:
+        if not isinstance(model, AbstractConstrainedModel):
+            raise ValueError("GeneralizedAlphaIndex3 runs constrained models (models.constrained."
+                             f"AbstractConstrainedModel, e.g. a multibody.MultibodySystem); got {type(model).__name__}")
 
     def init(self, model, t0: Scalar, q0: Float[Array, " n"], v0: Float[Array, " n"]) -> GeneralizedAlphaState:
         """The state at ``t0`` with the consistent (a0, λ0) (``consistent_accelerations``)."""
-        if not hasattr(model, "consistent_accelerations"):
-            raise ValueError("GeneralizedAlphaIndex3 runs constrained models (a multibody.MultibodySystem); got "
-                             f"{type(model).__name__}")
+        self.check(model)
         a0, lam0 = model.consistent_accelerations(t0, q0, v0)
         return GeneralizedAlphaState(q0, v0, a0, a0, lam0)
 
@@ -113,7 +122,7 @@ class GeneralizedAlphaIndex3(GeneralizedAlpha):
                                contraction_test=True, divergence_test=newton.divergence_test)
         a1, lam1 = sol.x[:n], sol.x[n:]
         q1, v1, a1, abar1 = stage(a1)
-        if getattr(model, "project_velocities", False):
+        if model.project_velocities:
             reuse = fac if newton.variant == "modified" else None
             v1 = v1 - self._velocity_correction(model, t1, q1, v1, lam1, c_C, c_K, reuse)
         return GeneralizedAlphaState(q1, v1, a1, abar1, lam1), self.error_estimate(h, state.a, a1), sol

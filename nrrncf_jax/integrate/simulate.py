@@ -1,25 +1,26 @@
-"""Adaptive generalized-α time integration of a second-order model: one jit-compiled loop.
+"""Adaptive time integration of a second-order model: ``simulate(model, solver, controller, ts)``,
+one jit-compiled loop.
 
-The loop controls the step size, rejects and retries steps, writes the outputs (cubic Hermite
-dense output) and batches runs; the step itself is the stepping method's, diffrax-style
-``solver.init``/``solver.step`` (``state.AbstractStepper``; ``GeneralizedAlpha``, THEORY §8),
-and the loop carries the method's typed state (``state.GeneralizedAlphaState``) in its own
-typed carry, ``_LoopState``. Hand-written rather than a diffrax solver because the step must
-solve for the acceleration with prescribed coordinates, keep the auxiliary acceleration ā
-between steps, reuse a block-tridiagonal factorisation inside Newton, and (later) carry index-3
-constraints, none of which diffrax's ODE-term interface expresses; see
-``benchmarks/diffrax_galpha.py`` for the cost of the diffrax route. The loop is
+The loop rejects and retries steps, writes the outputs (cubic Hermite dense output) and batches
+runs; the step itself is the solver's (diffrax-style ``solver.init``/``solver.step``,
+``base.AbstractSolver``: ``GeneralizedAlpha``, THEORY §8, or ``GeneralizedAlphaIndex3`` for
+constrained systems), the step size the controller's (``step_size``: ``AdaptiveStepSize``,
+``ConstantStepSize``), and each step's implicit solve follows ``base.Newton``. Hand-written rather
+than a diffrax solver because the step must solve for the acceleration with prescribed
+coordinates, keep the auxiliary acceleration ā between steps, reuse the model's structured
+factorisations inside Newton and carry index-3 constraints, none of which diffrax's ODE-term
+interface expresses (``benchmarks/diffrax_galpha.py`` measures the diffrax route). The loop is
 ``equinox.internal.while_loop``: ``adjoint="forward"`` lowers to ``lax.while_loop`` (fastest;
 forward-mode differentiable, vmappable); ``adjoint="reverse"`` lowers to a checkpointed loop
 that ``jax.grad`` can differentiate with memory O(√max_steps) checkpoints, and differentiates
-each step's Newton solve implicitly (in the step, ``NewtonOptions.implicit``).
+each step's Newton solve implicitly (``NewtonOptions.implicit``).
 """
 
 import dataclasses
-import inspect
 import sys
+import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, Literal, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal
 
 import equinox as eqx
 import equinox.internal as eqxi
@@ -31,24 +32,15 @@ from jax import lax
 
 from .. import _validate
 from .._types import Array, Float, Int
-from .generalized_alpha import GeneralizedAlpha, hermite_interpolate
-from .state import AbstractStepper, NewtonOptions
+from .base import AbstractSolver, Newton, NewtonOptions
+from .generalized_alpha import hermite_interpolate
+from .results import ENDINGS, SimulationError, SimulationResult, result_code, result_message
+from .step_size import AbstractStepSizeController
 
 if TYPE_CHECKING:  # the models import the integrator's users; annotations only
     from ..models.base import AbstractModel
 
-RESULTS = {
-    0: "success",
-    1: "max_steps reached before t_end",
-    2: "step size fell below dt_min: Newton failed to converge or the error could not be controlled",
-    3: "the state became non-finite (NaN/Inf) and no smaller step recovered it",
-}
-
 _WINDOW = 8  # outputs that one step may cover; a step never crosses more than this many
-
-
-class SimulationError(RuntimeError):
-    """A simulation stopped before its end time; the message names the time reached."""
 
 
 class Solution(eqx.Module):
@@ -57,89 +49,130 @@ class Solution(eqx.Module):
     ts: Float[Array, " n_out"]
     ys: Any  # pytree, each leaf with leading axis n_out
     t_final: Float[Array, ""]
-    result: Int[Array, ""]
+    result: SimulationResult
     num_steps: Int[Array, ""]
     num_rejected: Int[Array, ""]
     num_newton: Int[Array, ""]
 
     @property
     def message(self) -> str:
-        return RESULTS[int(self.result)]
+        """Why the run ended ('' when it reached its end time); one run, not a batch."""
+        return SimulationResult[self.result]
+
+    @property
+    def code(self):
+        """The result's integer code (``results.ENDINGS``: 0 successful), one a member for a batch."""
+        return result_code(self.result)
+
+    @property
+    def succeeded(self):
+        """Whether the run reached its end time (a boolean array, one a member for a batch)."""
+        return self.result == SimulationResult.successful
 
 
 class _Config(eqx.Module):
-    solver: AbstractStepper  # GeneralizedAlpha: its ρ∞ is an array, traced, not static
-    adaptive: bool
-    max_steps: int
-    max_newton: int
-    newton: str
-    adjoint: str
+    """What the loop needs besides the model, solver and controller. ``observe`` is a pytree (a
+    function, or a module such as ``TipObserver`` whose arrays are traced)."""
+
     observe: Callable
-    progress: bool
+    max_steps: int = eqx.field(static=True)
+    adjoint: str = eqx.field(static=True)
+    progress: bool = eqx.field(static=True)
 
 
 def _default_observe(t, q, v):
     return q
 
 
-def simulate(
+def simulate(model, *args, **kwargs) -> Solution:
+    """``simulate(model, solver, controller, ts, ...)`` (see ``_simulate_run``). Until every caller
+    has moved, the old keyword form ``simulate(model, ts, rtol=..., ...)`` is translated here."""
+    if args and isinstance(args[0], AbstractSolver):
+        return _simulate_run(model, *args, **kwargs)
+    pos, kw = _from_legacy(model, args, kwargs)
+    return _simulate_run(model, *pos, **kw)
+
+
+def _from_legacy(model, args, kwargs):
+    """The old keyword form's ``(solver, controller, ts, kwargs)`` (transition only)."""
+    from ..models.constrained import AbstractConstrainedModel
+    from .generalized_alpha import GeneralizedAlpha
+    from .index3 import GeneralizedAlphaIndex3
+    from .step_size import AdaptiveStepSize, ConstantStepSize
+
+    kw = dict(kwargs)
+    ts = args[0] if args else kw.pop("ts")
+    solver = kw.pop("solver", None)
+    if solver is None:
+        solver = GeneralizedAlphaIndex3(0.9) if isinstance(model, AbstractConstrainedModel) else GeneralizedAlpha(0.9)
+    rtol, atol = kw.pop("rtol", 1e-4), kw.pop("atol", 1e-6)
+    dt0, dt_min, dt_max = kw.pop("dt0", None), kw.pop("dt_min", 1e-10), kw.pop("dt_max", np.inf)
+    if kw.pop("adaptive", True):
+        controller = AdaptiveStepSize(rtol, atol, dt0=dt0, dt_min=dt_min, dt_max=dt_max)
+    else:
+        if dt0 is None:
+            raise ValueError("adaptive=False needs a step size dt0")
+        controller = ConstantStepSize(dt0, rtol=rtol, atol=atol, dt_min=dt_min)
+    kw["newton"] = Newton(kw.pop("newton_tol", 1e-3), kw.pop("max_newton", None), kw.pop("newton", "auto"))
+    return (solver, controller, ts), kw
+
+
+def _simulate_run(
     model: "AbstractModel",
+    solver: AbstractSolver,
+    controller: AbstractStepSizeController,
     ts,
     *,
+    observe: Callable | None = None,
+    newton: Newton = Newton(),
     t0: float = 0.0,
     y0: tuple | None = None,
-    solver: AbstractStepper | None = None,
-    rtol: float = 1e-4,
-    atol: float = 1e-6,
-    dt0: float | None = None,
-    dt_min: float = 1e-10,
-    dt_max: float = np.inf,
-    adaptive: bool = True,
-    max_steps: int = 200_000,
-    newton_tol: float = 1e-3,
-    max_newton: int | None = None,
-    newton: Literal["auto", "modified", "full"] = "auto",
-    observe: Callable | None = None,
     adjoint: Literal["forward", "reverse"] = "forward",
+    max_steps: int = 200_000,
     progress: bool = False,
     throw: bool = True,
 ) -> Solution:
-    """Integrate ``model`` from ``t0`` and return ``observe(t, q, v)`` at the times ``ts``.
+    """Integrate ``model`` with ``solver`` and ``controller`` from ``t0`` and return
+    ``observe(t, q, v)`` at the times ``ts`` (default: q).
 
-    Newton solves each step for the new acceleration (``integrate.newton``); ``newton="modified"``
-    factors the iteration matrix once per step, ``"full"`` once per iteration (each update from
-    one ``model.newton_update``), ``"auto"`` takes the model's ``preferred_newton``. The step size
-    follows the local error estimate (RMS over the free coordinates, weighted by
-    ``atol + rtol|q|``); a Newton failure or a non-finite state retries the step at a quarter of
-    the size. With ``adaptive=False`` the step is ``dt0`` (shortened only to land on output
-    times), and Newton runs until it converges or ``max_newton`` corrections (default 50, against
-    10 for adaptive runs, where a Newton whose corrections grow from the third on fails at once:
-    a smaller step is cheaper than a wandering Newton). A fixed-step run whose Newton converges
-    in every step is a smooth function of its parameters; ``num_rejected > 0`` says that some
-    step did not, and was split.
+    ``solver``: ``GeneralizedAlpha(rho_inf)``, or ``GeneralizedAlphaIndex3(rho_inf)`` for a
+    constrained system. ``controller``: ``AdaptiveStepSize(rtol, atol)`` or ``ConstantStepSize(dt)``.
+    ``newton``: each step's Newton (``Newton(tol, max_iter, kind)``); a Newton failure or a
+    non-finite state retries the step at a quarter of its size. ``y0 = (q0, v0)`` overrides the
+    model's initial state (prescribed coordinates are still imposed). ``adjoint="reverse"`` makes
+    the run differentiable by ``jax.grad`` (a checkpointed loop; unconstrained models).
 
-    ``y0 = (q0, v0)`` overrides the model's initial state (prescribed coordinates are still
-    imposed).
-
-    ``throw=True`` raises ``SimulationError`` naming the time reached if the run stops early
-    (or, inside a user's ``jit``/``vmap``, an ``eqx.error_if`` runtime error).
+    ``throw=True`` raises ``SimulationError`` naming the time reached if the run stops early (or,
+    inside a user's ``jit``/``vmap``, an ``eqx.error_if`` runtime error); ``throw=False`` returns
+    the ``Solution`` with its ``result``.
 
     ``jax.vmap`` works through it; for a batch of models in forward mode, ``simulate_batch``
     gives the same results for less (see there).
     """
-    args = _prepare(model, ts, t0, y0, solver, rtol, atol, dt0, dt_min, dt_max, adaptive, max_steps, newton_tol,
-                    max_newton, newton, observe, adjoint, progress)
-    sol = _simulate(*args)
-    return _check(sol, throw)
+    args = _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, max_steps, progress)
+    return _check(_simulate(*args), throw)
 
 
-def simulate_batch(model_fn: Callable, params, ts, *, width: int | None = None, **kwargs) -> Solution:
+def simulate_batch(model_fn: Callable, params, *args, **kwargs) -> Solution:
+    """``simulate_batch(model_fn, params, solver, controller, ts, ...)`` (``_simulate_batch_run``);
+    the old keyword form is translated until every caller has moved."""
+    if args and isinstance(args[0], AbstractSolver):
+        return _simulate_batch_run(model_fn, params, *args, **kwargs)
+    width = kwargs.pop("width", None)
+    member = model_fn(jtu.tree_map(lambda x: x[0], params))
+    pos, kw = _from_legacy(member, args, kwargs)
+    return _simulate_batch_run(model_fn, params, *pos, width=width, **kw)
+
+
+def _simulate_batch_run(model_fn: Callable, params, solver: AbstractSolver, controller: AbstractStepSizeController,
+                        ts, *,
+                   observe: Callable | None = None, newton: Newton = Newton(), t0: float = 0.0,
+                   max_steps: int = 200_000, width: int | None = None, throw: bool = True) -> Solution:
     """``simulate`` for a batch of models, ``model_fn(p)`` for each ``p`` along the leading axis of
     the pytree ``params``, in one loop: each member keeps its own adaptive steps. Returns a
-    ``Solution`` whose fields have the batch axis first. The keyword arguments are ``simulate``'s
-    (same defaults), except ``y0``, ``adjoint`` and ``progress``: the members start from their
-    models' initial states, and the loop runs in forward mode (``jax.jvp``/``jacfwd`` pass
-    through; use ``simulate`` with ``adjoint="reverse"`` for reverse mode).
+    ``Solution`` whose fields have the batch axis first. The members start from their models'
+    initial states, and the loop runs in forward mode (``jax.jvp``/``jacfwd`` pass through; use
+    ``simulate`` with ``adjoint="reverse"`` for reverse mode).
 
     ``width``: how many members the loop advances together (its lanes; default all of them).
     With fewer lanes than members, the others wait in a queue, in their order in ``params``: a
@@ -152,10 +185,6 @@ def simulate_batch(model_fn: Callable, params, ts, *, width: int | None = None, 
     ``equinox.Module``) when it closes over arrays, so that they are traced rather than baked
     in. ``observe(t, q, v)`` is shared by the members.
     """
-    for name in ("y0", "adjoint", "progress"):
-        if name in kwargs:
-            raise ValueError(f"simulate_batch takes no {name!r} (see its docstring)")
-    a, throw = _simulate_arguments(None, ts, kwargs)
     leaves = jtu.tree_leaves(params)
     sizes = {int(np.shape(x)[0]) if np.ndim(x) else -1 for x in leaves}
     if not leaves or len(sizes) != 1 or -1 in sizes or 0 in sizes:
@@ -166,21 +195,36 @@ def simulate_batch(model_fn: Callable, params, ts, *, width: int | None = None, 
         width = n
     elif isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
         raise ValueError(f"width must be a positive integer (lanes of the batched loop), got width={width!r}")
-    a["model"] = model_fn(jtu.tree_map(lambda x: x[0], params))  # one member, for the checks
-    _, ts_, t0_, _, *rest = _prepare(**a)
-    sol = _simulate_batch(model_fn, params, ts_, t0_, *rest, width=min(int(width), n))
+    member = model_fn(jtu.tree_map(lambda x: x[0], params))  # one member, for the checks
+    _, solver, controller, ts_, t0_, _, options, config = _prepare(member, solver, controller, ts, observe, newton,
+                                                                   t0, None, "forward", max_steps, False)
+    sol = _simulate_batch(model_fn, params, solver, controller, ts_, t0_, options, config, width=min(int(width), n))
     return _check(sol, throw)
 
 
-def simulate_timed(model: "AbstractModel", ts, **kwargs) -> tuple[Solution, float, float]:
+def simulate_timed(model, *args, **kwargs) -> tuple[Solution, float, float]:
+    """``simulate_timed(model, solver, controller, ts, ...)`` (``_simulate_timed_run``); the old
+    keyword form is translated until every caller has moved."""
+    if args and isinstance(args[0], AbstractSolver):
+        return _simulate_timed_run(model, *args, **kwargs)
+    pos, kw = _from_legacy(model, args, kwargs)
+    return _simulate_timed_run(model, *pos, **kw)
+
+
+def _simulate_timed_run(model: "AbstractModel", solver: AbstractSolver, controller: AbstractStepSizeController, ts,
+                        **kwargs) -> tuple[Solution, float, float]:
     """``simulate`` with compilation and execution timed apart: ``(solution, compile_s, run_s)``.
 
-    Compiles ahead of time (``lower().compile()``), then runs to ``block_until_ready``.
+    Compiles ahead of time (``lower().compile()``), then runs to ``block_until_ready``. The
+    keyword arguments are ``simulate``'s.
     """
-    import time
-
-    a, throw = _simulate_arguments(model, ts, kwargs)
-    args = _prepare(**a)
+    throw = kwargs.pop("throw", True)
+    kw = {k: kwargs.pop(k) for k in ("observe", "newton", "t0", "y0", "adjoint", "max_steps", "progress")
+          if k in kwargs}
+    if kwargs:
+        raise TypeError(f"simulate_timed got unexpected keyword arguments {sorted(kwargs)}")
+    args = _prepare(model, solver, controller, ts, kw.get("observe"), kw.get("newton", Newton()), kw.get("t0", 0.0),
+                    kw.get("y0"), kw.get("adjoint", "forward"), kw.get("max_steps", 200_000), kw.get("progress", False))
     t0 = time.perf_counter()
     compiled = _simulate.lower(*args).compile()
     t1 = time.perf_counter()
@@ -189,16 +233,17 @@ def simulate_timed(model: "AbstractModel", ts, **kwargs) -> tuple[Solution, floa
     return _check(sol, throw), t1 - t0, t2 - t1
 
 
-def _simulate_arguments(model, ts, kwargs: dict) -> tuple[dict, bool]:
-    """``simulate``'s arguments with its defaults filled in (``_prepare``'s keywords), and ``throw``."""
-    bound = inspect.signature(simulate).bind(model, ts, **kwargs)
-    bound.apply_defaults()
-    a = dict(bound.arguments)
-    return a, a.pop("throw")
-
-
-def _prepare(model, ts, t0, y0, solver, rtol, atol, dt0, dt_min, dt_max, adaptive, max_steps, newton_tol, max_newton,
-             newton, observe, adjoint, progress):
+def _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, max_steps, progress):
+    """Check everything before tracing; return ``_simulate``'s arguments."""
+    if not isinstance(solver, AbstractSolver):
+        raise ValueError(f"solver must be an integrate solver (GeneralizedAlpha, GeneralizedAlphaIndex3), got "
+                         f"{type(solver).__name__}: simulate(model, solver, controller, ts, ...)")
+    if not isinstance(controller, AbstractStepSizeController):
+        raise ValueError(f"controller must be a step-size controller (AdaptiveStepSize, ConstantStepSize), got "
+                         f"{type(controller).__name__}: simulate(model, solver, controller, ts, ...)")
+    if not isinstance(newton, Newton):
+        raise ValueError(f"newton must be an integrate.Newton, got {type(newton).__name__}")
+    solver.check(model)
     ts_np = np.asarray(ts, dtype=float) if not isinstance(ts, jax.core.Tracer) else None
     if ts_np is not None:
         if ts_np.ndim != 1 or ts_np.size == 0:
@@ -209,60 +254,29 @@ def _prepare(model, ts, t0, y0, solver, rtol, atol, dt0, dt_min, dt_max, adaptiv
             raise ValueError("ts must be strictly increasing")
         if ts_np[-1] <= t0:
             raise ValueError(f"t_end = ts[-1] must be greater than t0 = {t0}, got t_end = {ts_np[-1]}")
-    for name, val in (("rtol", rtol), ("atol", atol), ("dt_min", dt_min), ("newton_tol", newton_tol)):
-        if not (float(val) > 0.0):
-            raise ValueError(f"{name} must be > 0, got {name}={val!r}")
-    if dt0 is not None and not (float(dt0) > 0.0):
-        raise ValueError(f"dt0 must be > 0, got dt0={dt0!r}")
-    if not adaptive and dt0 is None:
-        raise ValueError("adaptive=False needs a step size dt0")
-    if max_newton is None:
-        max_newton = 10 if adaptive else 50
-    max_newton = _validate.positive_int("max_newton", max_newton)
-    if newton not in ("auto", "modified", "full"):
-        raise ValueError(f"newton must be 'auto', 'modified' or 'full', got {newton!r}")
-    if newton == "auto":
-        newton = model.preferred_newton
     if adjoint not in ("forward", "reverse"):
         raise ValueError(f"adjoint must be 'forward' or 'reverse', got {adjoint!r}")
-    if ts_np is not None and dt0 is None:
-        dt0 = 1e-3 * (ts_np[-1] - t0)
-    constrained = getattr(model, "n_constraints", 0) > 0
-    if solver is None:
-        from .index3 import GeneralizedAlphaIndex3
-
-        solver = GeneralizedAlphaIndex3(0.9) if constrained else GeneralizedAlpha(0.9)
-    elif constrained and type(solver) is GeneralizedAlpha:
-        raise ValueError("a model with joint constraints needs a constrained stepper (GeneralizedAlphaIndex3); "
-                         "GeneralizedAlpha would ignore its joints")
-    config = _Config(
-        solver=solver,
-        adaptive=bool(adaptive),
-        max_steps=int(max_steps),
-        max_newton=int(max_newton),
-        newton=newton,
-        adjoint=adjoint,
-        observe=_default_observe if observe is None else observe,
-        progress=bool(progress),
-    )
+    options = newton.options(model, controller.adaptive, implicit=adjoint == "reverse")
+    config = _Config(max_steps=_validate.positive_int("max_steps", max_steps), adjoint=adjoint,
+                     observe=_default_observe if observe is None else observe, progress=bool(progress))
     if y0 is not None:
         y0 = tuple(jnp.asarray(x, dtype=float) for x in y0)
         if len(y0) != 2 or any(x.shape != (model.n_dof,) for x in y0):
             raise ValueError(f"y0 must be (q0, v0), each of shape ({model.n_dof},)")
     f = jnp.asarray
-    return (model, f(ts, dtype=float), f(t0, dtype=float), y0, f(dt0, dtype=float), f(rtol, dtype=float),
-            f(atol, dtype=float), f(dt_min, dtype=float), f(dt_max, dtype=float), f(newton_tol, dtype=float), config)
+    return model, solver, controller, f(ts, dtype=float), f(t0, dtype=float), y0, options, config
 
 
 def _check(sol: Solution, throw: bool) -> Solution:
     if throw:
-        if isinstance(sol.result, jax.core.Tracer):
-            sol = eqx.error_if(sol, sol.result != 0, "simulation stopped early; inspect Solution.t_final")
-        elif int(np.max(np.asarray(sol.result))) != 0:
-            res = np.asarray(sol.result).reshape(-1)
+        failed = sol.result != SimulationResult.successful
+        if isinstance(failed, jax.core.Tracer):
+            sol = eqx.error_if(sol, failed, "simulation stopped early; inspect Solution.t_final")
+        elif np.any(np.asarray(failed)):
+            codes = np.asarray(result_code(sol.result)).reshape(-1)
             tf = np.asarray(sol.t_final).reshape(-1)
-            bad = int(np.flatnonzero(res)[0])
-            raise SimulationError(f"simulation stopped at t = {tf[bad]:.6g} s: {RESULTS[int(res[bad])]}")
+            bad = int(np.flatnonzero(codes)[0])
+            raise SimulationError(f"simulation stopped at t = {tf[bad]:.6g} s: {result_message(codes[bad])}")
     return sol
 
 
@@ -296,115 +310,118 @@ class _Stacked(eqx.Module):
 
 
 class _LoopState(eqx.Module):
-    """The adaptive loop's carry: time, next step size, the stepping method's state, the first
-    output slot not yet covered, statistics, status and the output buffer."""
+    """The adaptive loop's carry: time, next step size, the solver's state, the first output slot
+    not yet covered, statistics, status and the output buffer."""
 
     t: Float[Array, ""]
     h: Float[Array, ""]  # the next step's size
-    state: _Stacked  # the stepping method's (``GeneralizedAlphaState``), stacked
+    state: _Stacked  # the solver's (``GeneralizedAlphaState``), stacked
     k: Int[Array, ""]  # the first output slot that no accepted step has covered
     counts: Int[Array, "3"]  # accepted steps, rejected steps, Newton iterations
-    result: Int[Array, ""]  # 0 while running, else a key of RESULTS
+    result: Int[Array, ""]  # 0 while running, else the code of the ending (results.ENDINGS)
     ys: Any = None  # output buffer (n_out + K slots per leaf); None in batched runs (see step)
 
 
-class _Loop(NamedTuple):
-    """One run's adaptive loop: its initial carry, step, condition and the Solution it ends in."""
+class _AdaptiveLoop(eqx.Module):
+    """One run's adaptive loop, built inside the trace: its initial carry (``init``), one attempted
+    step (``step``), its condition (``cond``) and the ``Solution`` it ends in (``finish``)."""
 
-    init: Callable  # init(outputs=True) -> _LoopState (with its output buffer unless outputs=False)
-    outputs: Callable  # outputs(carry) -> the output buffer of a run starting from this carry
-    step: Callable  # step(carry, active=None) -> (carry, window) (see step)
-    cond: Callable  # cond(carry) -> bool
-    finish: Callable  # finish(final carry, ys=None) -> Solution
+    model: Any
+    solver: AbstractSolver
+    controller: AbstractStepSizeController
+    ts: Float[Array, " n_out"]
+    t0: Float[Array, ""]
+    y0: tuple | None
+    newton: NewtonOptions
+    config: _Config
+    ts_pad: Float[Array, " n_out+K"]  # the output times and K slots at infinity
+    dt0: Float[Array, ""]  # the controller's first step
 
+    def __init__(self, model, solver, controller, ts, t0, y0, newton, config):
+        self.model, self.solver, self.controller, self.ts, self.t0, self.y0 = model, solver, controller, ts, t0, y0
+        self.newton, self.config = newton, config
+        self.ts_pad = jnp.concatenate([ts, jnp.full((_WINDOW,), jnp.inf)])
+        self.dt0 = controller.first_step(t0, ts[-1])
 
-def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config: _Config) -> _Loop:
-    solver = config.solver
-    t_end = ts[-1]
-    K = _WINDOW
-    ts_pad = jnp.concatenate([ts, jnp.full((K,), jnp.inf)])
+    @property
+    def t_end(self):
+        return self.ts[-1]
 
-    def error_coords(q):
+    def error_coords(self, q):
         """The step's start in the model's error space, and which coordinates count."""
-        x, _, mask = model.error_space(q, jnp.zeros_like(q))
+        x, _, mask = self.model.error_space(q, jnp.zeros_like(q))
         return x, mask
 
+    @staticmethod
     def rms(ex, scale, mask):
         r = ex / scale
         return jnp.sqrt(jnp.sum(jnp.where(mask, r * r, 0.0)) / jnp.maximum(jnp.sum(mask), 1))
 
-    n_out = ts.shape[0]
+    def next_stop(self, k):
+        return jnp.minimum(self.ts_pad[k + _WINDOW - 1], self.t_end)
 
-    def next_stop(k):
-        return jnp.minimum(ts_pad[k + K - 1], t_end)
-
-    def limit_step(t, h, k):
-        rem = next_stop(k) - t
+    def limit_step(self, t, h, k):
+        rem = self.next_stop(k) - t
         return jnp.where(rem <= 1.1 * h, rem, jnp.where(rem < 2.0 * h, 0.5 * rem, h))
 
-    def initial_carry(outputs=True):
-        """The loop's first carry; a function, so that tracing the step or the condition does not
-        trace the initial solve too. ``outputs=False``: without the output buffer."""
-        q0, v0 = model.initial_state(t0) if y0 is None else y0
-        state = solver.init(model, t0, q0, v0)  # with the consistent acceleration M a0 = −g
-        k0 = jnp.sum(ts_pad <= t0).astype(int)
-        h0 = limit_step(t0, jnp.minimum(dt0, dt_max), k0)
+    def init(self, outputs=True) -> _LoopState:
+        """The loop's first carry (``outputs=False``: without the output buffer), with the
+        solver's consistent initial state."""
+        t0 = self.t0
+        q0, v0 = self.model.initial_state(t0) if self.y0 is None else self.y0
+        state = self.solver.init(self.model, t0, q0, v0)
+        k0 = jnp.sum(self.ts_pad <= t0).astype(int)
+        h0 = self.limit_step(t0, jnp.minimum(self.dt0, self.controller.dt_max), k0)
         c = _LoopState(t=t0, h=h0, state=_Stacked.of(state), k=k0, counts=jnp.zeros(3, int), result=jnp.array(0))
-        return dataclasses.replace(c, ys=initial_outputs(c)) if outputs else c
+        return dataclasses.replace(c, ys=self.outputs(c)) if outputs else c
 
-    def initial_outputs(c):
+    def outputs(self, c: _LoopState):
         """The output buffer (n_out + K slots): the initial observation at the times ≤ t0."""
         st = c.state.unstack()
-        obs0 = config.observe(t0, st.q, st.v)
-        at_start = ts_pad <= t0
+        obs0 = self.config.observe(self.t0, st.q, st.v)
+        n_out, K = self.ts.shape[0], _WINDOW
+        at_start = self.ts_pad <= self.t0
         return jtu.tree_map(
             lambda x: jnp.where(at_start.reshape((-1,) + (1,) * jnp.ndim(x)), x,
                                 jnp.zeros((n_out + K,) + jnp.shape(x), jnp.result_type(x))), obs0)
 
-    newton_options = NewtonOptions(tol=newton_tol, max_iter=config.max_newton, variant=config.newton,
-                                   divergence_test=config.adaptive, implicit=config.adjoint == "reverse")
-
-    def step(c, active=None):
+    def step(self, c: _LoopState, active=None):
         """One attempted step: ``(carry, window)``, the new carry and the step's output window
         (its observations at the K output slots from ``c.k`` on). ``active`` (batched runs, see
         ``_simulate_batch``): a member that is done steps at a harmless size and keeps its carry
         unchanged. A carry with the output buffer ``ys`` gets the window written into it; a carry
         without (``init(outputs=False)``, as batched runs use) leaves the window to the caller to
         write (or drop, for an inactive member)."""
+        model, solver, controller, config, K = self.model, self.solver, self.controller, self.config, _WINDOW
+        ts_pad, t_end = self.ts_pad, self.t_end
         t, h, k, st = c.t, c.h, c.k, c.state.unstack()
         if active is not None:
-            h = jnp.where(active, h, dt0)
+            h = jnp.where(active, h, self.dt0)
         h = lax.stop_gradient(h)
         t1 = t + h
-        ns = next_stop(k)
+        ns = self.next_stop(k)
         t1 = jnp.where(jnp.abs(t1 - ns) <= 1e-12 * (1.0 + jnp.abs(ns)), ns, t1)
-        x0, mask = error_coords(st.q)
+        x0, mask = self.error_coords(st.q)
         x0 = lax.stop_gradient(x0)
-        newton_scale = atol + rtol * jnp.abs(x0)
+        newton_scale = controller.scale(x0)
         # Newton's corrections are measured in the step's error space, in units of the
         # tolerance at the step's start; in reverse mode without derivatives (the step
         # differentiates its solve implicitly).
-        m_n, q_n = lax.stop_gradient((model, st.q)) if newton_options.implicit else (model, st.q)
+        m_n, q_n = lax.stop_gradient((model, st.q)) if self.newton.implicit else (model, st.q)
 
         def norm(dq):
-            return rms(m_n.error_space(q_n, dq)[1], newton_scale, mask)
+            return self.rms(m_n.error_space(q_n, dq)[1], newton_scale, mask)
 
-        st1, error, newton_sol = solver.step(model, t, t1, st, newton_options, norm, h=h)
+        st1, error, newton_sol = solver.step(model, t, t1, st, self.newton, norm, h=h)
         iters, done = newton_sol.iterations, newton_sol.converged
         q1, v1 = st1.q, st1.v
 
         x1, ex, _ = model.error_space(q1, error)
-        err = lax.stop_gradient(rms(ex, atol + rtol * jnp.maximum(jnp.abs(x0), jnp.abs(x1)), mask))
+        err = lax.stop_gradient(self.rms(ex, controller.scale(x0, x1), mask))
         finite = jnp.isfinite(err) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(v1))
         ok = done & finite
-        if config.adaptive:
-            accept = ok & (err <= 1.0)
-            grow = jnp.clip(0.9 * jnp.where(err > 0, err, 1e-10) ** (-1.0 / 3.0), 0.2, 5.0)
-            h_new = jnp.where(ok, h * grow, 0.25 * h)
-        else:
-            accept = ok
-            h_new = jnp.where(ok, jnp.minimum(2.0 * h, dt0), 0.25 * h)
-        h_new = jnp.minimum(h_new, dt_max)
+        accept, h_new = controller.adapt(h, err, ok)
+        h_new = jnp.minimum(h_new, controller.dt_max)
 
         # Dense output at the requested times inside (t, t1]: the whole window of K output
         # slots in one vectorised write.
@@ -419,7 +436,7 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
 
         # A run that carries its output buffer and is not differentiated in reverse observes only
         # in the steps that cover an output time: the observation (K slots of it) can cost more
-        # than the step itself (the pendulum's energies: 4 ms against a 1 ms step).
+        # than the step itself (e.g. a multibody system's energies).
         lazy = c.ys is not None and config.adjoint != "reverse"
         obs = None if lazy else observe_window()
 
@@ -442,9 +459,9 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
         k_new = jnp.where(accept, k + jnp.sum(tau <= t1), k)
 
         t_new = jnp.where(accept, t1, t)
-        h_new = lax.stop_gradient(limit_step(t_new, h_new, k_new))
+        h_new = lax.stop_gradient(self.limit_step(t_new, h_new, k_new))
         pick = lambda new, old: jnp.where(accept, new, old)  # noqa: E731, applied leaf by leaf
-        result = jnp.where(~accept & (h_new < dt_min), jnp.where(finite, 2, 3), 0)
+        result = jnp.where(~accept & (h_new < controller.dt_min), jnp.where(finite, 2, 3), 0)
         if config.progress:
             lax.cond(
                 accept & (c.counts[0] % 200 == 0),
@@ -465,24 +482,26 @@ def _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, 
             new = dataclasses.replace(new, ys=jtu.tree_map(write_window, obs, c.ys))
         return new, obs
 
-    def cond(c):
-        return (c.t < t_end) & (c.result == 0)
+    def cond(self, c: _LoopState):
+        return (c.t < self.t_end) & (c.result == 0)
 
-    def finish(final, ys=None):
+    def finish(self, final: _LoopState, ys=None) -> Solution:
         """The Solution of the final carry (``ys``: its output buffer, when it carries none)."""
         ys = final.ys if ys is None else ys
-        result = jnp.where((final.result == 0) & (final.t < t_end), 1, final.result)
+        code = jnp.where((final.result == 0) & (final.t < self.t_end), 1, final.result)
+        result = SimulationResult.successful
+        for i, item in enumerate(ENDINGS[1:], start=1):
+            result = SimulationResult.where(code == i, item, result)
+        n_out = self.ts.shape[0]
         return Solution(
-            ts=ts, ys=jtu.tree_map(lambda y: y[:n_out], ys), t_final=final.t, result=result,
+            ts=self.ts, ys=jtu.tree_map(lambda y: y[:n_out], ys), t_final=final.t, result=result,
             num_steps=final.counts[0], num_rejected=final.counts[1], num_newton=final.counts[2],
         )
 
-    return _Loop(init=initial_carry, outputs=initial_outputs, step=step, cond=cond, finish=finish)
-
 
 @eqx.filter_jit
-def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config: _Config) -> Solution:
-    loop = _build_loop(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config)
+def _simulate(model, solver, controller, ts, t0, y0, newton: NewtonOptions, config: _Config) -> Solution:
+    loop = _AdaptiveLoop(model, solver, controller, ts, t0, y0, newton, config)
     final = eqxi.while_loop(
         loop.cond, lambda c: loop.step(c)[0], loop.init(), max_steps=config.max_steps,
         buffers=(lambda c: c.ys) if config.adjoint == "reverse" else None,
@@ -494,7 +513,7 @@ def _simulate(model, ts, t0, y0, dt0, rtol, atol, dt_min, dt_max, newton_tol, co
 
 
 @eqx.filter_jit
-def _simulate_batch(model_fn, params, ts, t0, dt0, rtol, atol, dt_min, dt_max, newton_tol, config: _Config, *,
+def _simulate_batch(model_fn, params, solver, controller, ts, t0, newton: NewtonOptions, config: _Config, *,
                     width: int) -> Solution:
     """``simulate_batch``'s program: one ``lax.while_loop`` whose body advances the member in each
     of ``width`` lanes by one attempted step (``vmap`` of the step), until every member is done.
@@ -515,7 +534,7 @@ def _simulate_batch(model_fn, params, ts, t0, dt0, rtol, atol, dt_min, dt_max, n
     n = jtu.tree_leaves(params)[0].shape[0]
 
     def loop(p):
-        return _build_loop(model_fn(p), ts, t0, None, dt0, rtol, atol, dt_min, dt_max, newton_tol, config)
+        return _AdaptiveLoop(model_fn(p), solver, controller, ts, t0, None, newton, config)
 
     def running(p, c):
         return loop(p).cond(c) & (c.counts[0] + c.counts[1] < config.max_steps)

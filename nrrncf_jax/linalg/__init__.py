@@ -4,19 +4,33 @@
 - ``block_tridiagonal``: a chain of nodes (beams); block LU by ``lax.scan`` over the nodes.
 - ``sparse``: any mesh, large models; SciPy's SuperLU on the host through a host callback.
 
+A jointed system's constrained matrix is factored body by body with the joints' Schur
+complement (``schur``).
+
 ``assemble_and_factor(parts, free, chain_block=..., solver=...)`` assembles element groups into
 one of them and factors (``assembly``); every result has ``.solve(b)``
 (``base.AbstractFactorization``). ``assemble_sparse`` and ``sparse_modes`` are the host-side
 (SciPy) assembly and shift-invert eigensolver of large models for the offline stage.
+
+The full-order models choose among the three with ``solver=`` ("auto": by size and pattern).
+The sparse factorisation runs inside the jit-compiled integration loop, derivatives included,
+which is what lets the membrane and the truss run at full order (tens of thousands of DOFs) as the
+NR-RNCF reference. ``benchmarks/results/sparse.md`` measures factor and solve time and memory of
+the three at growing sizes, and the first modes of a large model by sparse shift-invert.
 """
 
 from .assembly import DENSE_MAX_DOFS, SOLVERS, assemble_and_factor, choose_solver
 from .base import AbstractFactorization, Parts
 from .block_tridiagonal import BlockTridiagonalLU, assemble_block_tridiagonal, factor_block_tridiagonal
 from .dense import DenseLU, _solve_augmented, _solve_factored, assemble_dense, solve_once
+from .schur import AugmentedFactor, dense_augmented, schur_factor, solve_blocks
 from .sparse import CACHE_SIZE, ScaledSuperLU, SparseLU, SparsityPattern, assemble_sparse, factor_sparse, sparse_modes
 
 __all__ = [
+    "AugmentedFactor",
+    "dense_augmented",
+    "schur_factor",
+    "solve_blocks",
     "CACHE_SIZE",
     "DENSE_MAX_DOFS",
     "SOLVERS",

@@ -8,7 +8,6 @@ import abc
 from typing import ClassVar
 
 import equinox as eqx
-import jax
 
 from .._types import Array, Bool, Float, Scalar
 
@@ -66,9 +65,3 @@ class AbstractModel(eqx.Module):
         model's own coordinates; a reduced model maps back to the physical ones so that the
         same rtol means the same accuracy for full and reduced models."""
         return q, e, self.free_mask()
-
-    def constraint_force(self, q: Float[Array, " n"], lam: Float[Array, " m"]) -> Float[Array, " n"]:
-        """C_qᵀ λ for a model with joint equations ``constraints(q)`` (``integrate.GeneralizedAlphaIndex3``),
-        by one reverse-mode product: C_q is not formed, as Newton needs this product every
-        iteration and the matrix once a step (the full pendulum: 0.03 against 0.28 ms)."""
-        return jax.vjp(self.constraints, q)[1](lam)[0]

@@ -57,15 +57,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._types import Array, Bool, Float, Scalar
-from .._validate import is_concrete
+from .._types import Array, Float, Scalar
 from ..bodies.body import Body
-from ..linalg import DenseLU
-from ..models.base import AbstractModel
+from ..linalg import AugmentedFactor, DenseLU, schur_factor
+from ..models.constrained import AbstractConstrainedModel
 from ..motion import unit_axis
 from ..reduction.tensors import ElasticTensors
 from .joints import AbstractJoint
-from .system import AugmentedFactor, _solve_bodies
 
 
 def rotation(e: Float[Array, " 4"]) -> Float[Array, "3 3"]:
@@ -326,7 +324,7 @@ def _dA_hat(e):
     return 2.0 * jnp.einsum("l,klij->kij", e, jnp.asarray(_B))
 
 
-class FloatingFrameSystem(AbstractModel):
+class FloatingFrameSystem(AbstractConstrainedModel):
     """Floating-frame bodies (``FloatingBody``) joined by ``joints`` (acting on the bodies'
     inertial nodal vectors, as in ``MultibodySystem``), under ``gravity``. Coordinates z: each
     body's (R, e, p), stacked. Constraints: the joints' equations, then |e_b|² − 1 per body.
@@ -336,7 +334,6 @@ class FloatingFrameSystem(AbstractModel):
     joints: tuple[AbstractJoint, ...]
     gravity: Float[Array, " 3"]
     stacked: FloatingBody | None  # the bodies' arrays stacked, when they have one structure (vmapped)
-    offsets: tuple[int, ...] = eqx.field(static=True)
 
     preferred_newton = "modified"
     project_velocities = True  # GeneralizedAlphaIndex3 projects v onto C_z v = 0 after each step (see there)
@@ -349,47 +346,25 @@ class FloatingFrameSystem(AbstractModel):
         if not all(isinstance(j, AbstractJoint) for j in self.joints):
             raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...)")
         self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
-        sizes = [b.n_z for b in self.bodies]
-        self.offsets = tuple(int(o) for o in np.concatenate([[0], np.cumsum(sizes)[:-1]]))
         self.stacked = _stack(self.bodies)
-        self._check()
-
-    def _check(self) -> None:
-        nb = len(self.bodies)
-        for k, joint in enumerate(self.joints):
-            for b, v in joint.references():
-                if not 0 <= b < nb or not 0 <= v < self.bodies[b].body.n_vectors:
-                    raise ValueError(f"joint {k} ({type(joint).__name__}) refers to nodal vector {v} of body {b}, "
-                                     "which does not exist")
-        if not all(is_concrete(x) for x in jax.tree_util.tree_leaves(self)):
-            return  # built inside a trace: the value checks ran (or run) where its bodies were built
-        z0 = self.reference()
-        C0 = np.asarray(jax.jit(lambda z: self.constraints(z))(z0))
-        if np.abs(C0).max(initial=0.0) > 1e-9 * max(1.0, float(np.abs(z0).max())):
-            raise ValueError(f"the initial state violates joint equations (largest {np.abs(C0).max():.3g}): place "
-                             "the frames so that their joints fit")
-        B = np.asarray(jax.jit(lambda z: self.constraint_jacobian(z))(z0))
-        s = np.linalg.svd(B, compute_uv=False)
-        if int(np.sum(s > 1e-10 * s.max())) < B.shape[0]:
-            raise ValueError(f"the joints' {B.shape[0] - nb} equations are redundant: remove the duplicated "
-                             "constraints, or the iteration matrix is singular")
+        self.check_joints()
 
     # --- coordinates ------------------------------------------------------------------------------
-    @property
-    def n_dof(self) -> int:
-        return sum(b.n_z for b in self.bodies)
+    def body_sizes(self) -> tuple[int, ...]:
+        return tuple(b.n_z for b in self.bodies)
+
+    def vector_counts(self) -> tuple[int, ...]:
+        return tuple(b.body.n_vectors for b in self.bodies)
 
     @property
-    def n_constraints(self) -> int:
-        return sum(j.n_equations for j in self.joints) + len(self.bodies)
+    def n_body_equations(self) -> int:
+        """One |e_b|² = 1 a body."""
+        return len(self.bodies)
 
     @property
     def masses(self) -> tuple[Float[Array, "nv nv"], ...]:
         """Each body's mass matrix on its nodal vectors (the same for each component)."""
         return tuple(b.mass for b in self.bodies)
-
-    def split(self, z: Float[Array, " n"]) -> tuple[Float[Array, " nz"], ...]:
-        return tuple(z[o:o + b.n_z] for b, o in zip(self.bodies, self.offsets))
 
     def _map(self, fn, *vectors) -> list:
         """``[fn(body_b, *(each vector's part b))]``: one vmapped call over the stacked bodies when
@@ -444,16 +419,6 @@ class FloatingFrameSystem(AbstractModel):
                           (tuple(turn(b) for b in self.bodies), tuple(j.turned(A) for j in self.joints)))
         return out if self.stacked is None else eqx.tree_at(lambda s: s.stacked, out, turn(self.stacked))
 
-    def free_mask(self) -> Bool[Array, " n"]:
-        return jnp.ones(self.n_dof, bool)
-
-    def initial_state(self, t0: Scalar):
-        z0 = self.reference()
-        return z0, jnp.zeros_like(z0)
-
-    def constrain(self, t, q, v, a):
-        return q, v, a
-
     def error_space(self, z, e):
         """The step error in the inertial nodal vectors (J e), so that a tolerance means what it
         means for the full system."""
@@ -467,10 +432,7 @@ class FloatingFrameSystem(AbstractModel):
 
     def constraints(self, z: Float[Array, " n"]) -> Float[Array, " m"]:
         xs = self.nodal_vectors(z)
-        return jnp.concatenate([self._joint_equations(xs)] + self._euler_norms(z))
-
-    def _joint_equations(self, xs):
-        return jnp.concatenate([j(xs) for j in self.joints]) if self.joints else jnp.zeros(0)
+        return jnp.concatenate([self.joint_equations(xs)] + self._euler_norms(z))
 
     def _joint_rows(self) -> tuple[int, ...]:
         """The nodal vectors any joint reads (on any body: one list for the stacked bodies)."""
@@ -486,7 +448,7 @@ class FloatingFrameSystem(AbstractModel):
             idx = jnp.asarray(rows)
 
             def on_rows(x_rows):
-                return self._joint_equations(tuple(x.at[idx].set(xr) for x, xr in zip(xs, x_rows)))
+                return self.joint_equations(tuple(x.at[idx].set(xr) for x, xr in zip(xs, x_rows)))
 
             dC = jax.jacfwd(on_rows)(tuple(x[idx] for x in xs))  # per body (m, rows, 3)
             Js = self._map(lambda b, zb: b.jacobian(zb, rows), z)  # per body (rows, 3, nz)
@@ -496,13 +458,6 @@ class FloatingFrameSystem(AbstractModel):
         C_norms = jax.scipy.linalg.block_diag(*[jnp.concatenate([jnp.zeros(3), 2.0 * zb[3:7], jnp.zeros(b.k)])[None]
                                                 for b, zb in zip(self.bodies, zs)])
         return jnp.concatenate([C_joints, C_norms], axis=0)
-
-    def constraint_acceleration(self, z, v) -> Float[Array, " m"]:
-        """(C_z v)_z v: the part of C̈ that does not hold the accelerations."""
-        def rate(y):
-            return jax.jvp(self.constraints, (y,), (v,))[1]
-
-        return jax.jvp(rate, (z,), (v,))[1]
 
     def residual(self, t: Scalar, z, v, a) -> Float[Array, " n"]:
         """J ᵀ(M ẍ − Q) + ∂U/∂z, ẍ = J z̈ + J̇ ż, without the joints' forces (the stepper adds
@@ -551,7 +506,7 @@ class FloatingFrameSystem(AbstractModel):
         if not self.joints:
             return tuple(jnp.zeros_like(x) for x in xs)
         m = sum(j.n_equations for j in self.joints)
-        _, pullback = jax.vjp(self._joint_equations, xs)
+        _, pullback = jax.vjp(self.joint_equations, xs)
         return pullback(lam[:m])[0]
 
     def factor_iteration_matrix(self, t, z, v, c_M, c_C, c_K):
@@ -567,19 +522,7 @@ class FloatingFrameSystem(AbstractModel):
         arithmetic, and on a CPU a 99 × 99 LU costs more than the step's other operations."""
         B = self.constraint_jacobian(z)
         factors = tuple(DenseLU.factor(S_b) for S_b in self._blocks(z, 1.0, c_K, v, a, lam, c_C))
-        sizes = tuple(b.n_z for b in self.bodies)
-        S_inv_Bt = _solve_bodies(factors, self.offsets, sizes, B.T)
-        return AugmentedFactor(bodies=factors, offsets=self.offsets, sizes=sizes, B=B, S_inv_Bt=S_inv_Bt,
-                               schur=DenseLU.factor(B @ S_inv_Bt))
-
-    def consistent_accelerations(self, t: Scalar, z, v):
-        """``(a, λ)`` with the equations of motion and C̈ = 0 at (z, v)."""
-        B = self.constraint_jacobian(z)
-        n, m = self.n_dof, B.shape[0]
-        A = jnp.block([[self.mass_matrix(z), B.T], [B, jnp.zeros((m, m), z.dtype)]])
-        rhs = jnp.concatenate([-self.residual(t, z, v, jnp.zeros_like(z)), -self.constraint_acceleration(z, v)])
-        sol = DenseLU.factor(A).solve(rhs)
-        return sol[:n], sol[n:]
+        return schur_factor(factors, self.offsets, self.body_sizes(), B)
 
     def kinetic_energy(self, z, v) -> Float[Array, ""]:
         """½ Σ_b ẋ_bᵀ M_b ẋ_b, ẋ_b = J_b ż_b."""
@@ -593,8 +536,5 @@ class FloatingFrameSystem(AbstractModel):
             total = total + b.tensors.energy(zb[7:]) - jnp.sum(b.weights[:, None] * x * self.gravity[None, :])
         return total
 
-    def energy(self, z, v) -> Float[Array, ""]:
-        """Kinetic + strain + gravity potential energy (conserved without damping)."""
-        return self.kinetic_energy(z, v) + self.potential_energy(z)
 
 __all__ = ["FloatingBody", "FloatingFrameSystem", "axis_angle", "euler_parameters", "rotation"]

@@ -23,11 +23,11 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.linalg
 
-from .._types import Array, Bool, Float, Scalar
+from .._types import Array, Float, Scalar
 from .._validate import is_concrete
 from ..bodies.body import Body
-from ..linalg import DenseLU, assemble_and_factor
-from ..models.base import AbstractModel
+from ..linalg import AugmentedFactor, DenseLU, assemble_and_factor, dense_augmented, schur_factor
+from ..models.constrained import AbstractConstrainedModel
 from ..motion import rotation_about, unit_axis
 from .joints import AbstractJoint
 
@@ -45,7 +45,7 @@ def placed(body: Body, rotation=None, translation=(0.0, 0.0, 0.0)) -> Body:
     return eqx.tree_at(lambda b: b.q_hat, body, jnp.asarray(q))
 
 
-class MultibodySystem(AbstractModel):
+class MultibodySystem(AbstractConstrainedModel):
     """Bodies (``Body``, placed in space: their ``q_hat`` is the initial, stress-free state), joints
     and ``gravity`` (an acceleration, 3-vector). See the module docstring for the equations.
 
@@ -59,7 +59,6 @@ class MultibodySystem(AbstractModel):
     joints: tuple[AbstractJoint, ...]
     gravity: Float[Array, " 3"]
     M: Float[Array, "n n"]  # the block-diagonal mass matrix, all coordinates
-    offsets: tuple[int, ...] = eqx.field(static=True)  # first coordinate of each body
     solver: str = eqx.field(static=True)  # the constrained iteration matrix's solver (factor_augmented)
 
     preferred_newton = "full"
@@ -76,67 +75,39 @@ class MultibodySystem(AbstractModel):
         if not all(isinstance(j, AbstractJoint) for j in self.joints):
             raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...)")
         self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
-        sizes = [b.n_dof for b in self.bodies]
-        self.offsets = tuple(int(o) for o in np.concatenate([[0], np.cumsum(sizes)[:-1]]))
-        blocks = [jnp.kron(b.mass_matrix(), jnp.eye(3)) for b in self.bodies]
-        if all(is_concrete(x) for x in blocks):  # NumPy outside a trace: no op-by-op compiles on a cold start
-            self.M = jnp.asarray(scipy.linalg.block_diag(*(np.asarray(x) for x in blocks)))
+        masses = [b.mass_matrix() for b in self.bodies]  # scalar M_αβ; the body's is M_αβ ⊗ I3
+        if all(is_concrete(x) for x in masses):  # NumPy outside a trace: no op-by-op compiles on a cold start
+            self.M = jnp.asarray(scipy.linalg.block_diag(*(np.kron(np.asarray(x), np.eye(3)) for x in masses)))
         else:
-            self.M = jax.scipy.linalg.block_diag(*blocks)
-        self._check()
-
-    # --- checks before any tracing -----------------------------------------------------------
-    def _check(self) -> None:
-        nb = len(self.bodies)
-        held = set()
-        for k, joint in enumerate(self.joints):
-            for b, v in joint.references():
-                if not 0 <= b < nb:
-                    raise ValueError(f"joint {k} ({type(joint).__name__}) refers to body {b}; the system has bodies "
-                                     f"0..{nb - 1}")
-                if not 0 <= v < self.bodies[b].n_vectors:
-                    raise ValueError(f"joint {k} ({type(joint).__name__}) refers to nodal vector {v} of body {b}, "
-                                     f"which has vectors 0..{self.bodies[b].n_vectors - 1}")
-            held |= joint.bodies()
-        loose = sorted(set(range(nb)) - held)
-        if loose:
-            raise ValueError(f"bodies {loose} are held by no joint: each body of a system needs a joint (a body "
-                             "on its own is a single-body model)")
-        if not self.joints or not all(is_concrete(x) for x in jax.tree_util.tree_leaves(self)):
-            return
-        x0 = self.reference()
-        # one compiled function, not dozens of small kernels compiled op by op on a cold start
-        C0, B = (np.asarray(y) for y in jax.jit(lambda x: (self.constraints(x), self.constraint_jacobian(x)))(x0))
-        scale = max(1.0, float(np.abs(x0).max()))
-        bad = np.flatnonzero(np.abs(C0) > 1e-9 * scale)
-        if bad.size:
-            raise ValueError(f"the initial state violates joint equations {bad[:10].tolist()} (largest "
-                             f"{np.abs(C0).max():.3g}): place the bodies so that their joints fit")
-        s = np.linalg.svd(B, compute_uv=False)
-        rank = int(np.sum(s > 1e-10 * s.max()))
-        if rank < B.shape[0]:
-            raise ValueError(f"the joints' {B.shape[0]} equations are redundant (rank {rank}): remove the "
-                             "duplicated constraints, or the iteration matrix is singular")
+            self.M = jax.scipy.linalg.block_diag(*(jnp.kron(x, jnp.eye(3)) for x in masses))
+        self.check_joints(require_held=True)
 
     # --- coordinates ------------------------------------------------------------------------------
-    @property
-    def n_dof(self) -> int:
-        return int(self.M.shape[0])
+    def body_sizes(self) -> tuple[int, ...]:
+        return tuple(b.n_dof for b in self.bodies)
+
+    def vector_counts(self) -> tuple[int, ...]:
+        return tuple(b.n_vectors for b in self.bodies)
 
     @property
-    def n_constraints(self) -> int:
-        return sum(j.n_equations for j in self.joints)
+    def n_body_equations(self) -> int:
+        """Inertial-frame bodies add no equations of their own."""
+        return 0
 
     def split(self, x: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
         """The bodies' nodal vectors (one (n_vectors, 3) array a body) from the stacked x."""
-        return tuple(x[o:o + b.n_dof].reshape(-1, 3) for b, o in zip(self.bodies, self.offsets))
+        return tuple(xb.reshape(-1, 3) for xb in super().split(x))
+
+    def nodal_vectors(self, x: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
+        return self.split(x)
 
     def reference(self) -> Float[Array, " n"]:
         """The stacked stress-free (initial) state."""
         return jnp.concatenate([b.q_hat.reshape(-1) for b in self.bodies])
 
-    def free_mask(self) -> Bool[Array, " n"]:
-        return jnp.ones(self.n_dof, bool)
+    def mass_matrix(self, x=None) -> Float[Array, "n n"]:
+        """The block-diagonal M (constant in the inertial nodal vectors)."""
+        return self.M
 
     def turned(self, axis, angle) -> "MultibodySystem":
         """The system turned as a whole by ``angle`` [rad] about ``axis`` through the origin: every
@@ -147,13 +118,6 @@ class MultibodySystem(AbstractModel):
         bodies = tuple(eqx.tree_at(lambda b: b.q_hat, b, b.q_hat @ A.T) for b in self.bodies)
         return eqx.tree_at(lambda s: (s.bodies, s.joints), self, (bodies, tuple(j.turned(A) for j in self.joints)))
 
-    def initial_state(self, t0: Scalar):
-        x0 = self.reference()
-        return x0, jnp.zeros_like(x0)
-
-    def constrain(self, t, q, v, a):
-        return q, v, a
-
     def displacements(self, t: Scalar, x: Float[Array, " n"]) -> Float[Array, "nv 3"]:
         """All nodal vectors' displacements from the initial state, stacked body by body."""
         return (x - self.reference()).reshape(-1, 3)
@@ -161,10 +125,7 @@ class MultibodySystem(AbstractModel):
     # --- the equations ----------------------------------------------------------------------------
     def constraints(self, x: Float[Array, " n"]) -> Float[Array, " m"]:
         """C(x): the joints' equations, joint by joint."""
-        xs = self.split(x)
-        if not self.joints:
-            return jnp.zeros((0,), x.dtype)
-        return jnp.concatenate([j(xs) for j in self.joints])
+        return self.joint_equations(self.split(x)) if self.joints else jnp.zeros((0,), x.dtype)
 
     def constraint_jacobian(self, x: Float[Array, " n"]) -> Float[Array, "m n"]:
         """C_x = ∂C/∂x (dense)."""
@@ -174,13 +135,6 @@ class MultibodySystem(AbstractModel):
         """∂(C_xᵀ λ)/∂x: the joints' contribution to the tangent stiffness (constant: the
         equations are quadratic)."""
         return jax.hessian(lambda y: jnp.dot(lam, self.constraints(y)))(x)
-
-    def constraint_acceleration(self, x, v) -> Float[Array, " m"]:
-        """(C_x v)_x v: the part of C̈ = C_x a + (C_x v)_x v that does not hold a."""
-        def rate(y):
-            return jax.jvp(self.constraints, (y,), (v,))[1]
-
-        return jax.jvp(rate, (x,), (v,))[1]
 
     def residual(self, t: Scalar, x, v, a) -> Float[Array, " n"]:
         """M a + F(x) − Q, without the joints' forces (the stepper adds C_xᵀ λ)."""
@@ -217,46 +171,14 @@ class MultibodySystem(AbstractModel):
         B = self.constraint_jacobian(x)
         if self.solver == "dense":
             S = self.iteration_matrix(t, x, v, 1.0, c_C, c_K) + c_K * self.constraint_hessian(x, lam)
-            m = B.shape[0]
-            return AugmentedFactor(dense=DenseLU.factor(jnp.block([[S, B.T], [B, jnp.zeros((m, m), S.dtype)]])))
+            return dense_augmented(S, B)
         factors = []
         for b, q in zip(self.bodies, self.split(x)):
             parts = [(c_K * Kt + jnp.einsum("eab,ij->eaibj", M_e, jnp.eye(3)).reshape(Kt.shape), dofs)
                      for (Kt, dofs), (M_e, _) in zip(b.tangent_parts(q), b.mass_parts())]
             factors.append(assemble_and_factor(parts, jnp.ones(b.n_dof, bool),
                                                chain_block=3 * b.vectors_per_node if b.chain else None))
-        sizes = [b.n_dof for b in self.bodies]
-        S_inv_Bt = _solve_bodies(factors, self.offsets, sizes, B.T)
-        schur = DenseLU.factor(B @ S_inv_Bt)
-        return AugmentedFactor(bodies=tuple(factors), offsets=self.offsets, sizes=tuple(sizes), B=B,
-                               S_inv_Bt=S_inv_Bt, schur=schur)
-
-    def consistent_accelerations(self, t: Scalar, x, v) -> tuple[Float[Array, " n"], Float[Array, " m"]]:
-        """``(a, λ)`` that satisfy the equations of motion and C̈ = 0 at (x, v):
-
-            [M   C_xᵀ] [a]   [−(F − Q)       ]
-            [C_x  0  ] [λ] = [−(C_x v)_x v   ]
-        """
-        B = self.constraint_jacobian(x)
-        n, m = self.n_dof, B.shape[0]
-        A = jnp.block([[self.M, B.T], [B, jnp.zeros((m, m), x.dtype)]])
-        rhs = jnp.concatenate([-self.residual(t, x, v, jnp.zeros_like(x)), -self.constraint_acceleration(x, v)])
-        z = DenseLU.factor(A).solve(rhs)
-        return z[:n], z[n:]
-
-    def reactions(self, t: Scalar, x, v) -> Float[Array, " m"]:
-        """λ at (x, v): the joints' multipliers of the DAE's solution through that state (see
-        ``joints`` for their sign). They are functions of the state, so this is what an output
-        at any time should report; the integrator's own λ carries an O(h) transient."""
-        return self.consistent_accelerations(t, x, v)[1]
-
-    def joint_slices(self) -> list[slice]:
-        """Where each joint's equations (and multipliers) sit in C and λ."""
-        out, k = [], 0
-        for j in self.joints:
-            out.append(slice(k, k + j.n_equations))
-            k += j.n_equations
-        return out
+        return schur_factor(factors, self.offsets, self.body_sizes(), B)
 
     def kinetic_energy(self, x, v) -> Float[Array, ""]:
         """½ vᵀ M v (M constant in the inertial nodal vectors)."""
@@ -268,48 +190,5 @@ class MultibodySystem(AbstractModel):
         U = sum(b.strain_energy(q) for b, q in zip(self.bodies, xs))
         return U - sum(jnp.sum(b.varrho()[:, None] * q * self.gravity[None, :]) for b, q in zip(self.bodies, xs))
 
-    def energy(self, x, v) -> Float[Array, ""]:
-        """Kinetic + strain + gravity potential energy (conserved without damping)."""
-        return self.kinetic_energy(x, v) + self.potential_energy(x)
 
-
-def _solve_bodies(factors, offsets, sizes, X):
-    """S⁻¹ X for the block-diagonal S of the bodies' factors (X: n or n × k)."""
-    out = []
-    for fac, o, n in zip(factors, offsets, sizes):
-        Xb = X[o:o + n]
-        out.append(fac.solve(Xb) if Xb.ndim == 1 else jax.vmap(fac.solve, in_axes=1, out_axes=1)(Xb))
-    return jnp.concatenate(out)
-
-
-class AugmentedFactor(eqx.Module):
-    """A factored constrained iteration matrix (``MultibodySystem.factor_augmented``): ``solve``
-    takes ``[r; c]`` (n + m) and returns ``[Δa; Δλ]``."""
-
-    dense: DenseLU | None = None
-    bodies: tuple | None = None
-    offsets: tuple[int, ...] | None = eqx.field(static=True, default=None)
-    sizes: tuple[int, ...] | None = eqx.field(static=True, default=None)
-    B: Float[Array, "m n"] | None = None
-    S_inv_Bt: Float[Array, "n m"] | None = None
-    schur: DenseLU | None = None
-
-    def with_constraints(self, B: Float[Array, "m n"]) -> "AugmentedFactor":
-        """The same bodies' factors with the constraint Jacobian ``B`` (its Schur complement
-        refactored: m × m), for the velocity projection at the step's end
-        (``integrate.GeneralizedAlphaIndex3``). The body-by-body form only."""
-        S_inv_Bt = _solve_bodies(self.bodies, self.offsets, self.sizes, B.T)
-        return eqx.tree_at(lambda f: (f.B, f.S_inv_Bt, f.schur), self, (B, S_inv_Bt, DenseLU.factor(B @ S_inv_Bt)))
-
-    def solve(self, F: Float[Array, " nm"]) -> Float[Array, " nm"]:
-        if self.dense is not None:
-            return self.dense.solve(F)
-        n = self.B.shape[1]
-        r, c = F[:n], F[n:]
-        # [S Bᵀ; B 0][z; μ] = [r; c]:  (B S⁻¹ Bᵀ) μ = B S⁻¹ r − c,  z = S⁻¹ r − S⁻¹ Bᵀ μ
-        y = _solve_bodies(self.bodies, self.offsets, self.sizes, r)
-        mu = self.schur.solve(self.B @ y - c)
-        return jnp.concatenate([y - self.S_inv_Bt @ mu, mu])
-
-
-__all__ = ["AugmentedFactor", "MultibodySystem", "placed"]
+__all__ = ["MultibodySystem", "placed"]

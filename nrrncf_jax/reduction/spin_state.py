@@ -5,9 +5,9 @@ is built at rest. Spun up to ωs, a beam is stiffened by its centrifugal tension
 the frame's rotation (Eq. 8's ω×(ω×q)); in-plane the two nearly cancel, so the residual
 vibration after the manoeuvre runs at a frequency that is a small difference of large terms. At
 the paper's ωs = 40 rad/s the rest basis puts the first in-plane frequency of the spinning beam
-2 % too high (8.66 against 8.48 rad/s) and the phase error of the residual vibration dominates
-χ_rel. Adding the first mode of the spinning beam and the modal derivatives of its lowest
-spinning modes fixes that shape (χ_rel 5.5 % → 0.6 % there, ``benchmarks/results/table3.md``).
+too high, and the phase error of the residual vibration dominates χ_rel. Adding the first mode of
+the spinning beam and the modal derivatives of its lowest spinning modes fixes that shape
+(``benchmarks/results/table3.md``: the rows with and without them).
 
 Whether to enrich is decided without a full simulation (``ritz_frequencies``): the rest basis's
 Rayleigh-Ritz estimate of the spinning body's dominant frequency is compared with the exact one;
@@ -36,7 +36,7 @@ import scipy.linalg
 
 from .._types import Array, Float
 from ..integrate.newton import NewtonResult
-from ..integrate.simulate import SimulationError
+from ..integrate.results import SimulationError
 from ..integrate.static import newton_static
 from ..motion import AbstractAxisMotion, SteadySpin
 from .modes import VibrationModes, frame_stiffened, vibration_modes

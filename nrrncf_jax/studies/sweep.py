@@ -49,7 +49,8 @@ from .. import _validate
 from .._progress import note
 from .._validate import parse_range as parse_range  # the CLI's grid syntax, checked without JAX
 from ..integrate import GeneralizedAlpha
-from ..integrate.simulate import RESULTS, SimulationError, simulate, simulate_batch, simulate_timed
+from ..integrate.results import SimulationError, result_message
+from ..integrate.simulate import simulate, simulate_batch, simulate_timed
 from ..models.observe import beam_tip, tip_observer
 from ..motion import SpinUp
 from ..reduction.reduced_model import ReducedRotatingModel
@@ -179,7 +180,7 @@ def _local_sweep(model, omega_s, T_s, E_scale, ts, cfg):
                          dt0=cfg.dt0, adaptive=cfg.adaptive, max_steps=cfg.max_steps,
                          observe=tip_observer(model, cfg.tip), throw=False)
     return dict(tip=sol.ys, steps=sol.num_steps, rejected=sol.num_rejected, newton=sol.num_newton,
-                result=sol.result, t_final=sol.t_final)
+                result=sol.code, t_final=sol.t_final)
 
 
 @eqx.filter_jit
@@ -467,10 +468,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     n_dev = len(devs)
     per_dev = -(-grid.cases // n_dev)
     if lanes is None:
-        # On a CPU a wider batch gains little per case (its cost is many small batched kernels;
-        # sweep.md). 64 speeds, 2-40 rad/s, run time (best of 3): one device, 32 lanes 2.49 s,
-        # 24 2.58 s, 48 2.61 s, 16 2.90 s; two host devices (sharing 2 cores), 16 lanes 1.90 s,
-        # 32 lanes 2.25 s.
+        # On a CPU a wider batch gains little per case (its cost is many small batched kernels);
+        # the lane counts are the fastest of those timed (benchmarks/results/sweep.md, "Lanes").
         if devs[0].platform == "cpu":
             c = min(per_dev, _CPU_SHARDED_LANES if n_dev > 1 else _CPU_LANES)
         else:
@@ -510,7 +509,7 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
         i = int(np.flatnonzero(out["result"])[0])
         raise SimulationError(f"sweep case {i} (omega_s = {grid.omega_s[i]:g}, T_s = {grid.T_s[i]:g}, "
                               f"E_scale = {grid.E_scale[i]:g}) stopped at t = {out['t_final'][i]:.6g} s: "
-                              f"{RESULTS[int(out['result'][i])]}")
+                              f"{result_message(out['result'][i])}")
     tipw = out["tip"]
     peak_uy, peak_ux, residual = _peaks(ts, tipw, grid.T_s)
     res = SweepResult(

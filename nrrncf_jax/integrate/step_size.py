@@ -1,0 +1,123 @@
+"""Step-size controllers of the adaptive loop (``simulate``), diffrax's ``stepsize_controller``
+in this library's terms: how large the first step is, whether a step is accepted, and the size
+of the next one.
+
+- ``AdaptiveStepSize``: the step follows the local error estimate of the stepping method (RMS over
+  the model's error space, weighted by ``atol + rtol |x|``), grown or shrunk by
+  ``0.9 err^(-1/3)`` within [0.2, 5] (generalized-α is second order: the error of q goes as h³).
+- ``ConstantStepSize``: every step of size ``dt`` (shortened only to land on output times); a
+  step whose Newton fails is split (h/4, then growing back by factors of 2 to ``dt``).
+
+Both scale Newton's stopping test by the tolerance (``atol + rtol |x|``), so ``rtol`` and
+``atol`` also say how accurately a fixed step's implicit equations are solved. The tolerances are
+arrays: runs that differ only in them share one compilation.
+"""
+
+import abc
+from typing import ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from .._types import Array, Float, Scalar
+
+
+def _positive(name: str, value) -> Float[Array, ""]:
+    """``value`` as a float array, checked > 0 when it is concrete."""
+    x = jnp.asarray(value, dtype=float)
+    try:
+        ok = float(x) > 0.0
+    except Exception:  # traced: checked by the caller's values, not here
+        return x
+    if not ok:
+        raise ValueError(f"{name} must be > 0, got {name}={value!r}")
+    return x
+
+
+class AbstractStepSizeController(eqx.Module):
+    """What the adaptive loop asks of a step-size controller (see the module docstring)."""
+
+    rtol: eqx.AbstractVar[Float[Array, ""]]
+    atol: eqx.AbstractVar[Float[Array, ""]]
+    dt_min: eqx.AbstractVar[Float[Array, ""]]
+    dt_max: eqx.AbstractVar[Float[Array, ""]]
+
+    adaptive: ClassVar[bool]
+    """Whether the step follows the error estimate: decides the default number of Newton
+    corrections (10 adaptive, 50 fixed) and whether a Newton whose corrections grow fails at once
+    (``Newton``)."""
+
+    @abc.abstractmethod
+    def first_step(self, t0: Scalar, t_end: Scalar) -> Scalar:
+        """The first step's size, before it is shortened to an output time."""
+
+    def scale(self, x0, x1=None):
+        """The error weight ``atol + rtol max(|x0|, |x1|)`` of each coordinate."""
+        x = jnp.abs(x0) if x1 is None else jnp.maximum(jnp.abs(x0), jnp.abs(x1))
+        return self.atol + self.rtol * x
+
+    @abc.abstractmethod
+    def adapt(self, h: Scalar, err: Scalar, ok) -> tuple:
+        """``(accept, h_next)`` after a step of size ``h`` whose error norm is ``err`` (in units
+        of the tolerance) and whose solve succeeded (``ok``); ``h_next`` before the loop limits
+        it by ``dt_max`` and the output times."""
+
+
+class AdaptiveStepSize(AbstractStepSizeController):
+    """Error-controlled steps: ``rtol``, ``atol`` (in the model's error space), the first step
+    ``dt0`` (default 1e-3 of the run's span), the smallest step ``dt_min`` below which a failing
+    run stops, and the largest ``dt_max``."""
+
+    rtol: Float[Array, ""]
+    atol: Float[Array, ""]
+    dt0: Float[Array, ""] | None
+    dt_min: Float[Array, ""]
+    dt_max: Float[Array, ""]
+
+    adaptive: ClassVar[bool] = True
+
+    def __init__(self, rtol=1e-4, atol=1e-6, *, dt0=None, dt_min=1e-10, dt_max=np.inf):
+        self.rtol = _positive("rtol", rtol)
+        self.atol = _positive("atol", atol)
+        self.dt0 = None if dt0 is None else _positive("dt0", dt0)
+        self.dt_min = _positive("dt_min", dt_min)
+        self.dt_max = _positive("dt_max", dt_max)
+
+    def first_step(self, t0, t_end):
+        return 1e-3 * (t_end - t0) if self.dt0 is None else self.dt0
+
+    def adapt(self, h, err, ok):
+        accept = ok & (err <= 1.0)
+        grow = jnp.clip(0.9 * jnp.where(err > 0, err, 1e-10) ** (-1.0 / 3.0), 0.2, 5.0)
+        return accept, jnp.where(ok, h * grow, 0.25 * h)
+
+
+class ConstantStepSize(AbstractStepSizeController):
+    """Steps of size ``dt``. ``rtol``/``atol`` scale Newton's stopping test only. A run whose
+    Newton converges in every step is a smooth function of its parameters; ``num_rejected > 0``
+    says that some step did not converge and was split."""
+
+    dt: Float[Array, ""]
+    rtol: Float[Array, ""]
+    atol: Float[Array, ""]
+    dt_min: Float[Array, ""]
+    dt_max: Float[Array, ""]
+
+    adaptive: ClassVar[bool] = False
+
+    def __init__(self, dt, *, rtol=1e-4, atol=1e-6, dt_min=1e-10):
+        self.dt = _positive("dt", dt)
+        self.rtol = _positive("rtol", rtol)
+        self.atol = _positive("atol", atol)
+        self.dt_min = _positive("dt_min", dt_min)
+        self.dt_max = jnp.asarray(np.inf)
+
+    def first_step(self, t0, t_end):
+        return self.dt
+
+    def adapt(self, h, err, ok):
+        return ok, jnp.where(ok, jnp.minimum(2.0 * h, self.dt), 0.25 * h)
+
+
+__all__ = ["AbstractStepSizeController", "AdaptiveStepSize", "ConstantStepSize"]

@@ -1,0 +1,71 @@
+"""The constrained iteration matrix of a jointed system, factored body by body:
+
+    [S   Bᵀ] [z]   [r]
+    [B   0 ] [μ] = [c],     S = blockdiag(S_1, …, S_nb),
+
+each body's block S_b factored on its own (block-tridiagonal for a beam chain, dense for a
+reduced body) and the joints through the m × m Schur complement B S⁻¹ Bᵀ:
+``(B S⁻¹ Bᵀ) μ = B S⁻¹ r − c``, ``z = S⁻¹ r − S⁻¹ Bᵀ μ``. O(n) work in the bodies' sizes instead
+of O(n³) for the whole matrix; a dense factor of the whole matrix is the other form.
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from .._types import Array, Float
+from .dense import DenseLU
+
+
+def solve_blocks(factors, offsets, sizes, X: Float[Array, "n ..."]) -> Float[Array, "n ..."]:
+    """S⁻¹ X for the block-diagonal S of the bodies' ``factors`` (X: n or n × k)."""
+    out = []
+    for fac, o, n in zip(factors, offsets, sizes):
+        Xb = X[o:o + n]
+        out.append(fac.solve(Xb) if Xb.ndim == 1 else jax.vmap(fac.solve, in_axes=1, out_axes=1)(Xb))
+    return jnp.concatenate(out)
+
+
+class AugmentedFactor(eqx.Module):
+    """A factored constrained iteration matrix: ``solve`` takes ``[r; c]`` (n + m) and returns
+    ``[z; μ]``. Either ``dense`` (one LU of the whole matrix) or the bodies' factors with the
+    joints' Schur complement (``schur_factor``)."""
+
+    dense: DenseLU | None = None
+    bodies: tuple | None = None
+    offsets: tuple[int, ...] | None = eqx.field(static=True, default=None)
+    sizes: tuple[int, ...] | None = eqx.field(static=True, default=None)
+    B: Float[Array, "m n"] | None = None
+    S_inv_Bt: Float[Array, "n m"] | None = None
+    schur: DenseLU | None = None
+
+    def with_constraints(self, B: Float[Array, "m n"]) -> "AugmentedFactor":
+        """The same bodies' factors with the constraint Jacobian ``B`` (its Schur complement
+        refactored: m × m), for the velocity projection at a step's end
+        (``integrate.GeneralizedAlphaIndex3``). The body-by-body form only."""
+        return schur_factor(self.bodies, self.offsets, self.sizes, B)
+
+    def solve(self, F: Float[Array, " nm"]) -> Float[Array, " nm"]:
+        if self.dense is not None:
+            return self.dense.solve(F)
+        n = self.B.shape[1]
+        r, c = F[:n], F[n:]
+        y = solve_blocks(self.bodies, self.offsets, self.sizes, r)
+        mu = self.schur.solve(self.B @ y - c)
+        return jnp.concatenate([y - self.S_inv_Bt @ mu, mu])
+
+
+def schur_factor(factors, offsets, sizes, B: Float[Array, "m n"]) -> AugmentedFactor:
+    """The ``AugmentedFactor`` of the bodies' block factors and the joints' Jacobian ``B``."""
+    S_inv_Bt = solve_blocks(factors, offsets, sizes, B.T)
+    return AugmentedFactor(bodies=tuple(factors), offsets=tuple(offsets), sizes=tuple(sizes), B=B,
+                           S_inv_Bt=S_inv_Bt, schur=DenseLU.factor(B @ S_inv_Bt))
+
+
+def dense_augmented(S: Float[Array, "n n"], B: Float[Array, "m n"]) -> AugmentedFactor:
+    """The ``AugmentedFactor`` of one dense LU of ``[[S, Bᵀ], [B, 0]]``."""
+    m = B.shape[0]
+    return AugmentedFactor(dense=DenseLU.factor(jnp.block([[S, B.T], [B, jnp.zeros((m, m), S.dtype)]])))
+
+
+__all__ = ["AugmentedFactor", "dense_augmented", "schur_factor", "solve_blocks"]
