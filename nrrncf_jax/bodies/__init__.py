@@ -7,6 +7,16 @@ reference geometry and the body itself, element groups on one set of nodal vecto
   ``truss_body`` build the simple cases;
 - ``frame.frame_body``: straight beams rigidly joined at joints of any angle, and pin-ended bars;
 - ``plate_mesh.plate_body``: triangle meshes (a hexagonal disk, an annulus) of plates and membranes.
+
+A body holds groups of elements of several types on one set of nodal vectors
+(``body.ElementGroup``): beams, bars and joint cells share one body, with one constant κ, one
+mass matrix and one iteration matrix, which ``linalg`` factors dense, block-tridiagonal or sparse
+by its size and pattern. ``frame.frame_body`` joins straight C1 beams rigidly at joints of any
+angle (``elements.JointLink``, ``elements.JointCell``) and adds pin-ended bars: the paper's beamlike
+truss is built so (``scenarios.truss``, ``notebooks/06_truss.ipynb``). ``plate_mesh`` numbers a
+plate's nodal vectors (four a vertex, a director an edge, a centroid a face) and checks its mesh:
+the paper's rotating membrane is a 15-ring hexagonal disk of them (``scenarios.membrane``,
+``notebooks/05_membrane.ipynb``). Frames and plates are written to ParaView by ``post.vtk``.
 """
 
 from ..elements.material import Material as Material

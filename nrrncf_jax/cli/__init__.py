@@ -21,6 +21,31 @@ The command runs in float64 (a ``jax.enable_x64`` context around it), and keeps 
 kernels in a persistent cache (``nrrncf_jax.compilation_cache``; ``NRRNCF_JAX_CACHE=DIR`` moves
 it, ``NRRNCF_JAX_CACHE=off`` turns it off), so that a second command skips most compilation.
 Mode indices in the tables and the JSON are 0-based, as in the Python API.
+
+``nrrncf SUBCOMMAND --help`` lists every option with its default. Every argument is checked
+before anything runs: a bad one (``--omega -5``, ``--rtol 5``, ``--vms 0``, ``--omega 40:2:4``, an
+``--out`` or ``--plot`` file in a directory that does not exist, a mistyped option, for which the
+closest option is suggested) gets its one line on stderr and exit status 2 at once. The long
+commands report their progress on stderr, off with ``--no-progress``. A range ``start:stop:count``
+is ``count`` values from ``start`` to ``stop`` inclusive, with ``start < stop``. ``--vtk DIR``
+writes ParaView files (``post.vtk``).
+
+``nrrncf spinup``: ANCF, RNCF or NR-RNCF (``--reference rncf``: with the full model's run, χ_rel
+and the speed-up) on a beam preset (``scenarios.beams``); the default mesh for a speed follows the
+paper's Table 2. ``--out`` writes ``t, theta, ux, uy, uz``, the tip displacement in the rotating
+frame (ux axial, uy in-plane transverse, uz out of plane); ``--json`` prints one JSON object as
+the last line (``formulation, beam, omega_s, dofs, steps, rejected, newton_iters, compile_s,
+run_s, tip_uy_min, tip_uy_max, ...``; for nr-rncf also ``vms, mds, offline_s`` and, with a
+reference, ``chi_rel_percent, speedup``). Compile and run times are measured apart (ahead-of-time
+compilation, then a blocked run). ``--spin-state off`` leaves the spinning-state vectors out of
+the basis (``reduction.spin_state``).
+
+``nrrncf identify --demo --json`` prints ``E_true, E_identified, E_rel_err, zeta_true,
+zeta_identified, zeta_rel_err, iterations, wall_s, ...``; ``nrrncf sweep --json`` prints ``cases,
+devices, compile_s, run_s, single_run_s, ...`` and each case's peak transverse and axial tip
+deflection and residual vibration amplitude after Ts (``--devices N`` splits the cases over N
+devices, forcing N host devices on a CPU). ``truss``, ``membrane`` and ``pendulum`` describe their
+outputs in their modules' docstrings.
 """
 
 import argparse

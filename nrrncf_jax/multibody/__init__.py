@@ -7,6 +7,34 @@
   with reduced deformation (``FloatingBody``): NR-RNCF for jointed systems.
 - ``full_order_frame``: ``full_floating_body``, a floating-frame body with every free nodal
   coordinate kept and the elements' own elastic force: the full-order RNCF.
+
+A ``MultibodySystem`` is an index-3 DAE: the joints' multipliers are in the integrator's state
+(``integrate.GeneralizedAlphaIndex3``, generalized-α in the Arnold-Brüls form, scaled), and its
+constrained iteration matrix is factored body by body with the joints' Schur complement
+(``linalg``). A joint refers to nodal vectors of its bodies; the system refuses, before anything
+is traced, a joint that names a missing vector, an initial state that violates a joint, or
+redundant equations. A stiff hinged beam swings with the exact elliptic-integral period, and with
+ρ∞ = 1 the energy drifts only by the integration error (``tests/test_multibody.py``). A system
+turns as a whole with ``system.turned(axis, angle)`` (its frames or nodal vectors and its joints'
+fixed data; traceable in the angle), which ``scenarios.pendulum.release_sweep`` vmaps over release
+angles.
+
+A ``FloatingFrameSystem`` holds each body in its own frame (its origin and Euler parameters, |e| = 1
+a constraint), its deformation reduced to its vibration modes and modal derivatives, optionally
+with its joint's static modes or as the extended Craig-Bampton basis
+(``reduction.craig_bampton``). The equations come from Lagrange's, with the map to the inertial
+nodal vectors, its Jacobian and the quadratic-velocity terms in closed form; a free spinning body
+keeps its momenta and energy, and a stiff one has the exact pendulum period
+(``tests/test_floating.py``). The index-3 step projects the floating frames' velocities onto the
+constraints' tangent space after each step, without which their accelerations oscillate from step
+to step and stall the step size. ``full_floating_body`` is the paper's full-order RNCF reference:
+each beam in the frame of its left end's centre-line tangent, every other nodal coordinate kept,
+the elements' own elastic force; it is the ANCF model in other coordinates (its residual is Jᵀ of
+the ANCF one), and the two agree to their integration error. Its iteration matrix carries the
+inertia terms' derivatives with respect to the deformation in closed form, without which modified
+Newton contracts slowly (``benchmarks/results/newton_contraction.md``). The three-beam pendulum
+of the paper, all three ways: ``scenarios.pendulum``, ``notebooks/07_pendulum.ipynb``,
+``benchmarks/results/pendulum.md`` (and what is not met there yet).
 """
 
 from .floating import FloatingBody as FloatingBody
