@@ -7,8 +7,10 @@
 A jointed system's constrained matrix is factored body by body with the joints' Schur
 complement (``schur``).
 
-``assemble_and_factor(parts, free, chain_block=..., solver=...)`` assembles element groups into
-one of them and factors (``assembly``); every result has ``.solve(b)``
+One object says which (``assembly``: ``Dense()``, ``BlockTridiagonal(block)``, ``Sparse(pattern)``,
+an ``AbstractLinearSolver``; ``linear_solver`` resolves ``"auto"`` once from the static element
+DOFs); ``solver.factor(parts, free)`` assembles element groups and factors, and every result has
+``.solve(b)``
 (``base.AbstractFactorization``). ``assemble_sparse`` and ``sparse_modes`` are the host-side
 (SciPy) assembly and shift-invert eigensolver of large models for the offline stage.
 
@@ -19,7 +21,18 @@ NR-RNCF reference. ``benchmarks/results/sparse.md`` measures factor and solve ti
 the three at growing sizes, and the first modes of a large model by sparse shift-invert.
 """
 
-from .assembly import DENSE_MAX_DOFS, SOLVERS, assemble_and_factor, choose_solver
+from .assembly import (
+    DENSE_MAX_DOFS,
+    SOLVERS,
+    AbstractLinearSolver,
+    BlockTridiagonal,
+    Dense,
+    Sparse,
+    assemble_and_factor,
+    choose_solver,
+    linear_solver,
+    uses_sparse,
+)
 from .base import AbstractFactorization, Parts
 from .block_tridiagonal import BlockTridiagonalLU, assemble_block_tridiagonal, factor_block_tridiagonal
 from .dense import DenseLU, _solve_augmented, _solve_factored, assemble_dense, solve_once
@@ -27,6 +40,12 @@ from .schur import AugmentedFactor, dense_augmented, schur_factor, solve_blocks
 from .sparse import CACHE_SIZE, ScaledSuperLU, SparseLU, SparsityPattern, assemble_sparse, factor_sparse, sparse_modes
 
 __all__ = [
+    "AbstractLinearSolver",
+    "BlockTridiagonal",
+    "Dense",
+    "Sparse",
+    "linear_solver",
+    "uses_sparse",
     "AugmentedFactor",
     "dense_augmented",
     "schur_factor",

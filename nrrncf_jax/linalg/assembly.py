@@ -1,26 +1,31 @@
-"""One entry point for the iteration matrix: assemble element groups, make constrained DOFs
-identity, pick a storage format and factor.
+"""The linear solver of an iteration matrix assembled from element groups, as one object passed
+down (lineax's style): ``Dense``, ``BlockTridiagonal`` (a chain of nodes) or ``Sparse`` (SuperLU),
+each an ``AbstractLinearSolver`` with ``factor(parts, free)``. ``linear_solver`` turns the user's
+choice (an object, or ``"auto"``, ``"dense"``, ``"block_tridiagonal"``, ``"sparse"``) into one of
+them once, from static data (the element DOFs as NumPy), before anything is traced:
 
 - ``block_tridiagonal``: one element group on a chain (``chain_block``); pure JAX, so
   everything works (jit, loops, vmap, jvp, grad, any platform). ``"auto"`` takes it when possible.
 - ``dense``: any mesh; pure JAX, everything works; O(n²) memory. ``"auto"`` takes it below
-  ``DENSE_MAX_DOFS`` DOFs, and above when the element DOFs are traced and no ``pattern`` is
-  given (with a warning).
+  ``DENSE_MAX_DOFS`` DOFs, and above when the element DOFs are traced and no pattern is known
+  (with a warning).
 - ``sparse``: any mesh; SuperLU on the host: jit, loops, jvp and grad; vmap only as a loop; host
-  CPU only. ``"auto"`` takes it otherwise.
+  CPU only. ``"auto"`` takes it otherwise, with its sparsity pattern built once.
 
-(``sparse`` module docstring for the details.) Each returns an ``AbstractFactorization`` with
-``.solve(b)``.
+(``sparse`` module docstring for the details.) Each ``factor`` returns an
+``AbstractFactorization`` with ``.solve(b)``.
 """
 
+import abc
 import warnings
 from collections.abc import Sequence
 
+import equinox as eqx
 import numpy as np
 
 from .._types import Array, Bool, Float, Int
 from .._validate import is_concrete
-from .base import Parts
+from .base import AbstractFactorization, Parts
 from .block_tridiagonal import BlockTridiagonalLU, assemble_block_tridiagonal, factor_block_tridiagonal
 from .dense import DenseLU, assemble_dense
 from .sparse import SparseLU, SparsityPattern, factor_sparse
@@ -29,58 +34,107 @@ SOLVERS = ("auto", "dense", "block_tridiagonal", "sparse")
 
 DENSE_MAX_DOFS = 1000
 """``"auto"`` factors matrices of fewer DOFs than this dense, larger ones sparse (when the mesh is
-not one chain). Measured on the 2-core CPU (``benchmarks/results/sparse.md``, a 2-D mesh with 9
-DOFs a node; two runs on a shared machine): dense factor+solve takes 2.6-3 times SuperLU's at 500
-DOFs, 3-7 times at 1,000 and 13-15 times at 2,000, and its matrix grows as n² (8 MB at 1,000
-DOFs, 3.2 GB at 20,000). Below the
-threshold a dense factorisation costs tens of milliseconds and keeps what the sparse one lacks:
-batching under ``vmap``, accelerators, no host callbacks. On a GPU, pass ``solver="dense"`` to
-keep larger models there."""
+not one chain): below it a dense factorisation costs tens of milliseconds and keeps what the
+sparse one lacks (batching under ``vmap``, accelerators, no host callbacks); above it the dense
+cost and its n² memory grow past SuperLU's (``benchmarks/results/sparse.md``). On a GPU, pass
+``solver="dense"`` to keep larger models there."""
+
+
+class AbstractLinearSolver(eqx.Module):
+    """How a matrix assembled from element groups is factored (see the module docstring). A
+    solver holds only static data, so a model that carries one can be built inside ``jit``."""
+
+    @abc.abstractmethod
+    def factor(self, parts: Parts, free: Bool[Array, " n"]) -> AbstractFactorization:
+        """Assemble the groups ``parts`` into the n × n matrix (n = ``free.shape[0]``), make the
+        constrained DOFs (``free`` false) identity rows and columns, and factor."""
+
+
+class Dense(AbstractLinearSolver):
+    """LU of the whole matrix (``dense.DenseLU``)."""
+
+    def factor(self, parts, free) -> DenseLU:
+        return DenseLU.factor(assemble_dense(list(parts), free))
+
+
+class BlockTridiagonal(AbstractLinearSolver):
+    """Block LU of one element group on a chain of nodes with ``block`` DOFs each (element e on
+    nodes e and e + 1, DOFs numbered node by node)."""
+
+    block: int = eqx.field(static=True)
+
+    def factor(self, parts, free) -> BlockTridiagonalLU:
+        ((Ge, _),) = parts
+        return factor_block_tridiagonal(*assemble_block_tridiagonal(Ge, free, self.block))
+
+
+class Sparse(AbstractLinearSolver):
+    """SuperLU of the matrix in ``pattern`` (built from the element DOFs when None, which needs
+    them concrete)."""
+
+    pattern: SparsityPattern | None = eqx.field(static=True, default=None)
+
+    def factor(self, parts, free) -> SparseLU:
+        return factor_sparse(list(parts), free, self.pattern)
+
+
+def linear_solver(solver, parts: Parts, n: int, *, chain_block: int | None = None,
+                  pattern: SparsityPattern | None = None) -> AbstractLinearSolver:
+    """The ``AbstractLinearSolver`` for these element groups: ``solver`` itself if it is one (or
+    names one, ``"dense"``, ``"block_tridiagonal"``, ``"sparse"``) and can factor them
+    (``ValueError`` if not), or ``"auto"``'s choice. The element matrices are looked at for their
+    shapes only (zeros do); the element DOFs should be NumPy (static), which also builds the
+    sparse solver's pattern once here."""
+    if isinstance(solver, AbstractLinearSolver):
+        name = {Dense: "dense", BlockTridiagonal: "block_tridiagonal", Sparse: "sparse"}[type(solver)]
+        if isinstance(solver, BlockTridiagonal):
+            chain_block = solver.block
+        if isinstance(solver, Sparse) and solver.pattern is not None:
+            pattern = solver.pattern
+    else:
+        name = solver
+    kind = choose_solver(parts, n, chain_block=chain_block, solver=name, pattern=pattern)
+    if kind == "block_tridiagonal":
+        return BlockTridiagonal(int(chain_block))
+    if kind == "dense":
+        return Dense()
+    if pattern is None:
+        pattern = SparsityPattern.from_dofs(n, [np.asarray(d) for _, d in parts])
+    return Sparse(pattern)
+
+
+def uses_sparse(solver, n: int) -> bool:
+    """Whether ``solver`` (an ``AbstractLinearSolver`` or a name) means the sparse (SuperLU) path
+    for a problem of ``n`` unknowns, as the offline stage's eigen and static solves ask:
+    ``Sparse``/``"sparse"``, or ``"auto"`` from ``DENSE_MAX_DOFS`` unknowns on; ``Dense``,
+    ``BlockTridiagonal`` and ``"dense"`` mean the dense path."""
+    if isinstance(solver, AbstractLinearSolver):
+        return isinstance(solver, Sparse)
+    if solver not in ("auto", "dense", "sparse"):
+        raise ValueError(f"solver must be 'auto', 'dense', 'sparse' or a linalg solver, got {solver!r}")
+    return solver == "sparse" or (solver == "auto" and n >= DENSE_MAX_DOFS)
 
 
 def assemble_and_factor(
-    parts: Parts, free: Bool[Array, " n"], *legacy, chain_block: int | None = None, solver: str = "auto",
+    parts: Parts, free: Bool[Array, " n"], *, chain_block: int | None = None, solver="auto",
     pattern: SparsityPattern | None = None,
 ) -> DenseLU | BlockTridiagonalLU | SparseLU:
     """Assemble the element groups ``parts`` (``(Ge, element_dofs)`` pairs: element matrices
     (n_el, nd, nd) and their global DOFs (n_el, nd), all adding into one n × n matrix,
     n = ``free.shape[0]``), make the constrained DOFs (``free`` false) identity rows and columns,
-    and factor with ``solver``:
-
-    - ``"block_tridiagonal"``: one group on a chain of nodes with ``chain_block`` DOFs each
-      (element e on nodes e and e + 1, DOFs numbered node by node);
-    - ``"dense"``: LU of the whole matrix;
-    - ``"sparse"``: SuperLU of the matrix in the pattern of the (concrete) element DOFs;
-    - ``"auto"``: block-tridiagonal when possible, else dense below ``DENSE_MAX_DOFS``, else sparse.
+    and factor with ``solver`` (an ``AbstractLinearSolver``, or a name resolved here by
+    ``linear_solver``; a model resolves its solver once and passes the object).
 
     The sparse solver builds its pattern on the host from the element DOFs, so they must be
     concrete (NumPy, or a static field): inside ``jit`` even ``jnp.asarray`` of a NumPy array is
     traced. Where they are traced, pass the ``pattern`` built once from the same DOFs outside the
-    trace (``SparsityPattern.from_dofs(n, [element_dofs, ...])``, e.g. kept by the body).
-
-    An unknown solver, or one that cannot factor these groups, raises ``ValueError`` before any
-    tracing. The old form ``assemble_and_factor(Ge, element_dofs, free, chain_block)`` (one group;
-    block-tridiagonal with a ``chain_block``, dense without) still works, for callers not yet
-    moved to the groups form.
+    trace (``SparsityPattern.from_dofs(n, [element_dofs, ...])``). An unknown solver, or one that
+    cannot factor these groups, raises ``ValueError`` before any tracing.
     """
-    if hasattr(parts, "ndim"):  # the old form (Ge, element_dofs, free[, chain_block]): to be removed
-        if len(legacy) not in (1, 2) or solver != "auto":
-            raise TypeError("assemble_and_factor(Ge, element_dofs, free, chain_block) takes four arguments")
-        Ge, element_dofs, free = parts, free, legacy[0]
-        chain_block = legacy[1] if len(legacy) == 2 else chain_block
-        parts = [(Ge, element_dofs)]
-        solver = "dense" if chain_block is None else "block_tridiagonal"
-    elif legacy:
-        raise TypeError("assemble_and_factor(parts, free, *, chain_block=None, solver='auto'): "
-                        f"{len(legacy)} extra positional argument(s)")
     parts = list(parts)
-    solver = choose_solver(parts, free.shape[0], chain_block=chain_block, solver=solver, pattern=pattern)
-    if solver == "block_tridiagonal":
-        ((Ge, _),) = parts
-        return factor_block_tridiagonal(*assemble_block_tridiagonal(Ge, free, chain_block))
-    if solver == "dense":
-        return DenseLU.factor(assemble_dense(parts, free))
-    return factor_sparse(parts, free, pattern)
+    if not isinstance(solver, AbstractLinearSolver) or pattern is not None:
+        solver = linear_solver(solver, parts, free.shape[0], chain_block=chain_block, pattern=pattern)
+    return solver.factor(parts, free)
 
 
 def choose_solver(parts: Parts, n: int, *, chain_block: int | None = None, solver: str = "auto",

@@ -24,7 +24,7 @@ import numpy as np
 from .._types import Array, Bool, Float, Int, Scalar
 from .._validate import is_concrete
 from ..bodies.body import DENSE_MASS_MAX_VECTORS, Body
-from ..linalg import SparsityPattern, assemble_and_factor, choose_solver
+from ..linalg import AbstractLinearSolver, linear_solver
 from ..motion import AbstractMotion, skew
 from .base import AbstractModel
 from .damping import RayleighDamping
@@ -87,16 +87,15 @@ class _FullOrderModel(AbstractModel):
     damping: RayleighDamping | None
     D_e: tuple | None  # per group, (element blocks of D = αM + βK̂, their DOFs); None: undamped
 
-    solver: str = eqx.field(static=True)  # linear solver of the iteration matrix, resolved at construction
-    pattern: SparsityPattern | None = eqx.field(static=True)  # the sparse solver's pattern, built once
+    solver: AbstractLinearSolver  # the iteration matrix's linear solver, resolved once at construction
 
     def __init__(self, body: Body, motion: AbstractMotion, *, loads: Loads | None = None, clamped=None,
-                 damping: RayleighDamping | None = None, solver: str = "auto"):
+                 damping: RayleighDamping | None = None, solver="auto"):
         if not isinstance(motion, AbstractMotion):
             raise ValueError(f"motion must be a motion.AbstractMotion (e.g. SpinUp, Stationary), got "
                              f"{type(motion).__name__}")
         self.body = body
-        self.solver, self.pattern = _choose_solver(body, solver)
+        self.solver = _linear_solver(body, solver)
         self.motion = motion
         self.loads = Loads() if loads is None else loads
         # Default reference conditions: the root node's position and cross-section vectors
@@ -172,20 +171,17 @@ class _FullOrderModel(AbstractModel):
             if self.D_e is not None:
                 G = G + c_C * self.D_e[k][0]
             parts.append((G, dofs))
-        block = 3 * body.vectors_per_node if body.chain else None
-        return assemble_and_factor(parts, self.free_mask(), chain_block=block, solver=self.solver, pattern=self.pattern)
+        return self.solver.factor(parts, self.free_mask())
 
 
-def _choose_solver(body: Body, solver: str) -> tuple[str, SparsityPattern | None]:
-    """The iteration matrix's solver for this body (``linalg.choose_solver``: ``"auto"`` takes
-    block-tridiagonal for a beam chain, dense for small bodies, sparse for large ones), decided
-    once outside any trace; for the sparse solver also its pattern, built from the body's
-    concrete connectivity (inside the integrator's jit the connectivity is traced)."""
-    dofs = [np.asarray(g.dofs()) for g in body.groups]
+def _linear_solver(body: Body, solver) -> AbstractLinearSolver:
+    """The iteration matrix's linear solver for this body (``linalg.linear_solver``: ``"auto"``
+    takes block-tridiagonal for a beam chain, dense for small bodies, sparse for large ones, with
+    its pattern), decided once from the body's static connectivity."""
+    dofs = [g.dofs() for g in body.groups]
     shapes = [(np.broadcast_to(0.0, (d.shape[0], d.shape[1], d.shape[1])), d) for d in dofs]
     block = 3 * body.vectors_per_node if body.chain else None
-    kind = choose_solver(shapes, body.n_dof, chain_block=block, solver=solver)
-    return kind, (SparsityPattern.from_dofs(body.n_dof, dofs) if kind == "sparse" else None)
+    return linear_solver(solver, shapes, body.n_dof, chain_block=block)
 
 
 def _kron_eye3(M_e: Float[Array, "n_el ne ne"], B: Float[Array, "3 3"] | None = None) -> Float[Array, "n_el nd nd"]:
@@ -234,7 +230,7 @@ class InertialFrameModel(_FullOrderModel):
     """
 
     def __init__(self, body: Body, motion: AbstractMotion, *, loads: Loads | None = None, clamped=None,
-                 damping: RayleighDamping | None = None, solver: str = "auto"):
+                 damping: RayleighDamping | None = None, solver="auto"):
         if damping is not None:
             raise ValueError("InertialFrameModel (ANCF) is undamped: Rayleigh damping acts on the velocity "
                              "relative to the rotating frame; use RotatingFrameModel (RNCF)")

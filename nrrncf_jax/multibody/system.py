@@ -26,7 +26,7 @@ import scipy.linalg
 from .._types import Array, Float, Scalar
 from .._validate import is_concrete
 from ..bodies.body import Body
-from ..linalg import AugmentedFactor, DenseLU, assemble_and_factor, dense_augmented, schur_factor
+from ..linalg import AbstractLinearSolver, AugmentedFactor, DenseLU, dense_augmented, linear_solver, schur_factor
 from ..models.constrained import AbstractConstrainedModel
 from ..motion import rotation_about, unit_axis
 from .joints import AbstractJoint
@@ -45,6 +45,13 @@ def placed(body: Body, rotation=None, translation=(0.0, 0.0, 0.0)) -> Body:
     return eqx.tree_at(lambda b: b.q_hat, body, jnp.asarray(q))
 
 
+def _body_solver(body: Body) -> AbstractLinearSolver:
+    """The linear solver of a body's block of the iteration matrix (``linalg.linear_solver``,
+    ``"auto"``), from its static connectivity."""
+    parts = [(np.broadcast_to(0.0, (d.shape[0], d.shape[1], d.shape[1])), d) for d in (g.dofs() for g in body.groups)]
+    return linear_solver("auto", parts, body.n_dof, chain_block=3 * body.vectors_per_node if body.chain else None)
+
+
 class MultibodySystem(AbstractConstrainedModel):
     """Bodies (``Body``, placed in space: their ``q_hat`` is the initial, stress-free state), joints
     and ``gravity`` (an acceleration, 3-vector). See the module docstring for the equations.
@@ -59,7 +66,8 @@ class MultibodySystem(AbstractConstrainedModel):
     joints: tuple[AbstractJoint, ...]
     gravity: Float[Array, " 3"]
     M: Float[Array, "n n"]  # the block-diagonal mass matrix, all coordinates
-    solver: str = eqx.field(static=True)  # the constrained iteration matrix's solver (factor_augmented)
+    solver: str = eqx.field(static=True)  # "dense" or "bodies": how factor_augmented factors the constrained matrix
+    body_solvers: tuple[AbstractLinearSolver, ...]  # each body's block's linear solver ("bodies"), resolved once
 
     preferred_newton = "full"
 
@@ -75,6 +83,7 @@ class MultibodySystem(AbstractConstrainedModel):
         if not all(isinstance(j, AbstractJoint) for j in self.joints):
             raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...)")
         self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
+        self.body_solvers = tuple(_body_solver(b) for b in self.bodies)
         masses = [b.mass_matrix() for b in self.bodies]  # scalar M_αβ; the body's is M_αβ ⊗ I3
         if all(is_concrete(x) for x in masses):  # NumPy outside a trace: no op-by-op compiles on a cold start
             self.M = jnp.asarray(scipy.linalg.block_diag(*(np.kron(np.asarray(x), np.eye(3)) for x in masses)))
@@ -173,11 +182,10 @@ class MultibodySystem(AbstractConstrainedModel):
             S = self.iteration_matrix(t, x, v, 1.0, c_C, c_K) + c_K * self.constraint_hessian(x, lam)
             return dense_augmented(S, B)
         factors = []
-        for b, q in zip(self.bodies, self.split(x)):
+        for b, solver, q in zip(self.bodies, self.body_solvers, self.split(x)):
             parts = [(c_K * Kt + jnp.einsum("eab,ij->eaibj", M_e, jnp.eye(3)).reshape(Kt.shape), dofs)
                      for (Kt, dofs), (M_e, _) in zip(b.tangent_parts(q), b.mass_parts())]
-            factors.append(assemble_and_factor(parts, jnp.ones(b.n_dof, bool),
-                                               chain_block=3 * b.vectors_per_node if b.chain else None))
+            factors.append(solver.factor(parts, jnp.ones(b.n_dof, bool)))
         return schur_factor(factors, self.offsets, self.body_sizes(), B)
 
     def kinetic_energy(self, x, v) -> Float[Array, ""]:

@@ -16,7 +16,7 @@ import numpy as np
 from .._types import Array, Bool, Float
 from .._validate import is_concrete
 from ..bodies.body import Body
-from ..linalg import DENSE_MAX_DOFS, ScaledSuperLU, assemble_sparse
+from ..linalg import ScaledSuperLU, assemble_sparse, uses_sparse
 
 
 class ModalDerivatives(eqx.Module):
@@ -64,15 +64,15 @@ def modal_derivatives(
     q_eq: Float[Array, "n 3"] | None = None,
     method: str = "closed_form",
     pad_to: int | None = None,
-    solver: str = "auto",
+    solver="auto",
 ) -> ModalDerivatives:
     """Static modal derivatives θ_ij of the modes ``phi`` (columns, zero on constrained
     coordinates) for ``pairs`` (default: all i ≤ j, k(k+1)/2 of them).
 
-    ``method`` is ``'closed_form'`` (Eq. 35) or ``'autodiff'``. Above ``linalg.DENSE_MAX_DOFS``
-    free coordinates (or with ``solver="sparse"``) K|eq is factored once by SuperLU and every pair
-    solved with that factorisation on the host (concrete input; not differentiable); otherwise
-    by a dense Cholesky inside one compiled kernel. ``pad_to`` solves for at least
+    ``method`` is ``'closed_form'`` (Eq. 35) or ``'autodiff'``. From ``linalg.DENSE_MAX_DOFS``
+    free coordinates on (or with a sparse ``solver``, ``linalg.uses_sparse``) K|eq is factored
+    once by SuperLU and every pair solved with that factorisation on the host (concrete input;
+    not differentiable); otherwise by a dense Cholesky inside one compiled kernel. ``pad_to`` solves for at least
     that many pairs (the last one repeated, the surplus dropped): the compiled kernel depends
     on the number of pairs, so calls with different counts can share one compilation.
     """
@@ -90,9 +90,7 @@ def modal_derivatives(
     padded = pairs + pairs[-1:] * max(0, (pad_to or 0) - len(pairs))
     ii = np.array([p[0] for p in padded], dtype=int)
     jj = np.array([p[1] for p in padded], dtype=int)
-    if solver not in ("auto", "dense", "sparse"):
-        raise ValueError(f"solver must be 'auto', 'dense' or 'sparse', got {solver!r}")
-    if solver == "sparse" or (solver == "auto" and idx.size > DENSE_MAX_DOFS):
+    if uses_sparse(solver, idx.size):
         theta = _sparse_modal_derivatives(body, q_eq, phi, idx, ii, jj, method)
     else:
         theta = _solve_modal_derivatives(body, q_eq, phi, idx, ii, jj, method)

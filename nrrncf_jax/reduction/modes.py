@@ -14,7 +14,7 @@ import numpy as np
 from .._types import Array, Bool, Float
 from .._validate import is_concrete
 from ..bodies.body import Body
-from ..linalg import DENSE_MAX_DOFS, assemble_sparse, sparse_modes
+from ..linalg import assemble_sparse, sparse_modes, uses_sparse
 
 
 class VibrationModes(eqx.Module):
@@ -27,14 +27,15 @@ class VibrationModes(eqx.Module):
 
 def vibration_modes(
     body: Body, free: Bool[Array, " ndof"], k: int | None = None, q_eq: Float[Array, "n 3"] | None = None,
-    frame_stiffness: Float[Array, "3 3"] | None = None, solver: str = "auto",
+    frame_stiffness: Float[Array, "3 3"] | None = None, solver="auto",
 ) -> VibrationModes:
     """The ``k`` lowest modes of ``(K|eq, M ⊗ I3)`` restricted to the ``free`` coordinates.
 
-    ``solver``: ``"dense"`` (a Cholesky reduction and ``eigh``: every mode, differentiable),
-    ``"sparse"`` (shift-invert Lanczos on the assembled sparse matrices, ``linalg.sparse_modes``:
-    the ``k`` lowest only, on concrete input, not differentiable), or ``"auto"``: sparse above
-    ``linalg.DENSE_MAX_DOFS`` free coordinates.
+    ``solver`` (``linalg.uses_sparse``): dense (``linalg.Dense()`` or ``"dense"``: a Cholesky
+    reduction and ``eigh``: every mode, differentiable), sparse (``linalg.Sparse()`` or
+    ``"sparse"``: shift-invert Lanczos on the assembled sparse matrices, ``linalg.sparse_modes``:
+    the ``k`` lowest only, on concrete input, not differentiable), or ``"auto"``: sparse from
+    ``linalg.DENSE_MAX_DOFS`` free coordinates on.
 
     ``frame_stiffness`` (3 × 3) adds ``M ⊗ frame_stiffness`` to K|eq: for a body spinning at
     the constant rate ω about e, ``ω² ẽẽ`` is the spin softening of Eq. 8's centrifugal term,
@@ -59,9 +60,7 @@ def vibration_modes(
             f"the stiffness matrix K|eq is singular: {6 - rank} rigid-body mode(s) are not removed by the "
             "constrained coordinates (missing reference conditions, e.g. no clamped root)"
         )
-    if solver not in ("auto", "dense", "sparse"):
-        raise ValueError(f"solver must be 'auto', 'dense' or 'sparse', got {solver!r}")
-    if solver == "sparse" or (solver == "auto" and len(idx) > DENSE_MAX_DOFS):
+    if uses_sparse(solver, len(idx)):
         if k is None:
             raise ValueError(f"give the number of modes k: the sparse eigensolver ({len(idx)} free coordinates) "
                              "finds the lowest k, not all of them")
