@@ -83,11 +83,13 @@ def test_pendulum_run_views():
     nodes = np.stack([np.stack([(b + s)[:, None] * e[k] for b in range(2)]) for k in range(3)])  # (3, 2, 3, 3)
     slopes = np.repeat(e[:, None], 2, axis=1)
     z = np.zeros(3)
-    run = PendulumRun("ancf", 0, np.arange(3.0), nodes, slopes, z, z, z, 0, 0, 0, 0.0, 0.0)
+    run = PendulumRun(formulation="ancf", dofs=0, ts=np.arange(3.0), nodes=nodes, left_slopes=slopes, energy=z,
+                      kinetic=z, violation=z, steps=0, rejected=0, newton_iters=0, compile_s=0.0, run_s=0.0)
     np.testing.assert_allclose(run.transverse_deflections, 0.0, atol=1e-15)
     bent = nodes.copy()
     bent[:, :, -1] += 0.1 * np.stack([-np.sin(phi), np.cos(phi), 0.0 * phi], -1)[:, None]  # 0.1 to the left
-    run = PendulumRun("ancf", 0, np.arange(3.0), bent, slopes, z, z, z, 0, 0, 0, 0.0, 0.0)
+    run = PendulumRun(formulation="ancf", dofs=0, ts=np.arange(3.0), nodes=bent, left_slopes=slopes, energy=z,
+                      kinetic=z, violation=z, steps=0, rejected=0, newton_iters=0, compile_s=0.0, run_s=0.0)
     np.testing.assert_allclose(run.transverse_deflections, 0.1, atol=1e-15)
     assert run.table_header() == "t,x1,y1,x2,y2"
     np.testing.assert_allclose(run.table()[1], [1.0, *bent[1, 0, -1, :2], *bent[1, 1, -1, :2]])

@@ -1,7 +1,38 @@
 """Model order reduction (THEORY §4-7): vibration modes, modal derivatives, maximum modal
 interaction, SVD deflation, the extended Craig-Bampton basis of jointed bodies, the
-spinning-state enrichment and the reduced tensors (``reduction.pipeline.nr_rncf`` chains them)."""
+spinning-state enrichment and the reduced tensors (``reduction.pipeline.nr_rncf`` chains them;
+``reduction.basis.modal_basis`` assembles and deflates the basis of modes, modal derivatives and
+extra columns).
 
+``nr_rncf(full, ts)`` is the paper's Fig. 2: mass-normalised vibration modes (``modes``), static
+modal derivatives (``modal_derivatives``: the closed form of Eq. 35, checked against automatic
+differentiation), the modes and pairs chosen by maximum modal interaction (``selection``, Eq. 39)
+from a linear simulation of the same manoeuvre, SVD deflation (``deflation``, Algorithm 1), and
+the reduced cubic elastic force f + Kp + Lpp + Nppp (Eq. 24) built element by element by compiled
+einsum kernels (``tensors``). The reduced model (``reduced_model.ReducedRotatingModel``) is an
+``equinox.Module`` integrated by the same generalized-α loop as the full one; it vmaps and
+differentiates (e.g. with respect to Young's modulus with the basis held fixed,
+``studies.families``). The offline stage's cost is mostly compilation
+(``benchmarks/results/offline.md``; the persistent cache, ``integrate.compilation_cache``, saves
+most of it).
+
+Beyond the paper, the spinning-state enrichment (``spin_state``, on by default as a check): at the
+manoeuvre's top spin rate the spinning equilibrium and its modes are computed; when the rest
+basis's Rayleigh-Ritz estimate misses the dominant spinning frequency by more than ``spin_tol``,
+the first spinning mode and modal derivatives of spinning-mode pairs join the basis within the same
+DOF budget. ``nr_rncf(..., spin_state=False)`` (``nrrncf spinup --spin-state off``) gives the
+paper's basis alone; ``benchmarks/results/table3.md`` runs both where they differ.
+
+Round tubes' bending modes come in equal-frequency pairs, and the eigensolver returns any mix of
+the two planes: ``align_degenerate_modes`` turns each pair to the load, and ``excited_modes`` with
+``plane_loads`` picks the modes a planar motion excites (``elements.beam.mirror_even`` gives them
+exactly). ``craig_bampton`` is the extended Craig-Bampton basis of a jointed body (paper Eqs.
+44-46: the joint's coordinates kept as boundary coordinates with their static constraint modes,
+fixed-interface modes and their modal derivatives), used by ``multibody.floating``. Mode indices
+are 0-based everywhere (``Reduction.selection.vms``, ``.pairs``), as in the command line's output."""
+
+from .basis import ModalBasis as ModalBasis
+from .basis import modal_basis as modal_basis
 from .craig_bampton import CraigBampton as CraigBampton
 from .craig_bampton import craig_bampton as craig_bampton
 from .deflation import deflate as deflate

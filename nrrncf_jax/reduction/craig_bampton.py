@@ -24,8 +24,7 @@ import numpy as np
 
 from .._types import Array, Float
 from ..bodies.body import Body
-from .deflation import deflate
-from .modal_derivatives import modal_derivatives
+from .basis import modal_basis
 from .modes import vibration_modes
 
 
@@ -67,10 +66,7 @@ def craig_bampton(body: Body, free, boundary, n_vms: int, pairs="all", q_eq=None
     interior[list(boundary)] = False
     modes = vibration_modes(body, jnp.asarray(interior), n_vms, q_eq=q_eq)
     pairs = [(i, j) for i in range(n_vms) for j in range(i, n_vms)] if pairs == "all" else [tuple(p) for p in pairs]
-    columns = [np.asarray(modes.phi)]
-    if pairs:
-        columns.append(np.asarray(modal_derivatives(body, jnp.asarray(interior), modes.phi, pairs, q_eq=q_eq).theta))
-    Psi = np.array(deflate(jnp.asarray(np.concatenate(columns, axis=1)), deflate_tol))
+    Psi = np.array(modal_basis(body, jnp.asarray(interior), modes.phi, pairs, q_eq=q_eq, deflation_tol=deflate_tol).Psi)
     Psi[~interior] = 0.0  # the SVD's round-off (1e-17) off the interior: the boundary rows are u_B's alone
     # Φ_IB = −K_II⁻¹ K_IB: the interior's static response to unit boundary displacements.
     K = np.asarray(body.stiffness_matrix(q_eq))

@@ -12,8 +12,7 @@ import numpy as np
 
 from ..models.full_order import RotatingFrameModel
 from ..motion import AbstractAxisMotion
-from .deflation import deflate
-from .modal_derivatives import modal_derivatives
+from .basis import modal_basis
 from .modes import vibration_modes
 from .reduced_model import ReducedRotatingModel, modal_loads, reduce_rotating_model
 from .selection import Selection, align_degenerate_modes, mmi_matrix, modal_response, select
@@ -123,15 +122,11 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
     times["mmi"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    theta = modal_derivatives(body, free, modes.phi, sel.pairs, method=md_method).theta if sel.pairs else None
-    jax.block_until_ready(theta)
+    basis = rest = modal_basis(body, free, modes.phi, sel.pairs, vms=sel.vms, md_method=md_method,
+                               deflation_tol=deflation_tol)
     times["modal_derivatives"] = time.perf_counter() - t0
 
-    # From here the basis columns are glued together in NumPy: slicing and concatenating jax
-    # arrays outside a jit compiles a kernel per operation and shape on a cold start.
-    phi, theta = np.asarray(modes.phi), None if theta is None else np.asarray(theta)
-    rest = [phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
-    extra, check = [], None
+    check = None
     # The spinning state is that of a steady spin about a fixed axis: "auto" checks it for such
     # motions only, and only when they spin (a structure excited by loads in a stationary frame
     # has no spinning state).
@@ -140,17 +135,17 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
         if spin <= 0.0:
             raise ValueError("spin_state=True needs a manoeuvre that spins (its largest spin rate is 0)")
         t0 = time.perf_counter()
-        sel, extra, check = _spin_enrichment(full, modes, sel, deflate(np.concatenate(rest, axis=1), deflation_tol),
-                                             spin, n_modes, spin_state is True, spin_vms, spin_mds, spin_tol,
-                                             choose, max_dofs, md_method)
-        if theta is not None:
-            theta = theta[:, : len(sel.pairs)] if sel.pairs else None
-        rest = [phi[:, list(sel.vms)]] + ([theta] if theta is not None else [])
+        sel, extra, check = _spin_enrichment(full, modes, sel, rest.Psi, spin, n_modes, spin_state is True,
+                                             spin_vms, spin_mds, spin_tol, choose, max_dofs, md_method)
+        if extra is not None:
+            # The rest MDs kept are the first ones of the rest basis (the same ranking, cut shorter).
+            basis = modal_basis(body, free, modes.phi, sel.pairs, vms=sel.vms, extra=[extra],
+                                theta=rest.theta[:, : len(sel.pairs)] if sel.pairs else None,
+                                deflation_tol=deflation_tol)
         times["spin_state"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    Psi = deflate(np.concatenate(rest + extra, axis=1), deflation_tol)
-    model = _reduce(full, Psi, force=force)
+    model = _reduce(full, basis.Psi, force=force)
     if error_rows is not None:
         model = model.with_error_rows(error_rows)
     jax.block_until_ready(model.elastic.N)
@@ -163,7 +158,9 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
 def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n_mds, tol, choose, max_dofs,
                      md_method):
     """The spinning-state check and, if it fails (or ``always``), the enrichment: returns the
-    (possibly trimmed) rest selection, the extra basis columns and the ``SpinCheck``."""
+    (possibly trimmed) rest selection, the spinning-state columns (``n_vms`` spinning modes and
+    the modal derivatives of ``n_mds`` pairs of them, ``modal_basis``; None when not enriched)
+    and the ``SpinCheck``."""
     body, free = full.body, full.free_mask()
     q_star, smodes = spinning_modes(full, spin, n_modes)
     sphi = np.asarray(smodes.phi)
@@ -176,7 +173,7 @@ def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n
     estimate = float(ritz[np.argmin(np.abs(ritz - exact))])
     enrich = always or abs(estimate / exact - 1.0) > tol
     if not enrich:
-        return sel, [], SpinCheck(spin, dominant, exact, estimate, False)
+        return sel, None, SpinCheck(spin, dominant, exact, estimate, False)
     svms = list(dict.fromkeys(int(match[i]) for i in by_weight))[:n_vms]
     ranked = sorted(((i, j) for a, i in enumerate(sel.vms) for j in sel.vms[a:]), key=lambda ij: -W[ij])
     spairs = list(dict.fromkeys(tuple(sorted((int(match[i]), int(match[j])))) for i, j in ranked))[:n_mds]
@@ -185,11 +182,8 @@ def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n
         trimmed = choose(max_dofs=max(len(sel.vms), max_dofs - len(svms) - len(spairs)))
         assert trimmed.pairs == sel.pairs[: len(trimmed.pairs)]  # the same ranking, cut shorter
         sel = trimmed
-    extra = [sphi[:, svms]]
-    if spairs:
-        # Padded to the rest MDs' count: the kernel compiled for those serves these too.
-        theta = modal_derivatives(body, free, smodes.phi, spairs, method=md_method, pad_to=n_rest_pairs).theta
-        extra.append(np.asarray(theta))
+    # The MDs padded to the rest MDs' count: the kernel compiled for those serves these too.
+    extra = modal_basis(body, free, smodes.phi, spairs, vms=svms, md_method=md_method, pad_to=n_rest_pairs).columns
     return sel, extra, SpinCheck(spin, dominant, exact, estimate, True, tuple(svms), tuple(spairs))
 
 

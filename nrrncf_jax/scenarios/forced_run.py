@@ -7,6 +7,7 @@ few position vectors: the truss's free-end centroid, the membrane's rim point).
 """
 
 import dataclasses
+from typing import ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -15,57 +16,45 @@ import numpy as np
 from ..integrate import GeneralizedAlpha
 from ..integrate.simulate import simulate_timed
 from ..models import RotatingFrameModel
+from .run_record import RunRecord
 
 FORMULATIONS = ("rncf", "nr-rncf")
 
 
-@dataclasses.dataclass
-class ForcedRun:
-    """One run: the observed point's displacement and those of all position vectors in the
-    reference frame, integrator statistics and timings; for NR-RNCF also the basis, the offline
-    time and, against a reference run (``compare``), χ_rel (on the displacements of every
-    position vector over all output times) and the speed-up."""
+@dataclasses.dataclass(kw_only=True)
+class ForcedRun(RunRecord):
+    """One run (``RunRecord``): the observed point's displacement and those of all position
+    vectors in the reference frame, integrator statistics and timings; for NR-RNCF also the basis
+    and the offline time. ``compare`` gives χ_rel on the displacements of every position vector
+    over all output times."""
 
-    formulation: str
-    dofs: int
-    ts: np.ndarray
     point: np.ndarray  # (nt, 3) displacement of the observed point
     positions: np.ndarray  # (nt, n_positions, 3) displacements of all position vectors
-    steps: int
-    rejected: int
-    newton_iters: int
-    compile_s: float
-    run_s: float
     vms: tuple | None = None
     mds: tuple | None = None
     offline_s: float | None = None
     reduction: object = None
-    reference_dofs: int | None = None
-    reference_run_s: float | None = None
-    chi_rel_percent: float | None = None
-    speedup: float | None = None
+
+    REFERENCE: ClassVar[str] = "a full RNCF run of the same body and output times"
+
+    def displacement_series(self) -> np.ndarray:
+        """The displacements of every position vector (nt, n_positions, 3)."""
+        return self.positions
 
     def summary(self) -> dict:
         """The JSON-ready record (``--json`` of the commands)."""
-        d = {"formulation": self.formulation, "dofs": self.dofs,
-             "vms": None if self.vms is None else list(self.vms),
-             "mds": None if self.mds is None else [list(p) for p in self.mds],
-             "steps": self.steps, "rejected": self.rejected, "newton_iterations": self.newton_iters,
-             "compile_s": round(self.compile_s, 3), "run_s": round(self.run_s, 4),
-             "offline_s": None if self.offline_s is None else round(self.offline_s, 2)}
-        if self.chi_rel_percent is not None:
-            d.update(reference_dofs=self.reference_dofs, reference_run_s=round(self.reference_run_s, 3),
-                     chi_rel_percent=self.chi_rel_percent, speedup=self.speedup)
-        return d
+        return {"formulation": self.formulation, "dofs": self.dofs,
+                "vms": None if self.vms is None else list(self.vms),
+                "mds": None if self.mds is None else [list(p) for p in self.mds],
+                **self.statistics(newton_key="newton_iterations"),
+                "offline_s": None if self.offline_s is None else round(self.offline_s, 2), **self.comparison()}
 
     def command_record(self, **extra) -> dict:
         """What the commands' ``--json`` prints: ``dofs, vms, mds, steps, compile_s, run_s,
         offline_s``, after a comparison also ``reference_dofs, reference_run_s, chi_rel_percent,
         speedup``, the formulation, and ``extra``."""
         s = self.summary()
-        keys = ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s"]
-        if self.chi_rel_percent is not None:
-            keys += ["reference_dofs", "reference_run_s", "chi_rel_percent", "speedup"]
+        keys = ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s", *self.comparison()]
         return {**{k: s[k] for k in keys}, "formulation": self.formulation, **extra}
 
     def displacement_fields(self, body, count: int = 50) -> tuple[dict, np.ndarray]:
@@ -80,17 +69,6 @@ class ForcedRun:
             u[pos] = self.positions[k]
             fields[f"t_{k:05d}"] = u
         return fields, self.ts[::every]
-
-    def compare(self, reference: "ForcedRun") -> "ForcedRun":
-        """Fill in χ_rel and the speed-up against a full run on the same body and output times."""
-        from ..post.metrics import chi_rel
-
-        if reference.positions.shape != self.positions.shape:
-            raise ValueError("the reference must be a full RNCF run of the same body and output times")
-        self.reference_dofs, self.reference_run_s = reference.dofs, reference.run_s
-        self.chi_rel_percent = float(chi_rel(reference.positions, self.positions))
-        self.speedup = reference.run_s / self.run_s
-        return self
 
 
 def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *, vms=4, mds=6, n_modes: int = 12,

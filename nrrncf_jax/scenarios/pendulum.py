@@ -16,15 +16,13 @@ derivatives (optionally with the right-end joint's static modes, ``boundary_mode
 extended Craig-Bampton basis (``reduction.craig_bampton``: the joint's position as boundary
 coordinates, fixed-interface modes and their MDs); ``mmi_per_body`` picks each beam's MDs by
 maximum modal interaction; ``release_sweep`` runs any of them released at a batch of angles in
-one compiled, vmapped loop. On the paper's mesh the reduced model (81 DOFs, χ_rel 1.13 %) ran
-9-11× faster than the full ANCF one and 24-29× faster than the full RNCF one at the same
-tolerance (other runs: 6.3-11.4× against ANCF; this VM's timings vary by a third), 14-24× at
-looser ones, which its own time-integration error allows; with 8 MDs a beam by MMI (60 DOFs)
-χ_rel 1.16-1.17 % and 12-16×; the Craig-Bampton one (87 DOFs) is within χ_rel 0.33 %
-(``benchmarks/results/pendulum.md``, issue 17).
+one compiled, vmapped loop. ``run_pendulum``/``run_chain`` record a run (``PendulumRun``), and
+``PendulumRun.compare`` its χ_rel and speed-up against a full-order one
+(``benchmarks/results/pendulum.md``).
 """
 
 import dataclasses
+from typing import ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -48,6 +46,7 @@ from ..multibody import (
     full_floating_body,
     placed,
 )
+from .run_record import RunRecord
 
 # The C1 beam's nodal vectors at a node: r, r_x, r_y, r_xy, r_z, r_xz
 _R, _RX, _RY, _RZ, _PER_NODE = 0, 1, 2, 4, 6
@@ -112,10 +111,9 @@ other coordinates (the two converge together: ``tests/test_floating.py``).
 Why the tangent and not the section vectors (``LEFT_SECTION_FRAME``): a C1 beam's section
 vectors shear against its centre line, and their shear and stretch vibrate at the mesh's highest
 frequencies. A frame that follows them carries that vibration into every coordinate of the body
-(each one measured from the frame), and the step-size control of the 10-element pendulum then
-rejected 48 % of its steps: 7517 steps (3612 rejected) and 143.9 s over 0-2 s, against 4627-4676
-(710-739) and 68-83 s with the tangent frame (``benchmarks/results/pendulum.md``), whose step counts follow
-the ANCF model's (4238, 398) as the same equations should. The NR-RNCF basis holds the section vectors entirely
+(each one measured from the frame), and the step-size control then rejects many of its steps;
+with the tangent frame the step counts follow the ANCF model's, as the same equations should
+(``benchmarks/results/design_notes.md``). The NR-RNCF basis holds the section vectors entirely
 (``REFERENCE_CONDITIONS``, a cantilever's clamp): its modes have no shear vibration at the clamp
 to carry."""
 
@@ -187,14 +185,16 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     tube's bending modes come in equal-frequency pairs, and eigh returns any mix of the two
     planes; the lowest five are two pairs and half of the third, a y–z mix without its partner.
     The motion couples into it out of the plane, the basis holds only two or three in-plane
-    modes, and the reduced pendulum leaves its plane (4.7 mm by 1 s, 4 elements) where the full
-    one stays in it to 1e-13 m."""
+    modes, and the reduced pendulum leaves its plane, where the full one stays in it to round-off.
+
+    The basis of a beam is ``reduction.modal_basis`` of its modes, its MDs of ``pairs`` and the
+    joint's static modes, deflated by SVD (ϑ = 1e-6)."""
     import time
 
     from ..models import RotatingFrameModel
     from ..motion import Stationary
     from ..reduction import craig_bampton as reduction_craig_bampton
-    from ..reduction import deflate, elastic_tensors, modal_derivatives, vibration_modes
+    from ..reduction import elastic_tensors, modal_basis, vibration_modes
 
     positive_int("n_vms", n_vms)
     if craig_bampton and joint_modes:
@@ -218,13 +218,9 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
         modes, bases = cb, [cb.basis]
     else:
         modes = vibration_modes(beam, free, n_vms)
-        tip_modes = [jnp.asarray(boundary_modes(beam, free, [_PER_NODE * spec.elements + _R]))] if joint_modes else []
-
-        def cantilever_basis(md_pairs):
-            mds = [modal_derivatives(beam, free, modes.phi, md_pairs).theta] if md_pairs else []
-            return deflate(jnp.concatenate([modes.phi] + mds + tip_modes, axis=1))
-
-        bases = [cantilever_basis(bp) for bp in ([pairs] if body_pairs is None else body_pairs)]
+        tip_modes = [boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])] if joint_modes else []
+        bases = [modal_basis(beam, free, modes.phi, bp, extra=tip_modes).Psi
+                 for bp in ([pairs] if body_pairs is None else body_pairs)]
     tensors = [jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi)) for Psi in bases]
     which = [0] * spec.beams if len(bases) == 1 else range(spec.beams)  # one shared basis, or one a beam
     bodies = [FloatingBody(beam, bases[i], tensors[i], R0=(k * spec.length, 0.0, 0.0)) for k, i in enumerate(which)]
@@ -271,43 +267,26 @@ SHAPE_TIMES = (0.0, 0.5, 1.0, 1.5, 2.0)
 """The instants of the paper's Fig. 17."""
 
 
-@dataclasses.dataclass
-class PendulumRun:
-    """A run: every node's global position (``nodes`` (nt, beams, nodes, 3)) and each beam's
-    left-end slope r_x (``left_slopes`` (nt, beams, 3)) at the output times, the total and kinetic
-    energy, the largest joint violation |C(q)| at each output time (``violation``), and the run's
-    statistics."""
+@dataclasses.dataclass(kw_only=True)
+class PendulumRun(RunRecord):
+    """A run (``RunRecord``): every node's global position (``nodes`` (nt, beams, nodes, 3)) and
+    each beam's left-end slope r_x (``left_slopes`` (nt, beams, 3)) at the output times, the total
+    and kinetic energy, the largest joint violation |C(q)| at each output time (``violation``), and
+    the run's statistics. ``compare`` gives χ_rel of every node's displacement from its initial
+    position over all output times."""
 
-    formulation: str
-    dofs: int
-    ts: np.ndarray
     nodes: np.ndarray
     left_slopes: np.ndarray
     energy: np.ndarray
     kinetic: np.ndarray
     violation: np.ndarray
-    steps: int
-    rejected: int
-    newton_iters: int
-    compile_s: float
-    run_s: float
     offline: dict | None = None  # NR-RNCF: build_reduced_pendulum's record
-    reference_dofs: int | None = None
-    reference_run_s: float | None = None
-    chi_rel_percent: float | None = None
-    speedup: float | None = None
 
-    def compare(self, reference: "PendulumRun") -> "PendulumRun":
-        """χ_rel (THEORY §9) of every node's displacement over all output times against a full
-        run on the same output times, and the speed-up."""
-        from ..post.metrics import chi_rel
+    REFERENCE: ClassVar[str] = "a run of the same pendulum and output times"
 
-        if reference.nodes.shape != self.nodes.shape:
-            raise ValueError("the reference must be a run of the same pendulum and output times")
-        self.reference_dofs, self.reference_run_s = reference.dofs, reference.run_s
-        self.chi_rel_percent = float(chi_rel(reference.nodes - reference.nodes[0], self.nodes - self.nodes[0]))
-        self.speedup = reference.run_s / self.run_s
-        return self
+    def displacement_series(self) -> np.ndarray:
+        """Every node's displacement from its initial position (nt, beams, nodes, 3)."""
+        return self.nodes - self.nodes[0]
 
     @property
     def constraint_max(self) -> float:
@@ -341,16 +320,13 @@ class PendulumRun:
         return ",".join(["t"] + [f"{c}{k + 1}" for k in range(self.tips.shape[1]) for c in "xy"])
 
     def summary(self) -> dict:
-        return {"formulation": self.formulation, "dofs": self.dofs, "steps": self.steps, "rejected": self.rejected,
-                "newton_iters": self.newton_iters, "compile_s": round(self.compile_s, 3),
-                "run_s": round(self.run_s, 4), "constraint_max": self.constraint_max,
+        return {"formulation": self.formulation, "dofs": self.dofs, **self.statistics(),
+                "constraint_max": self.constraint_max,
                 "energy_drift": float(np.abs(self.energy - self.energy[0]).max()),
                 "kinetic_max": float(self.kinetic.max()),
                 "tips_final_m": self.tips[-1, :, :2].round(6).tolist(),
                 **({} if self.offline is None else {"offline_s": round(self.offline["offline_s"], 3)}),
-                **({} if self.chi_rel_percent is None else {
-                    "reference_dofs": self.reference_dofs, "reference_run_s": round(self.reference_run_s, 3),
-                    "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup})}
+                **self.comparison()}
 
 
 FORMULATIONS = ("ancf", "rncf", "nr-rncf")
@@ -408,10 +384,9 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     ``newton_tol``: Newton stops when its correction, or the error it leaves, is below this
     fraction of the step's error tolerance. 1 % here, against ``simulate``'s 0.1 %: the reduced
     pendulum's modified Newton converges linearly (its iteration matrix leaves out the inertia
-    terms' derivatives), and at 0.1 % it took 3.3 iterations a step against 2.7 at 1 %, for the
-    same χ_rel (1.129 %, 10 elements, 0–2 s; measured before the index-3 step also stopped on the
-    error left, ``integrate.index3``, with which it takes 2.0). The full model's Newton stops after
-    its second correction either way."""
+    terms' derivatives), so a tighter stop costs iterations without changing χ_rel
+    (``benchmarks/results/design_notes.md``). The full model's Newton stops after its second
+    correction either way."""
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     formulation, vectors, nodes = _chain(system)
@@ -492,7 +467,7 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
     t2 = time.perf_counter()
     return ReleaseSweep(angles=angles, ts=ts, tips=np.asarray(sol.ys), steps=np.asarray(sol.num_steps),
                         rejected=np.asarray(sol.num_rejected), newton_iters=np.asarray(sol.num_newton),
-                        ok=np.asarray(sol.result == 0), compile_s=t1 - t0, run_s=t2 - t1, lanes=int(lanes))
+                        ok=np.asarray(sol.succeeded), compile_s=t1 - t0, run_s=t2 - t1, lanes=int(lanes))
 
 
 __all__ = ["FORMULATIONS", "LEFT_END_FRAME", "LEFT_SECTION_FRAME", "REFERENCE_CONDITIONS", "SHAPE_TIMES",

@@ -3,6 +3,7 @@
 import csv
 import dataclasses
 import json
+from typing import ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -13,10 +14,10 @@ from ..integrate import GeneralizedAlpha
 from ..integrate.simulate import simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
-from ..post.metrics import chi_rel
 from ..reduction.pipeline import nr_rncf
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
+from .run_record import RunRecord
 
 PAPER_ELEMENTS = {4.0: 6, 10.0: 10, 20.0: 16, 40.0: 24}
 """Elements per steady spin rate in the paper's Table 2."""
@@ -47,52 +48,56 @@ def build_spinup_model(formulation: str, beam: BeamPreset | str, omega_s: float,
     return cls(body, SpinUp(omega_s, T_s))
 
 
-@dataclasses.dataclass
-class SpinupResult:
-    """One spin-up run: tip motion in the rotating frame, integrator statistics and timings.
+@dataclasses.dataclass(kw_only=True)
+class SpinupResult(RunRecord):
+    """One spin-up run (``RunRecord``): tip motion in the rotating frame, integrator statistics
+    and timings.
 
     For ``formulation='nr-rncf'`` (``run_nr_rncf_spinup``) the NR-RNCF fields are set too: the
     basis (``vms``, ``mds``: kept vibration modes and modal-derivative pairs, 0-based indices
     into the candidate modes, in ``summary()``, ``table()`` and ``json()`` too), the offline time,
-    and, when the full RNCF ran as ``reference``, χ_rel (Eq. 40, all nodal displacements) and the
-    run-time ratio full/reduced.
+    and, when the full RNCF ran as ``reference`` (``compare``), χ_rel (Eq. 40, all nodal
+    displacements) and the run-time ratio full/reduced.
     """
 
-    formulation: str
     beam: str
     omega_s: float
     T_s: float
     elements: int
-    dofs: int
-    ts: np.ndarray
     theta: np.ndarray
     tip: np.ndarray  # (nt, 3): ux (axial), uy (in-plane transverse), uz, in the rotating frame
-    steps: int
-    rejected: int
-    newton_iters: int
-    compile_s: float
-    run_s: float
     displacements: np.ndarray | None = None  # (nt, n_vectors, 3), w = q − q̂ in the rotating frame
     # NR-RNCF only
     vms: tuple[int, ...] | None = None
     mds: tuple[tuple[int, int], ...] | None = None
     offline_s: dict | None = None  # per offline stage, with 'total'
     reference: "SpinupResult | None" = None  # the full RNCF run compared against
-    chi_rel_percent: float | None = None
-    speedup: float | None = None  # reference.run_s / run_s
     spin: object = None  # the ``SpinCheck`` of the spinning-state enrichment (None: not checked)
     reduction: object = dataclasses.field(default=None, repr=False)  # the ``Reduction`` (W, omega, model)
+
+    REFERENCE: ClassVar[str] = ("a full RNCF SpinupResult of the same beam mesh and output times, run with "
+                                "save_displacements=True")
 
     @property
     def reduced(self) -> bool:
         return self.vms is not None
 
+    def displacement_series(self) -> np.ndarray | None:
+        """All nodal displacements q − q̂ in the rotating frame (None unless kept)."""
+        return self.displacements
+
+    def compare(self, reference: "SpinupResult") -> "SpinupResult":
+        """``RunRecord.compare``, keeping the ``reference`` run itself too (its record goes into
+        ``summary()`` and ``table()``)."""
+        super().compare(reference)
+        self.reference = reference
+        return self
+
     def summary(self) -> dict:
         s = {
             "formulation": self.formulation, "beam": self.beam, "omega_s": self.omega_s, "T_s": self.T_s,
-            "t_end": float(self.ts[-1]), "elements": self.elements, "dofs": self.dofs, "steps": self.steps,
-            "rejected": self.rejected, "newton_iters": self.newton_iters, "compile_s": round(self.compile_s, 3),
-            "run_s": round(self.run_s, 4), "tip_ux_min": float(self.tip[:, 0].min()),
+            "t_end": float(self.ts[-1]), "elements": self.elements, "dofs": self.dofs, **self.statistics(),
+            "tip_ux_min": float(self.tip[:, 0].min()),
             "tip_uy_min": float(self.tip[:, 1].min()), "tip_uy_max": float(self.tip[:, 1].max()),
             "tip_uz_absmax": float(np.abs(self.tip[:, 2]).max()),
         }
@@ -110,8 +115,8 @@ class SpinupResult:
                     "omega_ritz": self.spin.omega_ritz, "rel_err": self.spin.rel_err, "enriched": self.spin.enriched,
                     "spin_vms": list(self.spin.vms), "spin_mds": [list(p) for p in self.spin.pairs]},
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup,
-                "reference": None if ref is None else {k: ref.summary()[k] for k in (
-                    "formulation", "dofs", "steps", "rejected", "newton_iters", "compile_s", "run_s")},
+                "reference": None if ref is None else {"formulation": ref.formulation, "dofs": ref.dofs,
+                                                       **ref.statistics()},
             })
         return s
 
@@ -244,18 +249,10 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     if reference is False or reference is None:
         return res
     if reference is True:
-        ref = run_spinup("rncf", beam, omega_s, T_s=T_s, t_end=t_end, elements=body.n_elements, rho_inf=rho_inf,
-                         rtol=rtol, atol=atol, dt_out=dt_out, save_displacements=True, progress=progress,
-                         max_steps=max_steps)
-    else:
-        ref = reference
-        if ref.displacements is None or ref.displacements.shape != w.shape or not np.allclose(ref.ts, ts):
-            raise ValueError("reference must be a full RNCF SpinupResult of the same beam mesh and output times, "
-                             "run with save_displacements=True")
-    res.reference = ref
-    res.chi_rel_percent = float(chi_rel(ref.displacements, w))
-    res.speedup = ref.run_s / run_s
-    return res
+        reference = run_spinup("rncf", beam, omega_s, T_s=T_s, t_end=t_end, elements=body.n_elements,
+                               rho_inf=rho_inf, rtol=rtol, atol=atol, dt_out=dt_out, save_displacements=True,
+                               progress=progress, max_steps=max_steps)
+    return res.compare(reference)
 
 
 def sweep_reduction(beam, grid: SweepGrid, *, t_end: float, elements: int | None = None, dt_out: float = 0.01,

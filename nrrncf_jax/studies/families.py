@@ -32,8 +32,7 @@ from ..bodies.body import beam_body
 from ..elements.material import Material
 from ..models.damping import RayleighDamping
 from ..models.full_order import Loads, RotatingFrameModel
-from ..reduction.deflation import deflation_map
-from ..reduction.modal_derivatives import modal_derivatives
+from ..reduction.basis import modal_basis
 from ..reduction.modes import vibration_modes
 from ..reduction.reduced_model import ReducedRotatingModel, reduce_rotating_model
 
@@ -151,11 +150,7 @@ class OfflineSpinupFamily(eqx.Module):
         modes = vibration_modes(body, free, self.n_modes)
         M = jnp.kron(body.mass_matrix(), jnp.eye(3))
         sign = jax.lax.stop_gradient(jnp.sign(jnp.sum(self.phi0 * (M @ modes.phi), axis=0)))
-        phi = modes.phi * sign
-        cols = [phi[:, list(self.vms)]]
-        if self.pairs:
-            cols.append(modal_derivatives(body, free, phi, self.pairs).theta)
-        return jnp.concatenate(cols, axis=1) @ self.T0
+        return modal_basis(body, free, modes.phi * sign, self.pairs, vms=self.vms).columns @ self.T0
 
     def __call__(self, params: dict) -> ReducedRotatingModel:
         check_params(params, OFFLINE_PARAMETERS)
@@ -204,11 +199,8 @@ def offline_family(full: RotatingFrameModel, reduction, preset, *, omega_ref=Non
                 stacklevel=2)
             return SpinupFamily(reduction.model, preset.E, omega_ref)
     phi = modes.phi[:, : len(w)]
-    cols = [phi[:, list(sel.vms)]]
-    if sel.pairs:
-        cols.append(modal_derivatives(body, full.free_mask(), phi, sel.pairs).theta)
-    # The SVD of ``deflate`` itself, so that X T0 reproduces the reduction's Ψ, column signs included.
-    T0 = jnp.asarray(deflation_map(jnp.concatenate(cols, axis=1), reduction.model.n_dof), dtype=float)
+    basis = modal_basis(body, full.free_mask(), phi, sel.pairs, vms=sel.vms)
+    T0 = jnp.asarray(basis.deflation_map(reduction.model.n_dof), dtype=float)  # X T0 = the reduction's Ψ
     return OfflineSpinupFamily(
         preset=preset, elements=n_el, n_modes=len(w), vms=tuple(sel.vms), pairs=tuple(sel.pairs),
         template=reduction.model, loads=full.loads, phi0=phi, T0=T0, E0=jnp.asarray(preset.E, dtype=float),

@@ -1,0 +1,78 @@
+"""The record of one time-integration run that the scenarios share, and its comparison with a
+reference run.
+
+``compare`` fills in the global relative error of THEORY §9 (Eq. 40),
+``χ_rel = sqrt(Σ_t |w(t) − w̄(t)|²) / sqrt(Σ_t |w(t)|²) × 100 %`` of the run's displacement series
+``w̄`` against the reference's ``w`` on the same output times (``post.metrics.chi_rel``), and the
+speed-up, the reference's run time over this run's. Each scenario's record (``PendulumRun``,
+``ForcedRun``, ``SpinupResult``) adds its own series and fields and says which displacements
+χ_rel covers (``displacement_series``).
+"""
+
+import dataclasses
+from typing import ClassVar
+
+import numpy as np
+
+from ..post.metrics import chi_rel
+
+
+@dataclasses.dataclass(kw_only=True)
+class RunRecord:
+    """One run: its ``formulation`` (e.g. ``"rncf"``, ``"nr-rncf"``), coordinates ``dofs``, output
+    times ``ts``, the integrator's accepted and rejected ``steps``/``rejected`` and Newton
+    iterations ``newton_iters``, the compile and run times [s] (measured apart); after ``compare``
+    the reference's DOFs and run time, χ_rel [%] and the speed-up. Keyword-only: each scenario's
+    record adds fields of its own."""
+
+    formulation: str
+    dofs: int
+    ts: np.ndarray
+    steps: int
+    rejected: int
+    newton_iters: int
+    compile_s: float
+    run_s: float
+    reference_dofs: int | None = None
+    reference_run_s: float | None = None
+    chi_rel_percent: float | None = None
+    speedup: float | None = None  # reference_run_s / run_s
+
+    REFERENCE: ClassVar[str] = "a run of the same model and output times"
+    """What ``compare`` accepts as the reference, for its error message."""
+
+    def displacement_series(self) -> np.ndarray | None:
+        """The displacements χ_rel is computed on, (nt, ...) at the output times ``ts`` (None when
+        the run did not keep them)."""
+        raise NotImplementedError(f"{type(self).__name__} does not say which displacements χ_rel covers")
+
+    def compare(self, reference: "RunRecord") -> "RunRecord":
+        """Fill in χ_rel (Eq. 40) of ``displacement_series`` against ``reference``'s, the
+        reference's DOFs and run time, and the speed-up ``reference.run_s / run_s``; returns
+        ``self``. Raises ``ValueError`` unless the reference kept the same series on the same
+        output times."""
+        w_ref, w = reference.displacement_series(), self.displacement_series()
+        if (w_ref is None or w is None or w_ref.shape != w.shape or np.shape(reference.ts) != np.shape(self.ts)
+                or not np.allclose(reference.ts, self.ts)):
+            raise ValueError(f"the reference must be {self.REFERENCE}")
+        self.reference_dofs, self.reference_run_s = reference.dofs, reference.run_s
+        self.chi_rel_percent = float(chi_rel(w_ref, w))
+        self.speedup = reference.run_s / self.run_s
+        return self
+
+    def statistics(self, newton_key: str = "newton_iters") -> dict:
+        """The integrator's record for ``--json``: ``steps, rejected``, the Newton iterations
+        (under ``newton_key``), ``compile_s`` (to the millisecond) and ``run_s`` (to 0.1 ms)."""
+        return {"steps": self.steps, "rejected": self.rejected, newton_key: self.newton_iters,
+                "compile_s": round(self.compile_s, 3), "run_s": round(self.run_s, 4)}
+
+    def comparison(self) -> dict:
+        """After ``compare``: ``reference_dofs, reference_run_s`` (to the millisecond),
+        ``chi_rel_percent, speedup`` for ``--json``; before it, nothing."""
+        if self.chi_rel_percent is None:
+            return {}
+        return {"reference_dofs": self.reference_dofs, "reference_run_s": round(self.reference_run_s, 3),
+                "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup}
+
+
+__all__ = ["RunRecord"]
