@@ -42,7 +42,8 @@ than every run of the other.
 
 Only public API present in both revisions is used: ``RotatingFrameModel(body, motion)``,
 ``InertialFrameModel(body, motion)``, ``SpinUp(omega_s, T_s)``, ``simulate``, ``simulate_timed``,
-``simulate_batch``, ``nr_rncf``, ``chi_rel``, ``scenarios.beam_preset(...).body(n)``.
+``simulate_batch`` (with the solver and controller as objects where the revision takes them,
+``_integrator``), ``nr_rncf``, ``chi_rel``, ``scenarios.beam_preset(...).body(n)``.
 """
 
 import argparse
@@ -91,8 +92,20 @@ def _full_spinup(inertial, t_end):
 
     model, tip = _paper_rncf(6, 4.0, 15.0, inertial)
     ts = np.arange(0.0, t_end + 0.005, 0.01)
-    sol, compile_s, run_s = simulate_timed(model, jnp.asarray(ts), observe=lambda t, q, v: model.displacements(t, q))
+    sol, compile_s, run_s = simulate_timed(model, *_integrator(), jnp.asarray(ts),
+                                           observe=lambda t, q, v: model.displacements(t, q))
     return model, tip, sol, np.asarray(sol.ys), ts, compile_s, run_s
+
+
+def _integrator():
+    """``(solver, controller)`` at the defaults both revisions share (generalized-α with ρ∞ = 0.9,
+    rtol = 1e-4, atol = 1e-6) where the revision takes them as objects
+    (``simulate(model, solver, controller, ts)``); ``()`` for the older keyword form."""
+    import nrrncf_jax as nr
+
+    if hasattr(nr, "AdaptiveStepSize"):
+        return nr.GeneralizedAlpha(0.9), nr.AdaptiveStepSize(1e-4, 1e-6)
+    return ()
 
 
 def _stats(sol):
@@ -143,7 +156,7 @@ def case_nr_rncf(shared):
 
     red, offline = _reduction(shared)
     _, tip, w_full, ts = shared["rncf"]
-    sol, c, r = simulate_timed(red.model, jnp.asarray(ts), observe=lambda t, p, v: p)
+    sol, c, r = simulate_timed(red.model, *_integrator(), jnp.asarray(ts), observe=lambda t, p, v: p)
     w = np.asarray(jax.vmap(lambda p: red.model.displacements(0.0, p))(sol.ys))
     res = {**_stats(sol), "dofs": int(red.dofs), "chi_rel": float(chi_rel(w_full, w)), "tip": _tip_extremes(w[:, tip])}
     return res, c, r, {"offline_s": offline}
@@ -162,7 +175,7 @@ def case_sweep(shared):
     _, tip, _, _ = shared["rncf"]
     ts = np.arange(0.0, SWEEP_T_END + 0.005, 0.01)
     model_fn = jax.tree_util.Partial(_swap_motion, red.model)
-    sweep = jax.jit(lambda omegas: simulate_batch(model_fn, omegas, ts, observe=lambda t, p, v: p))
+    sweep = jax.jit(lambda omegas: simulate_batch(model_fn, omegas, *_integrator(), ts, observe=lambda t, p, v: p))
     omegas = jnp.linspace(1.0, 4.0, 8)
     t0 = time.perf_counter()
     compiled = sweep.lower(omegas).compile()
@@ -193,7 +206,8 @@ def case_grad(shared):
 
     def run(w, adjoint):
         model = _swap_motion(red.model, w)
-        return simulate(model, ts, observe=lambda t, p, v: model.displacements(t, p)[tip], adjoint=adjoint)
+        return simulate(model, *_integrator(), ts, observe=lambda t, p, v: model.displacements(t, p)[tip],
+                        adjoint=adjoint)
 
     grad = jax.jit(jax.grad(lambda w: jnp.sum(run(w, "reverse").ys[:, 1] ** 2)))
     w0 = jnp.asarray(4.0)

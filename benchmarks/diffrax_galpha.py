@@ -235,12 +235,13 @@ def _time_twice(fn, extra=2):
 
 
 def run_case(name, omega_s, n_el, t_end, diffrax_max_steps=200_000):
-    from nrrncf_jax.integrate import simulate
+    from nrrncf_jax.integrate import AdaptiveStepSize, simulate
 
     model, ts, observe = _build(omega_s, n_el, t_end)
     rows = []
 
-    sol, comp, run, best = _time_twice(lambda: simulate(model, ts, rtol=1e-4, atol=1e-6, observe=observe, throw=False))
+    sol, comp, run, best = _time_twice(lambda: simulate(model, GeneralizedAlpha(0.9), AdaptiveStepSize(1e-4, 1e-6), ts,
+                                                        observe=observe, throw=False))
     y_loop = np.asarray(sol.ys)
     rows.append(dict(name="hand-written loop (`simulate`, lax.while_loop)", acc=int(sol.num_steps),
                      rej=int(sol.num_rejected), comp=comp, run=run, best=best, ys=y_loop, ok=sol.message))
@@ -263,7 +264,8 @@ def run_case(name, omega_s, n_el, t_end, diffrax_max_steps=200_000):
                          ok="success" if ok else f"stopped early (RESULTS code {int(dsol.result._value)})"))
 
     # Reference: the loop at 1000x tighter tolerances (same compiled function: tolerances are traced).
-    y_ref = np.asarray(simulate(model, ts, rtol=1e-7, atol=1e-9, observe=observe, max_steps=2_000_000).ys)
+    y_ref = np.asarray(simulate(model, GeneralizedAlpha(0.9), AdaptiveStepSize(1e-7, 1e-9), ts, observe=observe,
+                                max_steps=2_000_000).ys)
 
     def rel(y, ref):
         return float(np.max(np.linalg.norm(y - ref, axis=1)) / np.max(np.linalg.norm(ref, axis=1)))
@@ -283,13 +285,13 @@ def fixed_step_overhead(omega_s, n_el, t_end, dt, repeats=3):
 
     Runs are interleaved (loop, diffrax, loop, ...) so that load from other processes hits both alike.
     """
-    from nrrncf_jax.integrate import simulate
+    from nrrncf_jax.integrate import ConstantStepSize, simulate
 
     model, ts, observe = _build(omega_s, n_el, t_end)
     n_steps = int(round((float(ts[-1]) - 0.0) / dt))
     runs = {
-        "hand-written loop (`simulate`, adaptive=False)": lambda: simulate(
-            model, ts, dt0=dt, adaptive=False, observe=observe, throw=False),
+        "hand-written loop (`simulate`, ConstantStepSize)": lambda: simulate(
+            model, GeneralizedAlpha(0.9), ConstantStepSize(dt), ts, observe=observe, throw=False),
         "diffrax, ForwardMode, ConstantStepSize": (lambda f: lambda: f(model, ts))(eqx.filter_jit(
             lambda m, ts: simulate_diffrax(m, ts, dt0=dt, adaptive=False, observe=observe,
                                            adjoint=diffrax.ForwardMode(), max_steps=n_steps + 10))),

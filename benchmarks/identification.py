@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _machine import machine, report  # noqa: E402
 
-from nrrncf_jax.integrate.simulate import simulate  # noqa: E402
+from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlpha, simulate  # noqa: E402
 from nrrncf_jax.reduction.pipeline import nr_rncf  # noqa: E402
 from nrrncf_jax.scenarios.identification import identification_demo  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model, output_times  # noqa: E402
@@ -40,9 +40,10 @@ def memory_case():
     red = nr_rncf(full, jnp.asarray(ts))
     fam = SpinupFamily.from_reduction(red, 70e9)  # the paper preset's E
     m = fam({})
-    y = np.asarray(simulate(m, ts, observe=Observation(m, tip_deflection(m)), rtol=1e-6, atol=1e-9).ys)
+    run = (m, GeneralizedAlpha(0.9), AdaptiveStepSize(1e-6, 1e-9), ts)
+    y = np.asarray(simulate(*run, observe=Observation(m, tip_deflection(m))).ys)
     meas = Measurement(ts, y)
-    steps = simulate(m, ts, observe=Observation(m, tip_deflection(m)), rtol=1e-6, atol=1e-9).num_steps
+    steps = simulate(*run, observe=Observation(m, tip_deflection(m))).num_steps
 
     def loss(s, max_steps=100_000):
         return misfit(fam, {"E": 70e9 * s}, meas, rtol=1e-6, atol=1e-9, max_steps=max_steps)

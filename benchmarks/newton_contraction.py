@@ -26,9 +26,9 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from nrrncf_jax.integrate import GeneralizedAlphaIndex3  # noqa: E402
-from nrrncf_jax.integrate.simulate import simulate  # noqa: E402
+from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton  # noqa: E402
 from nrrncf_jax.integrate.base import GeneralizedAlphaState  # noqa: E402
+from nrrncf_jax.integrate.simulate import simulate  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import (  # noqa: E402
     LEFT_END_FRAME,
     LEFT_SECTION_FRAME,
@@ -96,8 +96,8 @@ def main(argv=None):
              "| model | DOFs | t [s] | p columns | corrections | contraction an iteration |",
              "|---|---:|---:|---|---|---|"]
     for name, system in models:
-        sol = simulate(system, jnp.asarray([0.0] + times), solver=solver, rtol=1e-4, atol=1e-5,
-                       observe=lambda t, x, v: (x, v), newton_tol=1e-2)
+        sol = simulate(system, solver, AdaptiveStepSize(1e-4, 1e-5), jnp.asarray([0.0] + times),
+                       observe=lambda t, x, v: (x, v), newton=Newton(1e-2))
         for k, t in enumerate(times):
             x, v = sol.ys[0][k + 1], sol.ys[1][k + 1]
             for p_columns, norms in corrections(system, solver, t, x, v, a.h).items():

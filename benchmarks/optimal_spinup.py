@@ -24,6 +24,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 from _machine import machine, report  # noqa: E402
 
+from nrrncf_jax.integrate import AdaptiveStepSize  # noqa: E402
 from nrrncf_jax.models.observe import tip_index  # noqa: E402
 from nrrncf_jax.reduction.pipeline import nr_rncf  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model  # noqa: E402
@@ -62,7 +63,8 @@ def main(argv=None):
     full_amp, full_tip, full_s = {}, {}, {}
     for name, prof in (("Eq. 43", res.baseline), ("optimised", res.profile)):
         t0 = time.perf_counter()
-        u = np.asarray(tip_response(full, prof, jnp.asarray(res.ts), tip=tip, rtol=1e-5, atol=1e-8))
+        u = np.asarray(tip_response(full, prof, jnp.asarray(res.ts), tip=tip,
+                                      controller=AdaptiveStepSize(1e-5, 1e-8)))
         full_s[name] = time.perf_counter() - t0
         full_tip[name], full_amp[name] = u, residual_amplitude(res.ts, u[:, 1], a.ts)
         _log(f"  {name}: residual max |uy| {full_amp[name]:.3e} m ({full_s[name]:.1f} s incl. compile)")

@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax import chi_rel, nr_rncf  # noqa: E402
-from nrrncf_jax.integrate import GeneralizedAlpha  # noqa: E402
+from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlpha  # noqa: E402
 from nrrncf_jax.integrate.simulate import simulate_timed  # noqa: E402
 from nrrncf_jax.scenarios import run_spinup  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model, default_elements, output_times  # noqa: E402
@@ -51,8 +51,8 @@ def main(argv=None):
     model = red.model
 
     def reduced(rtol):
-        sol, _, run_s = simulate_timed(model, jnp.asarray(ts), solver=GeneralizedAlpha(0.9), rtol=rtol,
-                                       atol=1e-2 * rtol, observe=lambda t, p, v: p)
+        sol, _, run_s = simulate_timed(model, GeneralizedAlpha(0.9), AdaptiveStepSize(rtol, 1e-2 * rtol),
+                                       jnp.asarray(ts), observe=lambda t, p, v: p)
         w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(sol.ys))
         return w, int(sol.num_steps), run_s
 

@@ -38,8 +38,8 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, os.path.dirname(__file__))
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 
-from nrrncf_jax.integrate import GeneralizedAlphaIndex3  # noqa: E402
-from nrrncf_jax.integrate.simulate import _prepare, _simulate, _simulate_arguments  # noqa: E402
+from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlpha, GeneralizedAlphaIndex3, Newton  # noqa: E402
+from nrrncf_jax.integrate.simulate import _prepare, _simulate  # noqa: E402
 
 VARIANTS = {
     "default": {},
@@ -50,37 +50,37 @@ VARIANTS = {
 
 
 def _case(name: str):
-    """``(description, model, t_end, simulate keywords)``."""
+    """``(description, model, t_end, (solver, controller, newton))``."""
     if name == "nr_pendulum":
         from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum
 
         model, _ = build_reduced_pendulum(PendulumSpec(elements=10), 5, "all")
         return ("NR-RNCF pendulum, 5 VMs + 15 MDs a beam", model, 2.0,
-                dict(solver=GeneralizedAlphaIndex3(0.9), rtol=1e-4, atol=1e-5, newton_tol=1e-2))
+                (GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(1e-4, 1e-5), Newton(1e-2)))
     if name == "ancf_pendulum":
         from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum
 
         return ("ANCF pendulum, 10 elements a beam", build_pendulum(PendulumSpec(elements=10)), 0.2,
-                dict(solver=GeneralizedAlphaIndex3(0.9), rtol=1e-4, atol=1e-5, newton_tol=1e-2))
+                (GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(1e-4, 1e-5), Newton(1e-2)))
     if name in ("rncf_spinup", "nr_spinup"):
         from nrrncf_jax.scenarios.spinup import build_spinup_model
 
         full = build_spinup_model("rncf", "paper", 4.0)
         if name == "rncf_spinup":
-            return "full RNCF spin-up, paper beam, ωs = 4 rad/s", full, 30.0, dict(rtol=1e-4, atol=1e-6)
+            return ("full RNCF spin-up, paper beam, ωs = 4 rad/s", full, 30.0,
+                    (GeneralizedAlpha(0.9), AdaptiveStepSize(1e-4, 1e-6), Newton()))
         from nrrncf_jax import nr_rncf
 
         reduced = nr_rncf(full, jnp.linspace(0.0, 30.0, 3001))
         return ("NR-RNCF spin-up of that beam (24 candidates, automatic selection)", reduced.model, 30.0,
-                dict(rtol=1e-4, atol=1e-6))
+                (GeneralizedAlpha(0.9), AdaptiveStepSize(1e-4, 1e-6), Newton()))
     raise ValueError(f"unknown case {name!r}")
 
 
 def run_case(name: str, repeats: int) -> list[str]:
-    description, model, t_end, kw = _case(name)
+    description, model, t_end, (solver, controller, newton) = _case(name)
     ts = jnp.linspace(0.0, t_end, int(round(t_end / 0.01)) + 1)
-    a, _ = _simulate_arguments(model, ts, kw)
-    args = _prepare(**a)
+    args = _prepare(model, solver, controller, ts, None, newton, 0.0, None, "forward", 200_000, False)
     lowered = _simulate.lower(*args)
     compiled, compile_s = {}, {}
     for label, opts in VARIANTS.items():
@@ -95,7 +95,7 @@ def run_case(name: str, repeats: int) -> list[str]:
             t0 = time.perf_counter()
             sol = jax.block_until_ready(compiled[label](*args))
             runs[label].append(time.perf_counter() - t0)
-            if int(sol.result) != 0:
+            if not bool(sol.succeeded):
                 raise RuntimeError(f"{name} under {label}: {sol.message}")
             stats[label] = (int(sol.num_steps), int(sol.num_newton))
     rows = []

@@ -1,10 +1,9 @@
 """A persistent XLA compilation cache across processes (opt-in; the CLI turns it on).
 
-Most of a cold NR-RNCF offline stage is compilation: on the 24-element paper beam at
-ωs = 40 rad/s its six compiled kernels take most of its 6-8 s on the 2-core CI CPU, while
-the same stage run again in the same process takes about 0.3 s. JAX can keep compiled
-executables on disk, so that a later process (a restarted notebook kernel, the next command)
-loads them instead of compiling (about 1.3 s); ``benchmarks/offline.py`` measures the cases.
+Most of a cold NR-RNCF offline stage is compilation: run again in the same process, the stage
+takes a small fraction of its first run's time. JAX can keep compiled executables on disk, so
+that a later process (a restarted notebook kernel, the next command) loads them instead of
+compiling; ``benchmarks/offline.py`` measures the cases (``benchmarks/results/offline.md``).
 
 The cache is JAX configuration, so the library never sets it on its own: ``compilation_cache()``
 is a context manager that sets it for the code inside and restores the previous settings on

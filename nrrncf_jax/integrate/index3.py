@@ -26,27 +26,21 @@ After Newton, v_{n+1} is projected onto C_q v = 0 in the metric of the iteration
 with S the step's iteration matrix: with modified Newton, the one Newton factored (at the
 predictor), its bodies' factors reused and only the m × m Schur complement of C_q(q_{n+1})
 refactored (``AugmentedFactor.with_constraints``; the constraint holds at q_{n+1} exactly, only
-the metric is the predictor's). Refactoring S at q_{n+1} instead cost a third of the full-order
-floating-frame pendulum's step (its bodies' blocks are 199 × 199) and 4-14 % of the reduced
-one's, and changed the reduced run by 0.015-0.021 % χ_rel (10 elements, rtol 1e-4 and 3e-4),
-well under its time-integration error. On the reduced pendulum (Euler parameters with
-|e|² = 1 a constraint, and joints on the bodies' nodal vectors) the oscillation was the step
-error's largest part: |a_{n+1} − a_n| of 400 m/s² on the frames' origins between consecutive
-0.2 ms steps. With the projection it took 2874 steps instead of 5276 at rtol 1e-4 (ρ∞ = 0.9),
-for the same χ_rel, and it runs with ρ∞ = 1, where it used to stall at its first steps. The
-inertial-frame ``MultibodySystem``'s velocities already satisfy C_q v = 0 to round-off (its run
-with the projection agreed with its run without to 7.5e-10 χ_rel, same steps), so it does not
-ask for the projection.
+the metric is the predictor's): refactoring S at q_{n+1} instead costs far more and changes the
+run by much less than its time-integration error. With Euler parameters (|e|² = 1 a
+constraint) and joints on the bodies' nodal vectors, the oscillation is the largest part of the
+step error estimate: without the projection the step-size control takes needlessly small steps,
+and with ρ∞ = 1, which leaves the oscillation undamped, stalls. The inertial-frame
+``MultibodySystem``'s velocities already satisfy C_q v = 0 to round-off, so it does not ask for
+the projection. (Figures: ``benchmarks/results/design_notes.md``.)
 
 Newton stops when its correction, or the error the correction leaves (estimated from the
 observed contraction, ``integrate.newton``), is below the tolerance, with full and modified
 Newton alike (the unconstrained ``GeneralizedAlpha`` uses the contraction test with full Newton
-only). Modified Newton contracts by 1e-3 to 1e-2 an iteration on the pendulums
-(``benchmarks/results/newton_contraction.md``), so its second correction usually leaves far less
-than the tolerance even when it is itself above it: on the reduced pendulum (81 DOFs, rtol 1e-4)
-9295 → 6852 Newton iterations over 0-2 s, 2969 → 2900 steps, run 3.6-3.7 → 3.1-3.4 s, χ_rel
-against the full model 1.127 → 1.129 % (the two runs 0.013 % apart, under the reduced model's
-own time-integration error of 0.035-0.039 %).
+only). Modified Newton contracts fast on this step (``benchmarks/results/newton_contraction.md``),
+so its second correction usually leaves far less than the tolerance even when it is itself above
+it: the test saves iterations, and changes a run by less than its own time-integration error
+(figures: ``benchmarks/results/design_notes.md``).
 
 The step error estimate and the Newton stopping test measure q alone: the multipliers carry a
 damped O(h) transient after every change of step size (which ρ∞ < 1 damps; index-3 constraints

@@ -520,10 +520,10 @@ def _simulate_batch(model_fn, params, solver, controller, ts, t0, newton: Newton
 
     Written out rather than ``vmap(simulate)``: a vmapped ``while_loop`` with a per-member
     condition selects between the new and the old carry of every member at every step, the
-    output buffers included (for 32 members with 3001 outputs, a copy and a select of 2.3 MB per
-    step, ~10 % of a sweep). Here the condition is one ``any``, and the lanes carry only the
-    small state: each step's output window is written straight into its member's row of the
-    results.
+    output buffers included: a copy and a select of every member's whole output buffer per step
+    (figures: ``benchmarks/results/sweep.md``). Here the condition is one ``any``, and the lanes
+    carry only the small state: each step's output window is written straight into its member's
+    row of the results.
 
     The queue: a lane holds the index of its member (``n`` once the queue is empty) and that
     member's parameters. Every member's initial carry is computed before the loop; when a lane's

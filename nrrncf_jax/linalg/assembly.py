@@ -34,9 +34,9 @@ SOLVERS = ("auto", "dense", "block_tridiagonal", "sparse")
 
 DENSE_MAX_DOFS = 1000
 """``"auto"`` factors matrices of fewer DOFs than this dense, larger ones sparse (when the mesh is
-not one chain): below it a dense factorisation costs tens of milliseconds and keeps what the
-sparse one lacks (batching under ``vmap``, accelerators, no host callbacks); above it the dense
-cost and its n² memory grow past SuperLU's (``benchmarks/results/sparse.md``). On a GPU, pass
+not one chain): below it a dense factorisation is cheap and keeps what the sparse one lacks
+(batching under ``vmap``, accelerators, no host callbacks); above it the dense cost and its n²
+memory grow past SuperLU's (figures: ``benchmarks/results/sparse.md``). On a GPU, pass
 ``solver="dense"`` to keep larger models there."""
 
 

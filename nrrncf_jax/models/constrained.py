@@ -50,6 +50,13 @@ class AbstractConstrainedModel(AbstractModel):
     for systems whose velocities leave the constraint's tangent space by O(h) (floating frames)."""
 
     # --- what a concrete system supplies -----------------------------------------------------------
+    @property
+    @abc.abstractmethod
+    def formulation(self) -> str:
+        """What the bodies are, for records and tables: ``"ancf"`` (inertial-frame nodal vectors),
+        ``"rncf"`` (floating frames, full-order deformation), ``"nr-rncf"`` (floating frames,
+        reduced deformation)."""
+
     @abc.abstractmethod
     def body_sizes(self) -> tuple[int, ...]:
         """Each body's number of coordinates, in the order of x."""

@@ -39,17 +39,16 @@ Choices, and why:
   (``FloatingBody.deformation_tangent``: the frame's angular acceleration, centrifugal and
   Coriolis terms on the deformation, and J_e's change with p against the body's forces). Those
   with respect to the frame's coordinates and the rest of the joints' Hessian are left to
-  Newton's iterations. With the p columns, modified Newton's corrections shrank by 2.4e-3 to
-  1.1e-2 an iteration on the full-order 10-element pendulum (frames on the left ends' tangents,
-  ``scenarios.pendulum.LEFT_END_FRAME``; without them 0.18 at t = 1 s, 9e-3 to 4.5e-2 at
-  t = 1.5 s) and by 7e-4 to 2.4e-3 on the reduced one (4.5e-3 to 9.7e-3 without), one step of
-  h = 0.2 ms from the states of the rtol 1e-4 runs at t = 1 and 1.5 s
-  (``benchmarks/results/newton_contraction.md``). The constrained
-  matrix is factored body by body with the joints' Schur complement (``factor_augmented``).
+  Newton's iterations. The p columns make modified Newton contract faster, on the full-order
+  pendulum (frames on the left ends' tangents, ``scenarios.pendulum.LEFT_END_FRAME``) and on the
+  reduced one (figures: ``benchmarks/results/newton_contraction.md``). The constrained matrix is
+  factored body by body with the joints' Schur complement (``factor_augmented``).
 - ``project_velocities``: the index-3 step (``integrate.GeneralizedAlphaIndex3``) projects ż onto
-  C_z ż = 0 after each step. Without it the frames' accelerations oscillated from step to step
-  (the O(h) velocity-constraint violation that index 3 leaves), which stalled the step size, and
-  with ρ∞ = 1 stopped the pendulum at its first steps.
+  C_z ż = 0 after each step. Without it the frames' accelerations oscillate from step to step
+  (the O(h) velocity-constraint violation that index 3 leaves), which the step-size control
+  reads as error: it takes needlessly small steps, and with ρ∞ = 1, which leaves the
+  oscillation undamped, stalls (``integrate.index3``; history:
+  ``benchmarks/results/design_notes.md``).
 """
 
 import equinox as eqx
@@ -239,9 +238,10 @@ class FloatingBody(eqx.Module):
             M_ep = [Σ D_k:(Â V_m)]_km,  M_pp = Σ Â_ia Â_ib H_ab = |e|⁴ Σ_a H_aa
 
         (Â(e) = |e|² A(e) with A orthogonal, so ÂᵀÂ = |e|⁴ I: M_pp is the constant ``H_trace``
-        scaled, a k × k product saved, which on the full-order body, k = 192, was the largest).
-        A few 3 × 3 × k (× k) products instead of J ᵀM J over every nodal vector (0.37 → 0.06 ms on
-        the pendulum's 10-element beams); equal to it to round-off (tests/test_floating.py)."""
+        scaled, a k × k product saved, the largest one on a full-order body). A few 3 × 3 × k
+        (× k) products instead of J ᵀM J over every nodal vector, which costs several times more
+        (figures: ``benchmarks/results/design_notes.md``); equal to it to round-off
+        (tests/test_floating.py)."""
         e, p = z[3:7], z[7:]
         A, D = _A_hat(e), _dA_hat(e)
         c = self.c0 + self.C @ p
@@ -276,11 +276,9 @@ class FloatingBody(eqx.Module):
         (their Hessian's part through J). Small against c_M M_z in most directions, but on the
         full-order body a frame rotation undone by its deformation coordinates moves only the
         few vectors that hold the frame (the left node's section vectors, or its tangent), whose
-        inertia is tiny: there these terms are not small. On the 10-element pendulum at t = 1 s
-        (h = 0.2 ms) modified Newton contracted by 0.18 an iteration without them and by
-        2.4e-3 to 4.2e-3 with them in the tangent frame, 0.55-0.74 against 9e-3 to 2.5e-2 in the
-        section vectors' frame (``benchmarks/results/newton_contraction.md``; at t = 1.5 s in the
-        section frame they did not help: 0.16-0.27 with them, 0.02-0.12 without)."""
+        inertia is tiny: there these terms are not small, and with them modified Newton contracts
+        much faster (figures, and the one state where they did not help:
+        ``benchmarks/results/newton_contraction.md``)."""
         e, p, de = z[3:7], z[7:], v[3:7]
         A, D = _A_hat(e), _dA_hat(e)
         A_dd = 2.0 * jnp.einsum("k,l,klij->ij", de, de, jnp.asarray(_B)) + jnp.einsum("k,kij->ij", a[3:7], D)
@@ -362,6 +360,12 @@ class FloatingFrameSystem(AbstractConstrainedModel):
         return len(self.bodies)
 
     @property
+    def formulation(self) -> str:
+        """``"rncf"`` when the bodies keep every nodal coordinate (``full_order_frame``), else
+        ``"nr-rncf"``."""
+        return "rncf" if all(b.tensors.full_order for b in self.bodies) else "nr-rncf"
+
+    @property
     def masses(self) -> tuple[Float[Array, "nv nv"], ...]:
         """Each body's mass matrix on its nodal vectors (the same for each component)."""
         return tuple(b.mass for b in self.bodies)
@@ -380,8 +384,8 @@ class FloatingFrameSystem(AbstractConstrainedModel):
     def _vmap(self, fn, *vectors):
         """``fn`` over the stacked bodies (``stacked`` not None), its outputs with the body as
         their leading axis. Equal bodies have equal coordinate counts, so a vector's parts are a
-        reshape of it, not slices and a stack: on the reduced pendulum 8 of the 132 operations
-        of a Newton iteration were those copies."""
+        reshape of it, not slices and a stack, whose copies are a noticeable share of a small
+        model's operations (figures: ``benchmarks/results/design_notes.md``)."""
         nb = len(self.bodies)
         return jax.vmap(fn)(self.stacked, *(jnp.stack(x) if isinstance(x, tuple) else x.reshape(nb, -1)
                                             for x in vectors))
@@ -462,8 +466,8 @@ class FloatingFrameSystem(AbstractConstrainedModel):
     def residual(self, t: Scalar, z, v, a) -> Float[Array, " n"]:
         """J ᵀ(M ẍ − Q) + ∂U/∂z, ẍ = J z̈ + J̇ ż, without the joints' forces (the stepper adds
         C_zᵀ λ). Through the nodal vectors, not the inertia invariants: written with the invariants
-        (a dozen 3 × 3 × k × k contractions) it took twice as long on the pendulum's beams (0.12
-        against 0.06 ms a body), XLA's time here being per operation."""
+        it takes a dozen 3 × 3 × k × k contractions, more operations, and XLA's time here is per
+        operation (figures: ``benchmarks/results/design_notes.md``)."""
         def body_residual(b, zb, vb, ab):
             F = b.nodal_force(zb, vb, ab, self.gravity)
             return b.generalized(zb, F).at[7:].add(b.tensors.force(zb[7:]))
@@ -517,9 +521,10 @@ class FloatingFrameSystem(AbstractConstrainedModel):
         ``iteration_matrix`` (with ``a``, the step's acceleration, plus the inertia terms' p
         columns, ``FloatingBody.deformation_tangent``), on its own, and the joints by the m × m Schur complement
         C_z S⁻¹ C_zᵀ (as ``MultibodySystem``'s ``"bodies"`` solver). The joints' Hessian c_K H_λ
-        is left out as well: of the order of the reactions times c_K. Three LU factorisations of
-        27 × 27 and one of 18 × 18 on the reduced pendulum, against one of 99 × 99: 9 % of its
-        arithmetic, and on a CPU a 99 × 99 LU costs more than the step's other operations."""
+        is left out as well: of the order of the reactions times c_K. Small LU factorisations of
+        the bodies' blocks instead of one of the whole matrix: a small fraction of its arithmetic,
+        and on a CPU one LU of the whole matrix can cost more than the rest of the step
+        (figures: ``benchmarks/results/design_notes.md``)."""
         B = self.constraint_jacobian(z)
         factors = tuple(DenseLU.factor(S_b) for S_b in self._blocks(z, 1.0, c_K, v, a, lam, c_C))
         return schur_factor(factors, self.offsets, self.body_sizes(), B)

@@ -17,6 +17,8 @@ step). The ANCF ``MultibodySystem`` keeps its bodies' banded structure instead; 
 the paper's full-order RNCF, the reference NR-RNCF reduces.
 """
 
+from typing import ClassVar
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -31,6 +33,9 @@ class NodalElasticForce(eqx.Module):
     through its elements (Eqs. 9-11): ``force(p) = F(q̂ + Ψp)[free]`` and its Jacobian
     ``K(q̂ + Ψp)[free, free]``, Ψ = I[:, free]. The same interface as
     ``reduction.ElasticTensors``, so a ``FloatingBody`` takes either."""
+
+    full_order: ClassVar[bool] = True
+    """The elements' own force on every free nodal coordinate (full-order RNCF)."""
 
     body: Body
     free: Int[Array, " k"]

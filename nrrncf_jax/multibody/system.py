@@ -8,10 +8,11 @@ with x the bodies' nodal vectors stacked (body by body), M the block-diagonal ma
 C the joints' equations and λ their multipliers (the reactions, see ``joints``). It runs with
 ``integrate.GeneralizedAlphaIndex3``, which carries λ in its state.
 
-Why inertial-frame bodies first: every body's motion lives in its nodal vectors, so the system is
-one vector space (no rotation parameters), its mass matrix is constant, and any joint is a
-quadratic polynomial in the nodal vectors. It is the full-order reference of a jointed system;
-floating-frame (RNCF) bodies with their reduced models are the next step (issue 17).
+Why inertial-frame bodies: every body's motion lives in its nodal vectors, so the system is one
+vector space (no rotation parameters), its mass matrix is constant, and any joint is a quadratic
+polynomial in the nodal vectors. It is the full-order reference of a jointed system; bodies in
+floating frames with reduced deformation (NR-RNCF) are ``multibody.floating``'s
+``FloatingFrameSystem``.
 
 The constrained iteration matrix is factored body by body with the joints' Schur complement
 when the bodies are beam chains (``factor_augmented``), else dense.
@@ -102,6 +103,10 @@ class MultibodySystem(AbstractConstrainedModel):
     def n_body_equations(self) -> int:
         """Inertial-frame bodies add no equations of their own."""
         return 0
+
+    @property
+    def formulation(self) -> str:
+        return "ancf"
 
     def split(self, x: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
         """The bodies' nodal vectors (one (n_vectors, 3) array a body) from the stacked x."""

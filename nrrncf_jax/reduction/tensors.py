@@ -9,6 +9,8 @@ Inertia under prescribed rotation about e (from Eq. 41, ``E = I ⊗ ẽ``):
 ``Ī = ΨᵀMΨ, Ḡ = ΨᵀMEΨ, C̄ = ΨᵀMEEΨ, ḡ = ΨᵀMEq°, c̄ = ΨᵀMEEq°``.
 """
 
+from typing import ClassVar
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -29,6 +31,9 @@ class ElasticTensors(eqx.Module):
     is memory-bound, so reading about a sixth (force) or a quarter (Jacobian) of the Km⁴ entries
     makes it that much cheaper (``benchmarks/results/design_notes.md``).
     """
+
+    full_order: ClassVar[bool] = False
+    """A reduced force (NR-RNCF), not the elements' own."""
 
     f: Float[Array, " km"]
     K: Float[Array, "km km"]

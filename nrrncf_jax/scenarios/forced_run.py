@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..integrate import GeneralizedAlpha
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..integrate.simulate import simulate_timed
 from ..models import RotatingFrameModel
 from .run_record import RunRecord
@@ -100,8 +100,8 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
         # through every step); its displacements are rebuilt afterwards.
         return q if red is not None else model.displacements(t, q)[pos]
 
-    sol, compile_s, run_s = simulate_timed(model, jnp.asarray(ts), solver=GeneralizedAlpha(rho_inf), rtol=rtol,
-                                           atol=atol, observe=observe, progress=progress, max_steps=max_steps)
+    sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
+                                           jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps)
     w = np.asarray(jax.device_get(sol.ys))
     if red is not None:
         w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p)[pos])(jnp.asarray(w)))

@@ -19,6 +19,7 @@ import numpy as np
 
 from .. import _validate
 from .._progress import note
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..integrate.simulate import simulate
 from ..models.damping import RayleighDamping
 from ..models.full_order import RotatingFrameModel
@@ -119,8 +120,8 @@ def identification_demo(*, elements: int = 6, omega_s: float = 10.0, T_s: float 
     w_ref = np.asarray(family.omega_ref) * np.sqrt(E_true / E0)
     body = preset.body(elements)
     truth = RotatingFrameModel(body, SpinUp(omega_s, T_s), damping=RayleighDamping.from_ratio(zeta, *w_ref))
-    clean = np.asarray(simulate(truth, jnp.asarray(ts), observe=tip_observer(truth), rtol=1e-6, atol=1e-9,
-                                progress=progress).ys)[:, 1]
+    clean = np.asarray(simulate(truth, GeneralizedAlpha(0.9), AdaptiveStepSize(1e-6, 1e-9), jnp.asarray(ts),
+                                observe=tip_observer(truth), progress=progress).ys)[:, 1]
     measurement_s = time.perf_counter() - t0
     note(progress, f"measurement {measurement_s:.1f} s")
     rng = np.random.default_rng(seed)
@@ -132,8 +133,8 @@ def identification_demo(*, elements: int = 6, omega_s: float = 10.0, T_s: float 
 
     def response(params):
         m = family(params)
-        return np.asarray(simulate(m, jnp.asarray(ts), observe=Observation(m, tip_deflection(m)), rtol=1e-6,
-                                   atol=1e-9).ys)
+        return np.asarray(simulate(m, GeneralizedAlpha(0.9), AdaptiveStepSize(1e-6, 1e-9), jnp.asarray(ts),
+                                   observe=Observation(m, tip_deflection(m))).ys)
 
     note(progress, "the reduced model's response at the start and at the identified parameters ...")
     return IdentificationDemo(

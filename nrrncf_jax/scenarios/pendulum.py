@@ -35,13 +35,13 @@ from ..bodies.mesh import straight_reference
 from ..elements.beam import mirror_even
 from ..elements.material import Material
 from ..elements.section import TubeSection
-from ..integrate import GeneralizedAlphaIndex3, simulate_batch
+from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate, simulate_batch
 from ..integrate.simulate import simulate_timed
+from ..models.constrained import AbstractConstrainedModel
 from ..multibody import (
     FloatingBody,
     FloatingFrameSystem,
     MultibodySystem,
-    NodalElasticForce,
     Revolute,
     full_floating_body,
     placed,
@@ -241,13 +241,12 @@ def mmi_per_body(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, n_mds: int
     beam's modal amplitudes η_b(t) (its coordinates in the VMs), W_b = ∫|η_i η_j| dt, and the
     ``n_mds`` pairs (i ≤ j) with the largest W_b,ij: one ``reduction.Selection`` a beam, for
     ``build_reduced_pendulum(body_pairs=[s.pairs for s in selections])``."""
-    from ..integrate import simulate
     from ..reduction import mmi_matrix, select
 
     positive_int("n_mds", n_mds)
     system, info = build_reduced_pendulum(spec, n_vms, pairs=[])
     ts = np.linspace(0.0, t_end, n_samples)
-    sol = simulate(system, ts, solver=GeneralizedAlphaIndex3(0.9), rtol=rtol, atol=rtol / 10,
+    sol = simulate(system, GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(rtol, rtol / 10), ts,
                    observe=lambda t, z, v: z)
     Z = np.asarray(sol.ys)
     out = []
@@ -356,19 +355,15 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
     return run
 
 
-def _chain(system) -> tuple[str, object, np.ndarray]:
-    """``(formulation, vectors, nodes)`` of a chain of C1 beams: ``"ancf"`` for a
-    ``MultibodySystem``, ``"rncf"`` or ``"nr-rncf"`` for a ``FloatingFrameSystem`` (full-order or
-    reduced bodies); ``vectors(x)`` its bodies' inertial nodal vectors; ``nodes`` the index of
-    each node's position vector in a body."""
-    if isinstance(system, FloatingFrameSystem):
-        formulation = "rncf" if isinstance(system.bodies[0].tensors, NodalElasticForce) else "nr-rncf"
-        n_vectors, vectors = system.bodies[0].body.n_vectors, system.nodal_vectors
-    elif isinstance(system, MultibodySystem):
-        formulation, n_vectors, vectors = "ancf", system.bodies[0].n_vectors, system.split
-    else:
-        raise ValueError(f"system must be a MultibodySystem or a FloatingFrameSystem, got {type(system).__name__}")
-    return formulation, vectors, _PER_NODE * np.arange(n_vectors // _PER_NODE) + _R
+def _chain(system: AbstractConstrainedModel) -> tuple[str, object, np.ndarray]:
+    """``(formulation, vectors, nodes)`` of a chain of C1 beams: the system's ``formulation``
+    (``"ancf"``, ``"rncf"`` or ``"nr-rncf"``), ``vectors(x)`` its bodies' inertial nodal vectors,
+    and ``nodes`` the index of each node's position vector in a body."""
+    if not isinstance(system, AbstractConstrainedModel):
+        raise ValueError(f"system must be a jointed system (MultibodySystem, FloatingFrameSystem), got "
+                         f"{type(system).__name__}")
+    n_vectors = system.vector_counts()[0]
+    return system.formulation, system.nodal_vectors, _PER_NODE * np.arange(n_vectors // _PER_NODE) + _R
 
 
 def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0, dt_out: float = 0.001,
@@ -396,9 +391,9 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
         return (jnp.stack([xb[nodes] for xb in xs]), jnp.stack([xb[_RX] for xb in xs]),
                 kinetic + system.potential_energy(x), kinetic, jnp.max(jnp.abs(system.constraints(x))))
 
-    sol, compile_s, run_s = simulate_timed(system, jnp.asarray(ts), solver=GeneralizedAlphaIndex3(rho_inf), rtol=rtol,
-                                           atol=atol, observe=observe, progress=progress, max_steps=max_steps,
-                                           newton_tol=newton_tol)
+    sol, compile_s, run_s = simulate_timed(system, GeneralizedAlphaIndex3(rho_inf), AdaptiveStepSize(rtol, atol),
+                                           jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps,
+                                           newton=Newton(newton_tol))
     pos, slopes, energy, kinetic, cmax = (np.asarray(y) for y in jax.device_get(sol.ys))
     return PendulumRun(formulation=formulation, dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes,
                        energy=energy, kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
@@ -455,8 +450,8 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
         return jnp.stack([xb[tip] for xb in vectors(x)])
 
     def batch(angles):
-        return simulate_batch(jax.tree_util.Partial(_released, system), angles, ts, width=lanes,
-                              solver=GeneralizedAlphaIndex3(rho_inf), rtol=rtol, atol=atol, newton_tol=newton_tol,
+        return simulate_batch(jax.tree_util.Partial(_released, system), angles, GeneralizedAlphaIndex3(rho_inf),
+                              AdaptiveStepSize(rtol, atol), ts, width=lanes, newton=Newton(newton_tol),
                               max_steps=max_steps, observe=observe, throw=False)
 
     args = jnp.asarray(angles)

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..integrate import GeneralizedAlpha
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..integrate.simulate import simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
@@ -193,8 +193,8 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
             out["w"] = w
         return out
 
-    sol, compile_s, run_s = simulate_timed(model, jnp.asarray(ts), solver=GeneralizedAlpha(rho_inf), rtol=rtol,
-                                           atol=atol, observe=observe, progress=progress, max_steps=max_steps)
+    sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
+                                           jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps)
     ys = jax.tree_util.tree_map(np.asarray, sol.ys)
     name = beam if isinstance(beam, str) else beam.name
     return SpinupResult(
@@ -232,8 +232,8 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
     red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs, spin_state=spin_state)
     model = red.model
-    sol, compile_s, run_s = simulate_timed(model, jnp.asarray(ts), solver=GeneralizedAlpha(rho_inf), rtol=rtol,
-                                           atol=atol, observe=_observe_p, progress=progress, max_steps=max_steps)
+    sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
+                                           jnp.asarray(ts), observe=_observe_p, progress=progress, max_steps=max_steps)
     # Observing p alone keeps the loop's carry small; displacements are rebuilt afterwards.
     w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(sol.ys))
     theta = np.asarray(jax.vmap(lambda t: full.motion(t)[0])(jnp.asarray(ts)))

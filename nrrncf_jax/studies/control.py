@@ -21,6 +21,7 @@ import optax
 
 from .. import _validate
 from .._types import Array, Float
+from ..integrate import AbstractSolver, AbstractStepSizeController, AdaptiveStepSize, ConstantStepSize, GeneralizedAlpha
 from ..integrate.simulate import simulate
 from ..models.observe import TipObserver, tip_observer
 from ..motion import SpinUp
@@ -28,12 +29,17 @@ from ..motion.profiles import FourierSpinUp
 from .optimize import lbfgs
 
 
-def tip_response(model, motion, ts, *, tip: int | None = None, observer: TipObserver | None = None,
-                 **simulate_kwargs) -> Float[Array, "nt 3"]:
+def tip_response(model, motion, ts, *, solver: AbstractSolver | None = None,
+                 controller: AbstractStepSizeController | None = None, tip: int | None = None,
+                 observer: TipObserver | None = None, **simulate_kwargs) -> Float[Array, "nt 3"]:
     """Tip displacement (rotating frame: ux axial, uy in-plane, uz) at ``ts`` of ``model`` driven
-    by ``motion`` (a ``motion.AbstractMotion``); keywords go to ``simulate``."""
+    by ``motion`` (a ``motion.AbstractMotion``), run with ``solver`` (default
+    ``GeneralizedAlpha(0.9)``) and ``controller`` (default ``AdaptiveStepSize()``); the other
+    keywords go to ``simulate``."""
     obs = tip_observer(model, tip) if observer is None else observer
-    return simulate(model.with_motion(motion), ts, observe=obs, **simulate_kwargs).ys
+    solver = GeneralizedAlpha(0.9) if solver is None else solver
+    controller = AdaptiveStepSize() if controller is None else controller
+    return simulate(model.with_motion(motion), solver, controller, ts, observe=obs, **simulate_kwargs).ys
 
 
 def residual_mean_square(ts, uy, T_s) -> Float[Array, ""]:
@@ -149,7 +155,10 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
     ts = jnp.asarray(ts_np)
     profile0 = FourierSpinUp(omega_s, T_s, n_terms=n_terms)
     obs = tip_observer(model, tip)
-    sim = dict(rtol=rtol, atol=atol, adaptive=adaptive, dt0=dt0, max_steps=max_steps)
+    if not adaptive and dt0 is None:
+        raise ValueError("adaptive=False needs a step size dt0")
+    controller = AdaptiveStepSize(rtol, atol, dt0=dt0) if adaptive else ConstantStepSize(dt0, rtol=rtol, atol=atol)
+    sim = dict(controller=controller, max_steps=max_steps)
     scale = float(omega_s) / float(T_s)
     adjoint = "reverse" if grad == "reverse" else "forward"
     # The model travels as an argument (not as constants baked into the compiled program).

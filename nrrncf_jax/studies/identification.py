@@ -19,7 +19,7 @@ import optax
 
 from .._progress import note
 from .._types import Array, Float
-from ..integrate.generalized_alpha import GeneralizedAlpha
+from ..integrate import AdaptiveStepSize, ConstantStepSize, GeneralizedAlpha, Newton
 from ..integrate.simulate import simulate
 from ..models.observe import beam_tip
 from ..reduction.reduced_model import ReducedRotatingModel
@@ -110,10 +110,14 @@ def misfit(family, params: dict, measurement: Measurement, *, observable: Callab
     data = jnp.asarray(measurement.values)
     observable = tip_deflection(family.template) if observable is None else observable
     model = family(params)
-    steps = {} if dt is None else {"dt0": dt}
-    y = simulate(model, ts, solver=GeneralizedAlpha(rho_inf), rtol=rtol, atol=atol, adjoint=adjoint,
-                 max_steps=max_steps, adaptive=adaptive, newton_tol=newton_tol,
-                 observe=Observation(model, observable), **steps).ys
+    if adaptive:
+        controller = AdaptiveStepSize(rtol, atol, dt0=dt)
+    elif dt is None:
+        raise ValueError("adaptive=False needs a step size dt")
+    else:
+        controller = ConstantStepSize(dt, rtol=rtol, atol=atol)
+    y = simulate(model, GeneralizedAlpha(rho_inf), controller, ts, adjoint=adjoint, max_steps=max_steps,
+                 newton=Newton(newton_tol), observe=Observation(model, observable)).ys
     return jnp.sum((y - data) ** 2) / jnp.sum(data**2)
 
 

@@ -48,7 +48,7 @@ import numpy as np
 from .. import _validate
 from .._progress import note
 from .._validate import parse_range as parse_range  # the CLI's grid syntax, checked without JAX
-from ..integrate import GeneralizedAlpha
+from ..integrate import AbstractStepSizeController, AdaptiveStepSize, ConstantStepSize, GeneralizedAlpha
 from ..integrate.results import SimulationError, result_message
 from ..integrate.simulate import simulate, simulate_batch, simulate_timed
 from ..models.observe import beam_tip, tip_observer
@@ -166,6 +166,12 @@ class _Config:
     scale_E: bool
     lanes: int
 
+    def controller(self) -> AbstractStepSizeController:
+        """The cases' step-size controller."""
+        if self.adaptive:
+            return AdaptiveStepSize(self.rtol, self.atol, dt0=self.dt0)
+        return ConstantStepSize(self.dt0, rtol=self.rtol, atol=self.atol)
+
 
 def _case(model, scale_E: bool, p):
     """The reduced model of one case from its parameters ``p = (ωs, Ts, E/E0)``."""
@@ -175,9 +181,8 @@ def _case(model, scale_E: bool, p):
 
 def _local_sweep(model, omega_s, T_s, E_scale, ts, cfg):
     """The cases of one device, in its queue's order: one batched loop of ``cfg.lanes`` lanes."""
-    sol = simulate_batch(jax.tree_util.Partial(_case, model, cfg.scale_E), (omega_s, T_s, E_scale), ts,
-                         width=cfg.lanes, solver=GeneralizedAlpha(cfg.rho_inf), rtol=cfg.rtol, atol=cfg.atol,
-                         dt0=cfg.dt0, adaptive=cfg.adaptive, max_steps=cfg.max_steps,
+    sol = simulate_batch(jax.tree_util.Partial(_case, model, cfg.scale_E), (omega_s, T_s, E_scale),
+                         GeneralizedAlpha(cfg.rho_inf), cfg.controller(), ts, width=cfg.lanes, max_steps=cfg.max_steps,
                          observe=tip_observer(model, cfg.tip), throw=False)
     return dict(tip=sol.ys, steps=sol.num_steps, rejected=sol.num_rejected, newton=sol.num_newton,
                 result=sol.code, t_final=sol.t_final)
@@ -540,9 +545,8 @@ def single_run(model_or_reduction, omega_s: float, T_s: float, E_scale: float = 
     ts = _validate.output_times(t_end, dt_out)
     m = case_model(model, jnp.asarray(float(omega_s)), jnp.asarray(float(T_s)),
                    1.0 if float(E_scale) == 1.0 else jnp.asarray(float(E_scale)))
-    kw = dict(solver=GeneralizedAlpha(float(rho_inf)), rtol=float(rtol), atol=float(atol),
-              dt0=1e-3 * float(ts[-1]) if dt is None else float(dt), adaptive=dt is None, max_steps=int(max_steps),
-              observe=tip_observer(m, beam_tip(model) if tip is None else int(tip)))
-    if timed:
-        return simulate_timed(m, jnp.asarray(ts), **kw)
-    return simulate(m, jnp.asarray(ts), **kw)
+    cfg = _Config(rtol=float(rtol), atol=float(atol), dt0=1e-3 * float(ts[-1]) if dt is None else float(dt),
+                  rho_inf=float(rho_inf), max_steps=int(max_steps), adaptive=dt is None, tip=0, scale_E=False, lanes=1)
+    args = (m, GeneralizedAlpha(float(rho_inf)), cfg.controller(), jnp.asarray(ts))
+    kw = dict(max_steps=int(max_steps), observe=tip_observer(m, beam_tip(model) if tip is None else int(tip)))
+    return simulate_timed(*args, **kw) if timed else simulate(*args, **kw)
