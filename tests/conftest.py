@@ -4,6 +4,7 @@ import functools
 import os
 
 import jax
+import numpy as np
 
 # The CLI's persistent compilation cache stays off in the (in-process) CLI tests.
 os.environ["NRRNCF_JAX_CACHE"] = "off"
@@ -14,8 +15,52 @@ import pytest  # noqa: E402
 
 from nrrncf_jax.scenarios import beam_preset  # noqa: E402
 
-# Tolerances, in one place (float64).
+# Tolerances, in one place (float64). Each is what round-off or the method's own error allows, not
+# what happens to pass on one machine.
+EPS = float(np.finfo(np.float64).eps)
+"""float64's machine epsilon: bounds that grow with a condition number or an operation count scale it."""
+
 RTOL_ROUNDOFF = 1e-10
+"""One quantity by two operation orders (jit against eager, batched against single, closed form
+against automatic differentiation) on a problem of condition below ~1e5: ε·cond ≲ 2e-11, ×5 spare."""
+
+RTOL_RESIDUAL = 1e-12
+"""A residual or force vector (an assembled row: a few hundred terms, each a short chain of
+operations on O(1) numbers) by two operation orders, relative to its largest entry: ~4500 ε."""
+
+FD_STEP = 1e-5
+"""Relative step of a central difference: truncation O(h²) ~ 1e-10 relative, round-off ε/h ~ 2e-11
+times the run's amplification of a perturbation."""
+
+RTOL_FD = 1e-5
+"""A derivative against its central difference at ``FD_STEP``: the quotient's round-off, ε|f|/h
+amplified by the simulation (measured up to 1e-7 relative), with a factor ~100 to spare."""
+
+STEP_COUNT_RTOL = 0.02
+"""Step or Newton counts of two runs of the same problem by different operation orders (batched and
+single, sparse and dense LU, two CPUs' arithmetics): a decision (accept or reject, one Newton
+correction more or less) whose test lies within round-off of its threshold can flip; a few of a
+run's ~100 decisions at most."""
+
+
+def counts_close(a, b) -> bool:
+    """Two runs' step (or Newton) counts within ``STEP_COUNT_RTOL``, and at least the 2 that one
+    flipped decision can change them by (a rejected step retried in two)."""
+    a, b = int(a), int(b)
+    return abs(a - b) <= max(2.0, STEP_COUNT_RTOL * max(a, b))
+
+
+def roundoff_tol(A) -> float:
+    """Two backward-stable solves of A x = b agree to about cond(A)·ε relative; a factor 100 for the
+    growth constants of the factorisations. The 1-norm condition number (an inverse, not an SVD)."""
+    return float(100 * np.linalg.cond(A, 1) * EPS)
+
+
+def step_flip_bound(rtol, atol, y) -> float:
+    """How far two adaptive runs of the same problem may lie apart where round-off flipped one
+    step decision (``STEP_COUNT_RTOL``): about one step's error tolerance, atol + rtol·max|y|. Runs
+    that must agree to round-off take fixed steps instead."""
+    return float(atol + rtol * np.abs(np.asarray(y)).max())
 
 
 @functools.cache

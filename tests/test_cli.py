@@ -55,6 +55,7 @@ def test_library_import_leaves_jax_config_alone():
     assert out.strip() == "False None"
 
 
+@pytest.mark.slow
 def test_compilation_cache_keeps_small_kernels(tmp_path):
     """compilation_cache stores even a tiny kernel, a new process finds it, and the block leaves
     JAX's cache setting as it found it."""
@@ -68,6 +69,7 @@ def test_compilation_cache_keeps_small_kernels(tmp_path):
     assert int(second.stdout) == int(first.stdout)  # a hit: nothing new written
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("cli_paper2_nr_rncf")
 def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):
     png = tmp_path / "tip.png"
@@ -87,6 +89,7 @@ def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("cli_paper2_nr_rncf")
 def test_modes_mmi_json(tmp_path, capsys):
     png = tmp_path / "mmi.png"
@@ -227,6 +230,17 @@ def test_every_option_has_help_and_shows_its_default():
         subs["spinup"].format_help().split())
     assert "seed of the noise" in subs["identify"].format_help()
     assert "0-based" in subs["modes"].format_help() and "0-based" in subs["spinup"].format_help()
+
+
+def test_progress_lines_go_to_stderr_only_when_asked(capsys):
+    """``_progress.note``: one line on standard error when enabled (standard output keeps a
+    command's results, e.g. its ``--json`` object), nothing otherwise."""
+    from nrrncf_jax._progress import note
+
+    note(True, "compiling")
+    note(False, "quiet")
+    out, err = capsys.readouterr()
+    assert out == "" and len(err.splitlines()) == 1 and "compiling" in err
 
 
 def test_beam_names_are_the_presets():

@@ -31,6 +31,7 @@ def test_ancf_refuses_damping():
         InertialFrameModel(paper_body(2), Stationary(), damping=RayleighDamping(0.1, 0.0))
 
 
+@pytest.mark.slow
 def test_free_decay_of_the_first_mode_matches_closed_form():
     """A small first-mode deflection decays as e^{−ζωt}(cos ω_d t + ζ/√(1−ζ²) sin ω_d t)."""
     zeta = 0.03

@@ -20,10 +20,12 @@ The three-beam pendulum's NR-RNCF against the full model is ``benchmarks/pendulu
 simulation of it costs about a minute of compilation).
 """
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import EPS, RTOL_RESIDUAL
 from scipy.spatial.transform import Rotation
 from scipy.special import ellipk
 
@@ -61,6 +63,7 @@ def _stiff_floating_beam(R0=(0.0, 0.0, 0.0), n_vms=2):
     return FloatingBody(beam, phi, elastic_tensors(beam, beam.q_hat, phi), R0=R0)
 
 
+@pytest.mark.slow
 def test_free_body_keeps_its_momenta_and_energy():
     """No joints, no gravity: thrown with a velocity and a spin about a skew axis, the body keeps
     its linear momentum p = Σ ϱ_β ẋ_β, its angular momentum H = Σ_αβ M_αβ x_α × ẋ_β (about the
@@ -97,6 +100,7 @@ def test_free_body_keeps_its_momenta_and_energy():
     assert np.all(drift[1e-8] < drift[1e-6] / 10.0), drift  # (100)^(2/3) = 21.5
 
 
+@pytest.mark.slow
 def test_stiff_floating_beam_has_the_compound_pendulums_exact_period():
     """Hinged at its left end (the frame's origin), released horizontally: T = 4 √(2L/3g) K(1/2),
     as the ANCF version in test_multibody. ρ∞ = 1, rtol 1e-6: 5.9e-5 (1.7e-4, 5.9e-5, 3.1e-5 at
@@ -116,6 +120,7 @@ def test_stiff_floating_beam_has_the_compound_pendulums_exact_period():
     assert len(crossings) == 2 and abs(T / T_exact - 1.0) < 2e-4, (T, T_exact)
 
 
+@pytest.mark.slow
 def test_hinged_floating_body_conserves_energy_with_rho_inf_1(monkeypatch):
     """The stiff beam on its ground hinge, released horizontally, ρ∞ = 1 (no numerical damping):
     with the velocity projection (``GeneralizedAlphaIndex3``, ``project_velocities``) it swings
@@ -142,6 +147,7 @@ def test_hinged_floating_body_conserves_energy_with_rho_inf_1(monkeypatch):
         run(1e-6)
 
 
+@pytest.mark.slow
 def test_mmi_per_body_ranks_each_beams_pairs():
     """Maximum modal interaction per beam of the pendulum (``scenarios.pendulum.mmi_per_body``,
     the paper's Fig. 16), 2 elements a beam, 3 VMs, 0-0.4 s: each beam's W is symmetric and
@@ -219,35 +225,28 @@ def test_full_order_frame_is_the_ancf_body_in_other_coordinates():
     body = full_floating_body(beam, free)
     floating = FloatingFrameSystem([body], [], gravity)
 
-    def ancf_residual(x, xdd):  # the inertial ANCF body's M ẍ + F(x) − ϱ g, on its nodal vectors
-        return (beam.mass_matrix() @ xdd + beam.elastic_force(x) - beam.varrho()[:, None] * jnp.asarray(gravity))
-
     assert floating.n_dof == 7 + beam.n_dof - 6
     rng = np.random.default_rng(2)
     e = rng.normal(size=4)
     z = jnp.asarray(np.concatenate([rng.normal(size=3), e / np.linalg.norm(e), 0.05 * rng.normal(size=body.k)]))
     v, a = (jnp.asarray(rng.normal(size=floating.n_dof)) for _ in range(2))
-    J = jax.jacfwd(body.nodal_vectors)(z).reshape(beam.n_dof, -1)
-    r = np.array(floating.residual(0.0, z, v, a))
-    mapped = np.array(J.T @ ancf_residual(body.nodal_vectors(z), body.acceleration(z, v, a)).reshape(-1))
+    tensors = elastic_tensors(beam, beam.q_hat, body.basis)
+    r, mapped, (F, K, U), (F3, K3, U3, gradU3) = (
+        jax.tree_util.tree_map(np.array, x)
+        for x in _full_frame_parts(floating, NodalElasticForce(beam, free), tensors, z, v, a, jnp.asarray(gravity)))
     e1 = np.asarray(z[3:7])
     for y in (r, mapped):
         y[3:7] -= (y[3:7] @ e1) * e1
-    np.testing.assert_allclose(r, mapped, rtol=0, atol=1e-12 * np.abs(mapped).max())
-    p = jnp.asarray(z[7:])
-    tensors = elastic_tensors(beam, beam.q_hat, body.basis)
-    F, K = NodalElasticForce(beam, free).force_and_jacobian(p)
-    F3, K3 = tensors.force_and_jacobian(p)
-    np.testing.assert_allclose(F, F3, rtol=0, atol=1e-12 * float(np.abs(F3).max()))
-    np.testing.assert_allclose(K, K3, rtol=0, atol=1e-12 * float(np.abs(K3).max()))
+    np.testing.assert_allclose(r, mapped, rtol=0, atol=RTOL_RESIDUAL * np.abs(mapped).max())
+    np.testing.assert_allclose(F, F3, rtol=0, atol=RTOL_RESIDUAL * float(np.abs(F3).max()))
+    np.testing.assert_allclose(K, K3, rtol=0, atol=RTOL_RESIDUAL * float(np.abs(K3).max()))
     # The strain energy: the cubic force's potential equals the elements' energy (quartic in q for
     # constant κ), and its gradient is the force. U ~ |κ| ε² with the Green strain ε = (|r_x|² − 1)/2
     # formed by cancellation: U carries a relative round-off of a few eps/|ε| (|p| ~ 0.05 here, so
     # |ε| ~ 0.05: ~1e-14; measured 3.5e-16); 1e-11 holds down to strains of ~1e-4.
-    U = float(NodalElasticForce(beam, free).energy(p))
     assert U > 0.0
-    np.testing.assert_allclose(float(tensors.energy(p)), U, rtol=1e-11)
-    np.testing.assert_allclose(jax.grad(tensors.energy)(p), F3, rtol=0, atol=1e-12 * float(np.abs(F3).max()))
+    np.testing.assert_allclose(U3, U, rtol=1e-11)
+    np.testing.assert_allclose(gradU3, F3, rtol=0, atol=1e-12 * float(np.abs(F3).max()))
     with pytest.raises(ValueError, match="mask of the body's 36"):
         full_floating_body(beam, free[:-1])
     with pytest.raises(ValueError, match="distinct coordinate indices"):
@@ -256,14 +255,27 @@ def test_full_order_frame_is_the_ancf_body_in_other_coordinates():
         FloatingBody(beam, body.basis, NodalElasticForce(beam, np.flatnonzero(free)[:-1]))
 
 
+@eqx.filter_jit
+def _full_frame_parts(floating, nodal, tensors, z, v, a, gravity):
+    """One compiled kernel (op by op the test took 20 s): the floating body's residual r_z and the
+    ANCF residual mapped, J ᵀ r_x(f(z), J z̈ + J̇ ż); the elements' force, its Jacobian and energy
+    at p = z[7:], and the same of the cubic tensors, with the gradient of their energy."""
+    body = floating.bodies[0]
+    beam = body.body
+    J = jax.jacfwd(body.nodal_vectors)(z).reshape(beam.n_dof, -1)
+    x, xdd = body.nodal_vectors(z), body.acceleration(z, v, a)
+    r_x = beam.mass_matrix() @ xdd + beam.elastic_force(x) - beam.varrho()[:, None] * gravity  # M ẍ + F(x) − ϱ g
+    p = z[7:]
+    return (floating.residual(0.0, z, v, a), J.T @ r_x.reshape(-1), (*nodal.force_and_jacobian(p), nodal.energy(p)),
+            (*tensors.force_and_jacobian(p), tensors.energy(p), jax.grad(tensors.energy)(p)))
+
+
 def test_closed_form_kinematics_are_the_maps_derivatives():
     """J, J z̈ + J̇ż, J ᵀF, the mass matrix from the inertia invariants, the inertia terms' derivatives
     with respect to p and ṗ (``deformation_tangent``), the joints' C_z and C_zᵀλ, written in closed
     form, against automatic differentiation of x = f(z) and C(f(z)) (and J ᵀM J), at a
     random state off the constraints (round-off); and the stacked (vmapped) evaluation of equal
     bodies against the loop over them."""
-    import equinox as eqx
-
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum
 
     system, _ = build_reduced_pendulum(PendulumSpec(elements=2), n_vms=2, pairs=[(0, 0)])
@@ -271,22 +283,27 @@ def test_closed_form_kinematics_are_the_maps_derivatives():
     rng = np.random.default_rng(1)
     z = system.reference() + 0.1 * rng.normal(size=system.n_dof)
     v, a = rng.normal(size=(2, system.n_dof))
+    F = rng.normal(size=(system.bodies[1].body.n_vectors, 3))
+    lam = rng.normal(size=system.n_constraints)
+    looped = eqx.tree_at(lambda s: s.stacked, system, None, is_leaf=lambda x: x is None)
+    got = jax.tree_util.tree_map(np.asarray, _kinematics(system, looped, *map(jnp.asarray, (z, v, a, F, lam))))
+    scale = float(np.abs(got["J"][1]).max())
+    for name, rel in (("J", 1e-14), ("acceleration", 1e-13), ("mass", 1e-13), ("deformation_tangent", 1e-13),
+                      ("residual", 1e-13), ("iteration_matrix", 1e-13)):
+        closed, exact = got[name]
+        np.testing.assert_allclose(closed, exact, rtol=0, atol=rel * float(np.abs(exact).max()), err_msg=name)
+    np.testing.assert_allclose(*got["generalized"], rtol=0, atol=1e-13 * scale)
+    np.testing.assert_allclose(*got["C_z"], rtol=0, atol=1e-14 * scale)
+    np.testing.assert_allclose(*got["C_z_lambda"], rtol=0, atol=1e-13 * scale * float(np.abs(lam).sum()))
+
+
+@eqx.filter_jit
+def _kinematics(system, looped, z, v, a, F, lam):
+    """Pairs (closed form, automatic differentiation) on the second body and the system, in one
+    compiled kernel (op by op the test took half a minute)."""
     body, zb, vb, ab = system.bodies[1], *(system.split(y)[1] for y in (z, v, a))
     J = jax.jacfwd(body.nodal_vectors)(zb)
-    scale = float(np.abs(J).max())
-    np.testing.assert_allclose(body.jacobian(zb), J, rtol=0, atol=1e-14 * scale)
     Jdv = jax.jvp(lambda y: jax.jvp(body.nodal_vectors, (y,), (vb,))[1], (zb,), (vb,))[1]
-    xdd = jnp.einsum("vik,k->vi", J, ab) + Jdv
-    np.testing.assert_allclose(body.acceleration(zb, vb, ab), xdd, rtol=0, atol=1e-13 * float(np.abs(xdd).max()))
-    M_z = jnp.einsum("vik,vw,wil->kl", J, body.mass, J)  # the inertia invariants' mass matrix against J ᵀM J
-    np.testing.assert_allclose(body.mass_matrix(zb), M_z, rtol=0, atol=1e-13 * float(np.abs(M_z).max()))
-    F = rng.normal(size=(body.body.n_vectors, 3))
-    np.testing.assert_allclose(body.generalized(zb, F), jnp.einsum("vik,vi->k", J, F), rtol=0, atol=1e-13 * scale)
-    np.testing.assert_allclose(system.constraint_jacobian(z), jax.jacfwd(system.constraints)(z), rtol=0,
-                               atol=1e-14 * scale)
-    lam = rng.normal(size=system.n_constraints)
-    np.testing.assert_allclose(system.constraint_force(z, lam), system.constraint_jacobian(z).T @ lam, rtol=0,
-                               atol=1e-13 * scale * float(np.abs(lam).sum()))
     # the inertia terms' p columns (deformation_tangent) against differentiating the body's residual
     c_C, c_K = 0.3, 0.02
 
@@ -294,15 +311,21 @@ def test_closed_form_kinematics_are_the_maps_derivatives():
         return body.generalized(y, body.nodal_force(y, w, ab, system.gravity))
 
     exact = c_K * jax.jacfwd(body_residual)(zb, vb)[:, 7:] + c_C * jax.jacfwd(body_residual, 1)(zb, vb)[:, 7:]
-    F = body.nodal_force(zb, vb, ab, system.gravity)
-    np.testing.assert_allclose(body.deformation_tangent(zb, vb, ab, F, c_C, c_K), exact, rtol=0,
-                               atol=1e-13 * float(np.abs(exact).max()))
-    looped = eqx.tree_at(lambda s: s.stacked, system, None, is_leaf=lambda x: x is None)
-    r = system.residual(0.0, z, v, a)
-    np.testing.assert_allclose(looped.residual(0.0, z, v, a), r, rtol=0, atol=1e-13 * float(np.abs(r).max()))
-    S = system.iteration_matrix(0.0, z, v, 1.0, 0.1, 1e-3)
-    np.testing.assert_allclose(looped.iteration_matrix(0.0, z, v, 1.0, 0.1, 1e-3), S, rtol=0,
-                               atol=1e-13 * float(np.abs(S).max()))
+    F_body = body.nodal_force(zb, vb, ab, system.gravity)
+    return {
+        "J": (body.jacobian(zb), J),
+        "acceleration": (body.acceleration(zb, vb, ab), jnp.einsum("vik,k->vi", J, ab) + Jdv),
+        # the inertia invariants' mass matrix against J ᵀM J
+        "mass": (body.mass_matrix(zb), jnp.einsum("vik,vw,wil->kl", J, body.mass, J)),
+        "generalized": (body.generalized(zb, F), jnp.einsum("vik,vi->k", J, F)),
+        "C_z": (system.constraint_jacobian(z), jax.jacfwd(system.constraints)(z)),
+        "C_z_lambda": (system.constraint_force(z, lam), system.constraint_jacobian(z).T @ lam),
+        "deformation_tangent": (body.deformation_tangent(zb, vb, ab, F_body, c_C, c_K), exact),
+        # the stacked (vmapped) evaluation against the loop over the bodies
+        "residual": (looped.residual(0.0, z, v, a), system.residual(0.0, z, v, a)),
+        "iteration_matrix": (looped.iteration_matrix(0.0, z, v, 1.0, 0.1, 1e-3),
+                             system.iteration_matrix(0.0, z, v, 1.0, 0.1, 1e-3)),
+    }
 
 
 def test_joint_modes_give_the_cantilevers_tip_flexibility():
@@ -353,7 +376,7 @@ def test_excited_modes_keep_the_plane_of_the_swing():
     phi = np.asarray(phi)
     # the lowest frequencies come in pairs (equal to the eigensolver's relative round-off in a low
     # eigenvalue, eps ‖A‖/λ): the kept modes are one of each of the first three pairs
-    eps = np.finfo(float).eps
+    eps = EPS
     np.testing.assert_allclose(omega[[0, 2, 4]], omega[[1, 3, 5]], rtol=100 * eps * (omega[-1] / omega[0]) ** 2)
     assert all(kept[i] in (2 * i, 2 * i + 1) for i in range(3))
     odd = ~mirror_even(spec.elements + 1, "z")
@@ -380,13 +403,12 @@ def test_excited_modes_keep_the_plane_of_the_swing():
         mirror_even(3, "x")
 
 
+@pytest.mark.slow
 def test_turned_systems_keep_their_joints_and_turn_every_vector():
     """``turned(axis, angle)``: the reference state of the floating-frame and of the ANCF pendulum
     (and of a body held by a fixed joint to the ground) is the old one rotated as a rigid whole,
     its joints still closed (round-off), the stacked bodies turned with the listed ones, and the
     frame's Euler parameters still normalised."""
-    import equinox as eqx
-
     from nrrncf_jax.motion import rotation_about
     from nrrncf_jax.multibody import Fixed, MultibodySystem
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum, build_reduced_pendulum
@@ -415,6 +437,7 @@ def test_turned_systems_keep_their_joints_and_turn_every_vector():
     assert eqx.tree_equal(floating.turned(axis, 0.0).bodies[0].body, floating.bodies[0].body)
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("release")
 def test_release_sweep_runs_each_angle_as_its_own_run():
     """A vmapped batch of pendulums released at θ and π − θ (``release_sweep``): the second is the

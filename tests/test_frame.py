@@ -49,6 +49,7 @@ def tip_deflection(frame_and_K, comp, P=1.0):
     return u.reshape(-1, 3)[frame.joint_vectors[2, 0], comp]
 
 
+@pytest.mark.xdist_group("l_frame")  # one worker builds the frame once (``l_frame`` is cached)
 @pytest.mark.parametrize("comp, closed_form", [
     # in plane, along x: member 2 bends and shears, member 1 takes the moment P L and tension P
     (0, L**3 / (3 * E * I) + L**3 / (E * I) + L / (E * A) + L / (G * A)),
@@ -62,6 +63,7 @@ def test_right_angle_frame_against_frame_theory(comp, closed_form):
     assert tip_deflection(frame, comp) / closed_form - 1 == pytest.approx(0.0, abs=SECTION_EFFECTS)
 
 
+@pytest.mark.slow
 def test_joint_converges_under_refinement():
     """With the default joint cell (a cube of the tube's diameter) the tip deflection converges as
     the members are refined (without it the joint would turn into a hinge, see

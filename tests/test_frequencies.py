@@ -51,6 +51,7 @@ def test_bending_and_axial_frequencies(n_el):
     assert ax[0] == pytest.approx(axial, rel=1e-8)
 
 
+@pytest.mark.slow
 def test_frequencies_converge_under_mesh_refinement():
     bending, axial = _closed_form()
     errs = []

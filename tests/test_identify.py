@@ -8,10 +8,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import paper_body
+from conftest import FD_STEP, RTOL_ROUNDOFF, paper_body
 
 from nrrncf_jax import RotatingFrameModel, SpinUp, nr_rncf
 from nrrncf_jax.cli import main
+from nrrncf_jax.integrate import GeneralizedAlpha
 from nrrncf_jax.integrate.simulate import simulate
 from nrrncf_jax.reduction.modes import eigh
 from nrrncf_jax.scenarios import beam_preset
@@ -60,6 +61,27 @@ def test_measurement_rejects_bad_arrays(bad, match):
 
 
 @pytest.mark.xdist_group("identify_straight")
+def test_misfit_is_the_relative_mean_square_misfit(straight):
+    """``misfit`` of ``family(params)`` against twice its own response y (the in-plane tip
+    deflection): Σ(y − 2y)² / Σ(2y)² = 1/4. Both runs are the same fixed-step simulation; where
+    round-off flipped a Newton count in a step, y would move by less than newton_tol (atol + rtol|y|),
+    ~1e-11 relative here (|y| up to 1.3 m), and the ratio by about twice that."""
+    full, red = straight
+    E0 = float(beam_preset("classic").E)
+    fam = SpinupFamily.from_reduction(red, E0)
+    params = {"E": 1.1 * E0, "zeta": 0.03, "omega_s": 6.3, "T_s": 1.4}
+    m = fam(params)
+    sim = dict(rtol=1e-6, atol=1e-9, newton_tol=1e-5, max_steps=100_000)
+    y = np.asarray(simulate(m, jnp.asarray(TS), solver=GeneralizedAlpha(0.9), adaptive=False, dt0=0.02,
+                            adjoint="forward", observe=Observation(m, tip_deflection(m)), **sim).ys)
+    assert np.abs(y).max() > 1e-2  # the beam deflects
+    value = float(misfit(fam, params, Measurement(TS, 2 * y), rho_inf=0.9, adaptive=False, dt=0.02, adjoint="forward",
+                         **sim))
+    assert value == pytest.approx(0.25, rel=1e-9)
+
+
+@pytest.mark.slow
+@pytest.mark.xdist_group("identify_straight")
 def test_fixed_basis_gradient_matches_finite_differences(straight):
     full, red = straight
     E0 = float(beam_preset("classic").E)
@@ -72,7 +94,7 @@ def test_fixed_basis_gradient_matches_finite_differences(straight):
 
     logx = {k: jnp.log(v) for k, v in x.items()}
     g = jax.grad(f)(logx)
-    eps = 1e-5
+    eps = FD_STEP
     for k in x:
         up = dict(logx, **{k: logx[k] + eps})
         dn = dict(logx, **{k: logx[k] - eps})
@@ -93,6 +115,7 @@ def test_offline_path_degenerate_tube_falls_back_with_a_warning(straight):
     assert bool(jnp.all(jnp.isfinite(jax.grad(lambda A: eigh(A)[1][0, 2])(D))))
 
 
+@pytest.mark.slow
 def test_offline_path_gradient(curved):
     """Path (b) through modes, MDs, deflation and tensors: E gives the fixed-basis gradient
     (the basis does not depend on E), ν changes the basis and matches finite differences."""
@@ -141,6 +164,30 @@ def test_identify_rejects_bad_input_before_tracing(straight):
         identify(fam, meas, {"E": -1.0})
     with pytest.raises(ValueError, match="shape"):
         identify(fam, Measurement(TS, np.ones((TS.size, 2))), {"E": E0})
+
+
+def test_demonstration_refuses_bad_input_and_summarises_its_result():
+    """``scenarios.identification``: bad settings stop ``identification_demo`` before any work,
+    and its summary gives the identified parameters' errors relative to the true ones (here of a
+    made-up result: E 72 against 70 GPa, ζ 0.021 against 0.02)."""
+    from nrrncf_jax.scenarios.identification import IdentificationDemo, identification_demo
+    from nrrncf_jax.studies.identification import IdentificationResult
+
+    for bad, match in ((dict(zeta=0.0), "zeta"), (dict(noise=-0.1), "noise"), (dict(elements=0), "elements"),
+                       (dict(omega_s=np.nan), "omega_s")):
+        with pytest.raises(ValueError, match=match):
+            identification_demo(**bad)
+    result = IdentificationResult(params={"E": 72e9, "zeta": 0.021}, initial={"E": 91e9, "zeta": 0.026},
+                                  loss_history=np.array([1.0, 0.1, 0.01]), adam_iterations=1, lbfgs_iterations=1,
+                                  loss_evaluations=4, wall_s=2.0, compile_s=1.0, gradient="fixed_basis")
+    ts = np.linspace(0.0, 1.0, 5)
+    demo = IdentificationDemo(ts=ts, clean=ts, measured=ts, initial_fit=ts, final_fit=ts, E_true=70e9,
+                              zeta_true=0.02, result=result, reduced_dofs=7, measurement_s=0.5, offline_s=0.25)
+    d = json.loads(demo.json())
+    assert d["E_rel_err"] == pytest.approx(72 / 70 - 1, rel=RTOL_ROUNDOFF)
+    assert d["zeta_rel_err"] == pytest.approx(0.05, rel=RTOL_ROUNDOFF)
+    assert (d["E_initial"], d["E_identified"], d["zeta_true"]) == (91e9, 72e9, 0.02)
+    assert d["iterations"] == 2 and d["final_loss"] == 0.01 and d["samples"] == 5 and d["reduced_dofs"] == 7
 
 
 @pytest.mark.slow

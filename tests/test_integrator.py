@@ -5,7 +5,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import paper_body
+from conftest import FD_STEP, RTOL_FD, counts_close, paper_body, step_flip_bound
 
 from nrrncf_jax import (
     GeneralizedAlpha,
@@ -63,6 +63,7 @@ def test_adaptive_error_falls_with_tolerance():
     assert steps[0] < steps[1] < steps[2]
 
 
+@pytest.mark.slow
 def test_energy_conserved_in_free_vibration_rho_inf_one():
     body = paper_body(4)
     model = RotatingFrameModel(body, Stationary())
@@ -78,7 +79,6 @@ def test_energy_conserved_in_free_vibration_rho_inf_one():
     h = 0.01
     sol = simulate(model, jnp.arange(1, 1001) * h, y0=(q0, v0), solver=GeneralizedAlpha(1.0), adaptive=False, dt0=h,
                    observe=energy, newton_tol=1e-8)
-    assert int(sol.num_steps) == 1000
     E0 = float(energy(0.0, q0, v0))
     drift = np.abs(np.asarray(sol.ys) - E0).max() / E0
     assert drift < 1e-6
@@ -109,33 +109,40 @@ def _oscillator_of(k):
     return LinearModel(M=[[1.0]], K=k, q0=[1.0], v0=[0.0])
 
 
+@pytest.mark.slow
 def test_batch_members_keep_their_own_steps_and_end():
     """``simulate_batch``: each member equals its own run (the stiffer ones take more steps and
     run on after the others are done, which must leave the finished ones untouched), also when
     members queue for fewer lanes; a member that needs more than ``max_steps`` alone ends with
-    result 1."""
+    result 1. The batched and the single programs round differently, which can flip a step decision
+    at its threshold: counts within ``counts_close``, solutions within ``step_flip_bound``."""
     ks = jnp.array([1.0, 4.0, 16.0]) * OMEGA**2
     ts = jnp.linspace(0.0, 2.0, 21)
-    kw = dict(observe=_first, rtol=1e-6, atol=1e-8)
+    rtol, atol = 1e-6, 1e-8
+    kw = dict(observe=_first, rtol=rtol, atol=atol)
     batch = simulate_batch(_oscillator_of, ks, ts, **kw)
     assert batch.ys.shape == (3, 21) and batch.num_steps.shape == (3,)
+    bound = step_flip_bound(rtol, atol, batch.ys)
     for i, k in enumerate(ks):
         one = simulate(_oscillator_of(k), ts, **kw)
-        np.testing.assert_allclose(batch.ys[i], one.ys, rtol=0, atol=1e-12)
-        assert int(batch.num_steps[i]) == int(one.num_steps) and int(batch.num_newton[i]) == int(one.num_newton)
+        np.testing.assert_allclose(batch.ys[i], one.ys, rtol=0, atol=bound)
+        assert counts_close(batch.num_steps[i], one.num_steps) and counts_close(batch.num_newton[i], one.num_newton)
     n = np.asarray(batch.num_steps + batch.num_rejected)
     assert n[0] < n[1] < n[2]
     # Fewer lanes than members: the third waits for a lane, and members end out of their order.
     for width in (1, 2):
         queued = simulate_batch(_oscillator_of, ks[::-1], ts, width=width, **kw)
-        np.testing.assert_allclose(queued.ys[::-1], batch.ys, rtol=0, atol=1e-12)
-        np.testing.assert_array_equal(np.asarray(queued.num_newton[::-1]), np.asarray(batch.num_newton))
+        np.testing.assert_allclose(queued.ys[::-1], batch.ys, rtol=0, atol=bound)
+        assert all(map(counts_close, np.asarray(queued.num_newton[::-1]), np.asarray(batch.num_newton)))
         np.testing.assert_array_equal(np.asarray(queued.t_final), 2.0)
-    cut = simulate_batch(_oscillator_of, ks, ts, max_steps=int(n[1]), throw=False, width=2, **kw)
+    # A cap between the second member's steps and the third's (far from both: the third needs
+    # about twice the second's), so that a flipped decision cannot move a member across it.
+    cap = int(n[1] + n[2]) // 2
+    cut = simulate_batch(_oscillator_of, ks, ts, max_steps=cap, throw=False, width=2, **kw)
     np.testing.assert_array_equal(np.asarray(cut.result), [0, 0, 1])
-    np.testing.assert_allclose(cut.ys[:2], batch.ys[:2], rtol=0, atol=0)
+    np.testing.assert_allclose(cut.ys[:2], batch.ys[:2], rtol=0, atol=bound)
     with pytest.raises(SimulationError, match="max_steps"):
-        simulate_batch(_oscillator_of, ks, ts, max_steps=int(n[1]), **kw)
+        simulate_batch(_oscillator_of, ks, ts, max_steps=cap, **kw)
     with pytest.raises(ValueError, match="leading batch axis"):
         simulate_batch(lambda p: _oscillator_of(p[0] + p[1]), (ks, ks[:2]), ts)
     with pytest.raises(ValueError, match="leading batch axis"):
@@ -146,6 +153,7 @@ def test_batch_members_keep_their_own_steps_and_end():
         simulate_batch(_oscillator_of, ks, ts, width=0)
 
 
+@pytest.mark.slow
 def test_solve_once_forms_agree_under_vmap_and_jvp():
     """The Newton solve: the CPU form (one LU of [A | b]) and the other platforms' (LU and
     lu_solve) against NumPy on matrices that need pivoting, batched (once and twice, and with an
@@ -207,6 +215,17 @@ def _tip_uy(t, q, v):
 
 TS_SPIN = np.linspace(0.0, 3.0, 31)
 
+MAX_SPLIT = 3
+"""Of the violent spin-up's 60 fixed steps, how many may be split (rejected and retried smaller).
+Its Newton wanders for up to 20 of its 50 corrections, along a path that another rounding changes;
+a step that ran out under some CPU's arithmetic would be split. Issue 13's divergence test split 42
+to 388 of them, which this still catches."""
+
+NEWTON_FLIP = 1e-8
+"""How far one Newton correction more or less in one step (a count flipped by round-off,
+``counts_close``) moves the loss: up to newton_tol (1e-3) in units of the step's tolerance, ~1e-8
+relative."""
+
 
 def _spin(omega_s, E_scale=1.0, adjoint="forward", T_s=6.0):
     """The paper's beam (2 elements) spun up to ``omega_s`` in ``T_s`` (Eq. 43), fixed steps of
@@ -230,6 +249,7 @@ def _loss(sol):
     return float(jnp.sum(sol.ys**2))
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("integrator_spin")
 def test_vmap_over_spin_rate_matches_separate_runs():
     omegas = jnp.array([1.0, 2.0, 3.0, 4.0])
@@ -244,31 +264,35 @@ def test_fixed_step_newton_converges_in_every_step():
     """Issue 13: a fixed-step run converges in every step, also where Newton wanders before it
     converges (the violent T_s = 2 spin-up). A divergence test that failed such steps split them,
     and which steps failed flipped with round-off: 121 steps (42 rejected) with AVX-512 arithmetic,
-    590-808 (278-388 rejected) with AVX2 or SSE, for spin rates 1e-5 apart."""
+    590-808 (278-388 rejected) with AVX2 or SSE, for spin rates 1e-5 apart. Measured now: 60 steps,
+    none rejected; bound ``MAX_SPLIT``."""
     for w in (3.0 - 1e-5, 3.0, 3.0 + 1e-5):
         sol = _spin(w, T_s=2.0)
-        assert (int(sol.num_steps), int(sol.num_rejected)) == (60, 0), float(w)
+        assert int(sol.num_rejected) <= MAX_SPLIT, (float(w), int(sol.num_steps), int(sol.num_rejected))
 
 
 @pytest.mark.xdist_group("integrator_spin")
 def test_fixed_step_run_is_a_smooth_function_of_its_parameters():
-    """Nine spin rates 1e-5 apart: the same Newton count in each, no rejected step, and a loss
-    whose second differences are those of a smooth function. A step whose Newton converged in
-    a different number of corrections moves the loss by up to newton_tol (1e-3) in units of the
-    step's tolerance, ~1e-8 relative, which the second-difference check sees (the smooth
-    function's second difference here is ~4e-6 of its first); a perturbation of 1e-12 (relative)
-    moves the loss by its derivative's share (~1e-12) and round-off amplified by the run (two
-    CPUs' arithmetics differ by ~2e-12, ``test_results_do_not_depend_on_the_cpu``): at most 1e-10."""
+    """Nine spin rates 1e-5 apart: about the same Newton count in each (measured: the same; a
+    count may flip by round-off, ``counts_close``), no rejected step (a split step would make the
+    run a step function of ω), and a loss whose second differences are those of a smooth function.
+    A step whose Newton converged in a different number of corrections moves the loss by up to
+    ``NEWTON_FLIP``, which the second-difference check sees (the smooth function's second
+    difference here is ~4e-6 of its first); a perturbation of 1e-12 (relative) moves the loss by
+    its derivative's share (~1e-12) and round-off amplified by the run (two CPUs' arithmetics
+    differ by ~2e-12, ``test_results_do_not_depend_on_the_cpu``): at most 1e-10, and
+    ``NEWTON_FLIP`` more for each flipped correction."""
     sols = [_spin(3.0 + k * 1e-5) for k in range(-4, 5)]
-    assert {int(s.num_newton) for s in sols} == {int(sols[4].num_newton)}
-    assert all(int(s.num_rejected) == 0 and int(s.num_steps) == 60 for s in sols)
+    assert all(counts_close(s.num_newton, sols[4].num_newton) for s in sols), [int(s.num_newton) for s in sols]
+    assert all(int(s.num_rejected) == 0 for s in sols)
     L = np.array([_loss(s) for s in sols])
     d1, d2 = np.diff(L), np.diff(L, 2)
     assert np.all(np.sign(d1) == np.sign(d1[0])) and np.abs(d2).max() < 1e-3 * np.abs(d1).min(), (d1, d2)
     for w, E in ((3.0 * (1 + 1e-12), 1.0), (3.0, 1.0 + 1e-12)):
         s = _spin(w, E)
-        assert int(s.num_newton) == int(sols[4].num_newton)
-        assert abs(_loss(s) - L[4]) <= 1e-10 * L[4]
+        flips = abs(int(s.num_newton) - int(sols[4].num_newton))
+        assert counts_close(s.num_newton, sols[4].num_newton)
+        assert abs(_loss(s) - L[4]) <= (1e-10 + flips * NEWTON_FLIP) * L[4]
 
 
 _OTHER_ARITHMETIC = """
@@ -284,12 +308,15 @@ print(json.dumps(dict(loss=float(jnp.sum(gentle.ys ** 2)), newton=int(gentle.num
 """
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("integrator_spin")
 def test_results_do_not_depend_on_the_cpu():
     """The same runs with another CPU's rounding: a subprocess limited to SSE4.2 (no FMA, no AVX),
     which rounds differently from the AVX2/AVX-512 code XLA emits for any x86-64 CPU of the last
-    decade. Newton counts equal, no rejected step, and the loss equal to what round-off allows
-    (measured: 2e-12 relative between SSE4.2 and AVX-512; bound 1e-10)."""
+    decade. Measured: the same Newton counts, no rejected step in the violent run, and the loss
+    2e-12 relative apart between SSE4.2 and AVX-512. Bounds: the Newton counts ``counts_close``,
+    at most ``MAX_SPLIT`` split steps, the loss within 1e-10 (``NEWTON_FLIP`` more for each
+    flipped correction)."""
     import json
     import os
     import subprocess
@@ -304,16 +331,18 @@ def test_results_do_not_depend_on_the_cpu():
     assert out.returncode == 0, out.stderr[-3000:]
     other = json.loads(out.stdout.strip().splitlines()[-1])
     here = _spin(3.0)
-    assert other["newton"] == int(here.num_newton)
-    assert other["violent"] == [60, 0]
-    assert abs(other["loss"] - _loss(here)) <= 1e-10 * _loss(here)
+    flips = abs(other["newton"] - int(here.num_newton))
+    assert counts_close(other["newton"], here.num_newton), (other["newton"], int(here.num_newton))
+    assert other["violent"][1] <= MAX_SPLIT, other["violent"]
+    assert abs(other["loss"] - _loss(here)) <= (1e-10 + flips * NEWTON_FLIP) * _loss(here)
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("integrator_spin")
 def test_reverse_gradient_matches_finite_differences():
     """jax.grad through the whole (fixed-step) simulation with respect to the spin rate ωs and
-    a stiffness scale (κ ∝ E), against central differences (step 1e-5 relative: truncation error
-    ~1e-10 relative, round-off ~1e-12/1e-5 = 1e-7 relative; agreement asked: 1e-5). The
+    a stiffness scale (κ ∝ E), against central differences (``FD_STEP`` relative: truncation error
+    ~1e-10 relative, round-off ~1e-12/1e-5 = 1e-7 relative; agreement asked: ``RTOL_FD``). The
     reverse-mode run's values equal the forward-mode run's: it adds only the tangent of the
     implicit Newton derivative."""
 
@@ -324,13 +353,14 @@ def test_reverse_gradient_matches_finite_differences():
     assert float(loss(x0)) == pytest.approx(float(loss(x0, "forward")), rel=1e-12)
     g = np.asarray(jax.grad(loss)(x0))
     for i in range(2):
-        eps = 1e-5 * float(x0[i])
+        eps = FD_STEP * float(x0[i])
         e = jnp.zeros(2).at[i].set(eps)
         fd = (float(loss(x0 + e)) - float(loss(x0 - e))) / (2 * eps)
-        assert g[i] == pytest.approx(fd, rel=1e-5)
+        assert g[i] == pytest.approx(fd, rel=RTOL_FD)
         assert abs(g[i]) > 0
 
 
+@pytest.mark.slow
 def test_reverse_gradient_with_adaptive_steps_matches_finite_differences():
     """Adaptive steps (rtol 1e-6): jax.grad against central differences at ±1e-5, where the step
     sequence does not change (same accepted and rejected counts). The gradient holds the step

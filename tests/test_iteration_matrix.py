@@ -56,7 +56,10 @@ def _jacobians_and_solves(m, t, q, v, a, b):
     return J, fac.solve(b), fac.solve(r), m.newton_update(t, q, v, a, C_M, C_C, C_K)
 
 
-@pytest.mark.parametrize("name", sorted(MODELS))
+SLOW = {"rncf-damped", "reduced-tensor"}  # damping's S: also test_damping; the tensor force: also test_reduction
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n for n in sorted(MODELS)])
 def test_iteration_matrix_matches_autodiff_of_the_residual(name):
     m = MODELS[name]
     rng = np.random.default_rng(0)
@@ -81,6 +84,7 @@ def test_iteration_matrix_matches_autodiff_of_the_residual(name):
     np.testing.assert_allclose(update, x_r, rtol=1e-7, atol=1e-9 * float(jnp.abs(x_r).max()))
 
 
+@pytest.mark.slow
 def test_cantilever_under_its_own_weight():
     """Static tip deflection δ = qL⁴/(8EI) with q = ρAg (Euler-Bernoulli), in the rotating frame
     at rest with gravity applied as Q = ϱ g (Eq. 12). At full gravity the paper's beam sags

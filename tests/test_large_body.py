@@ -34,8 +34,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
+from conftest import EPS, roundoff_tol
 from scipy.optimize import brentq
-from test_linalg import roundoff_tol
 
 from nrrncf_jax.bodies.body import Body, element_group, truss_body
 from nrrncf_jax.elements import Bar
@@ -47,7 +47,6 @@ H = 0.05  # bay length = section side [m]
 STIFF = 1e6  # section bars' stiffness over the bay bars'
 N_FULL, N_SMALL = 1666, 82  # bays: 20,004 and 996 DOFs
 C_M = 4e8  # the mass weight of the iteration matrix: a Newmark step (β = 1/4) of 0.1 ms, 1/(β Δt²)
-EPS = np.finfo(float).eps
 
 
 def box_truss_mesh(n_bays: int):
@@ -172,21 +171,14 @@ def axial_modes(body: Body, n_modes: int):
 
 def test_vmapped_build_equals_truss_body():
     """Six bays (72 bay bars, more than one chunk): the vmapped integrals of a large group are those
-    of the per-element path (``element_group`` on the first 64 bars), and ``box_truss_mesh`` lays
-    out the expected bars."""
-    nodes, bays, section = box_truss_mesh(1)
-    assert bays.shape == (12, 2) and section.shape == (12, 2)
-    nodes6, bays6, _ = box_truss_mesh(6)
+    of the per-element path (``element_group`` on the first 64 bars)."""
+    nodes6, bays6, _ = box_truss_mesh(6)  # 72 bay bars
     ref = truss_body(nodes6, bays6[:64], bay_bar()).groups[0]
     got = element_group(bay_bar(), nodes6, bays6)
     got = eqx.tree_at(lambda g: (g.kappa, g.M_e, g.varrho_e, g.m_e), got,
                       (got.kappa[:64], got.M_e[:64], got.varrho_e[:64], got.m_e[:64]))
     for name in ("kappa", "M_e", "varrho_e", "m_e"):
         np.testing.assert_allclose(getattr(got, name), getattr(ref, name), rtol=1e-14, err_msg=name)
-    lengths = np.linalg.norm(np.diff(nodes[bays], axis=1)[:, 0], axis=1)
-    np.testing.assert_allclose(np.sort(lengths), [H] * 4 + [np.sqrt(2) * H] * 8, rtol=1e-15)
-    body = box_truss(N_FULL)
-    assert body.n_dof == 20_004 and body.n_elements == 29_994 and not body.chain
 
 
 def test_small_copy_sparse_equals_dense():
@@ -213,6 +205,7 @@ def test_small_copy_sparse_equals_dense():
     np.testing.assert_allclose(x_sparse, x_dense, rtol=0, atol=tol)
 
 
+@pytest.mark.slow
 def test_20000_dof_sparse_solve():
     """20,004 DOFs, 29,994 bars (no dense matrix is formed). The sparse solve of K + c M:
 
@@ -227,6 +220,7 @@ def test_20000_dof_sparse_solve():
       (measured 1.7e-7), and 1e-6 of the tip displacement across (measured 7e-8: X-bracing is
       symmetric, nothing bends or twists)."""
     body = box_truss(N_FULL)
+    assert body.n_dof == 20_004 and body.n_elements == 29_994 and not body.chain
     n, free = body.n_dof, free_dofs(body)
     G = parts(body, 1.0, C_M)
     b = np.where(free, np.random.default_rng(1).normal(size=n), 0.0) * E * AREA / H
@@ -252,6 +246,7 @@ def test_20000_dof_sparse_solve():
     assert np.abs(u[:, :, 1:]).max() < 1e-6 * exact.max()
 
 
+@pytest.mark.slow
 def test_20000_dof_axial_modes_against_closed_form():
     """The first two axial modes of the 20,004-DOF boom by shift-invert ``sparse_modes``:
 
@@ -284,6 +279,7 @@ def test_20000_dof_axial_modes_against_closed_form():
     np.testing.assert_allclose(err, err_s * (N_SMALL / N_FULL) ** 2, rtol=0.05)
 
 
+@pytest.mark.slow
 def test_section_compliance_is_order_one_over_stiff():
     """The 1e-6 tolerance of the chain comparisons is the sections' O(1/STIFF) compliance: on the
     82-bay copy the first axial frequency's difference from the rigid-layer chain scales as

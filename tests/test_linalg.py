@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from conftest import RTOL_ROUNDOFF, roundoff_tol
 
 from nrrncf_jax.linalg import (
     CACHE_SIZE,
@@ -23,7 +24,6 @@ from nrrncf_jax.linalg import (
     sparse_modes,
 )
 
-EPS = np.finfo(float).eps
 SOLVERS = ("dense", "block_tridiagonal", "sparse")
 
 
@@ -55,12 +55,6 @@ def solve(parts, free, b, **kwargs):
     return np.asarray(f([jnp.asarray(G) for G, _ in parts], jnp.asarray(b)))
 
 
-def roundoff_tol(A):
-    """Backward-stable solvers agree to about cond(A)·eps (relative); a factor 100 for the
-    growth constants of the factorisations. The 1-norm condition number (an inverse, not an SVD)."""
-    return 100 * np.linalg.cond(A, 1) * EPS
-
-
 def test_solvers_agree_on_a_chain():
     m, nb = 3, 40
     Ge, dofs = chain_parts(nb, m)
@@ -86,6 +80,7 @@ def test_solvers_agree_on_a_chain():
     np.testing.assert_allclose(assemble_sparse([(Ge, dofs)], n, free).toarray(), A, rtol=0, atol=1e-14)
 
 
+@pytest.mark.slow
 def test_pivoted_lu_forms_agree_and_need_no_permutation_loop():
     """``DenseLU`` keeps (U, L⁻¹P): its CPU form (one getrf of [A | I]) and the other platforms'
     (the square LU and its permutation) agree with NumPy on a matrix whose first pivot comes from
@@ -213,10 +208,10 @@ def test_sparse_derivatives_match_dense():
 
     out = {s: jax.jit(lambda *a, s=s: jax.jvp(loss(s), a[:2], a[2:]))(jnp.asarray(Ge), b, dG, db)
            for s in ("dense", "sparse")}
-    np.testing.assert_allclose(out["sparse"], out["dense"], rtol=1e-10)
+    np.testing.assert_allclose(out["sparse"], out["dense"], rtol=RTOL_ROUNDOFF)
     grads = {s: jax.jit(jax.grad(loss(s), argnums=(0, 1)))(jnp.asarray(Ge), b) for s in ("dense", "sparse")}
     for g_sparse, g_dense in zip(grads["sparse"], grads["dense"]):
-        np.testing.assert_allclose(g_sparse, g_dense, rtol=1e-10, atol=1e-12 * np.abs(g_dense).max())
+        np.testing.assert_allclose(g_sparse, g_dense, rtol=RTOL_ROUNDOFF, atol=1e-12 * np.abs(g_dense).max())
     # The matrix derivative on the pattern: entries of constrained rows/columns get none.
     assert float(jnp.abs(grads["sparse"][0][0, :m]).max()) == 0.0
 
@@ -233,6 +228,7 @@ def rod_chain(n_el, L, EA, rhoA, tension):
     return np.broadcast_to(Ke, (n_el, 6, 6)), np.broadcast_to(Me, (n_el, 6, 6)), dofs
 
 
+@pytest.mark.slow
 def test_20000_dof_chain_sparse_solve_and_modes():
     """A fixed-free 3-D rod of 6,667 linear elements (20,004 DOFs): the sparse solve of an
     iteration matrix K + c M equals the dense (and block-tridiagonal) one on a 1,002-DOF copy
@@ -335,15 +331,18 @@ def test_bad_solver_choices_raise():
     jax.jit(pick)(dofs)
     # A chain that does not number its DOFs node by node: "auto" goes by size instead.
     assert choose_solver([(Ge, dofs[::-1])], n, chain_block=m) == "dense"
-    # The old form (one group, positional chain block) still works and equals the new one.
+    # "auto" is resolved once into a solver object, which factors as its name does.
+    from nrrncf_jax.linalg import BlockTridiagonal, Dense, linear_solver
+
+    assert linear_solver("auto", [(Ge, dofs)], n, chain_block=m) == BlockTridiagonal(m)
+    assert linear_solver("auto", [(Ge, dofs[::-1])], n, chain_block=m) == Dense()
     b = jnp.arange(n, dtype=float)
-    for block, cls in ((None, DenseLU), (m, BlockTridiagonalLU)):
-        old, x_old = jax.jit(lambda G, d, block=block: (lambda fac: (fac, fac.solve(b)))(
-            assemble_and_factor(G, d, free, block)))(Ge, dofs)
-        x_new = jax.jit(lambda G, block=block: assemble_and_factor(
-            [(G, dofs)], free, chain_block=block, solver="dense" if block is None else "auto").solve(b))(Ge)
-        assert isinstance(old, cls)
-        np.testing.assert_array_equal(x_old, x_new)
+    for solver, cls in ((Dense(), DenseLU), (BlockTridiagonal(m), BlockTridiagonalLU)):
+        fac, x_obj = jax.jit(lambda G, s=solver: (lambda f: (f, f.solve(b)))(s.factor([(G, dofs)], free)))(Ge)
+        name = "dense" if isinstance(solver, Dense) else "block_tridiagonal"
+        x_name = jax.jit(lambda G, s=name: assemble_and_factor([(G, dofs)], free, chain_block=m, solver=s).solve(b))(Ge)
+        assert isinstance(fac, cls)
+        np.testing.assert_array_equal(x_obj, x_name)  # the same operations, so the same bits
     assert isinstance(jax.jit(lambda G: assemble_and_factor([(G, dofs)], free, solver="sparse"))(Ge), SparseLU)
 
 

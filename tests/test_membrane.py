@@ -13,6 +13,7 @@ import os
 
 import numpy as np
 import pytest
+from conftest import EPS
 
 from nrrncf_jax.cli import main
 from nrrncf_jax.reduction import modal_derivatives
@@ -28,6 +29,8 @@ from nrrncf_jax.scenarios.membrane import (
 SMALL = MembraneSpec(rings=3, thickness=8e-3)
 
 
+# The tests of SMALL's modes share an xdist group: one worker builds the body and its modes once (cached).
+@pytest.mark.xdist_group("membrane_small")
 def test_mode_types_and_the_papers_basis():
     modes, types = membrane_modes(SMALL, 24)
     f = np.asarray(modes.omega) / (2 * np.pi)
@@ -50,6 +53,7 @@ def test_mode_types_and_the_papers_basis():
         paper_basis("sideways", SMALL, 24)
 
 
+@pytest.mark.xdist_group("membrane_small")
 def test_torsion_mode_and_its_modal_derivative_are_orthogonal():
     """The paper: the inner product of VM 19 and θ19,19 is below 1e-8. On a mesh with the disk's
     mirror symmetry it is zero in exact arithmetic: the torsion mode is odd under the mirror,
@@ -63,16 +67,17 @@ def test_torsion_mode_and_its_modal_derivative_are_orthogonal():
     phi = np.asarray(modes.phi)[:, k]
     cos = abs(phi @ theta) / (np.linalg.norm(phi) * np.linalg.norm(theta))
     K = np.asarray(m.body.stiffness_matrix(m.body.q_hat))[np.ix_(free, free)]
-    assert cos <= 10 * np.finfo(float).eps * np.linalg.cond(K), cos
+    assert cos <= 10 * EPS * np.linalg.cond(K), cos
     # The derivative of an in-plane mode is in-plane (bending is odd in w, so it cannot enter) up
     # to the out-of-plane round-off of the mode itself (its eigensolve: 8e-9 here), which the
     # solve for θ amplifies by at most the ratio of membrane to bending stiffness, 12 b²/h².
     oop = ~m.plate.in_plane()
-    leak = np.linalg.norm(phi[oop]) / np.linalg.norm(phi) + np.finfo(float).eps
+    leak = np.linalg.norm(phi[oop]) / np.linalg.norm(phi) + EPS
     ratio = 12 * (SMALL.radius / SMALL.thickness) ** 2
     assert np.linalg.norm(theta[oop]) / np.linalg.norm(theta) <= 10 * ratio * leak
 
 
+@pytest.mark.slow
 def test_in_plane_case_needs_the_modal_derivative():
     """Case A at ωs = 7 rad/s over the spin-up (0-2 s): VM 19 alone misses the centrifugal stretch
     (its radial rim deflection stays zero); with θ19,19 NR-RNCF follows the full model within the
@@ -89,6 +94,7 @@ def test_in_plane_case_needs_the_modal_derivative():
     assert np.abs(ref.rim[:, 2]).max() < 1e-9 * np.abs(ref.rim[:, 1]).max()  # no bending in case A
 
 
+@pytest.mark.slow
 def test_membrane_command(capsys, tmp_path):
     png, vtk = tmp_path / "rim.png", tmp_path / "vtk"
     code = main(["membrane", "--case", "bending-torsion", "--rings", "3", "--thickness", "8e-3", "--t-end", "0.2",
@@ -101,6 +107,13 @@ def test_membrane_command(capsys, tmp_path):
     assert d["dofs"] == 9 and len(d["vms"]) == 3 and len(d["mds"]) == 6
     assert png.stat().st_size > 0 and (vtk / "series.pvd").exists()
     assert len([f for f in os.listdir(vtk) if f.endswith(".vtu")]) == 11
-    for bad in (["--formulation", "rncf", "--reference", "rncf"], ["--vms", "30"], ["--mds", "none", "2,2"],
-                ["--rings", "1"], ["--omega", "-1"], ["--rtol", "0"]):
+
+
+def test_membrane_command_refuses_bad_input(capsys):
+    """Exit status 2 and one line naming the bad value, before any work."""
+    for bad, named in ((["--formulation", "rncf", "--reference", "rncf"], "--reference"),
+                       (["--vms", "30"], "mode index 30"), (["--mds", "none", "2,2"], "--mds"),
+                       (["--rings", "1"], "--rings"), (["--omega", "-1"], "--omega"), (["--rtol", "0"], "rtol")):
         assert main(["membrane", *bad]) == 2
+        err = capsys.readouterr().err
+        assert len(err.splitlines()) == 1 and named in err, (bad, err)

@@ -12,7 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import paper_body
+from conftest import RTOL_RESIDUAL, paper_body
 
 from nrrncf_jax import (
     ComposedMotion,
@@ -28,7 +28,7 @@ from nrrncf_jax.motion import skew
 from nrrncf_jax.reduction import vibration_modes
 from nrrncf_jax.reduction.reduced_model import reduce_rotating_model
 
-TOL = 1e-12
+TOL = RTOL_RESIDUAL
 
 # A spin-up about a tilted axis, carried by a precession about Z, on a hub that oscillates:
 # every term of Eq. 8 and the origin's acceleration are non-zero and change with time.
@@ -88,7 +88,7 @@ def beam():
     return paper_body(3)
 
 
-@pytest.mark.parametrize("t", [0.3, 1.7])
+@pytest.mark.parametrize("t", [0.3, pytest.param(1.7, marks=pytest.mark.slow)])
 def test_rncf_equals_ancf_under_general_motion(beam, t):
     """The same deformed, moving state seen from the reference frame (RNCF: q, q̇, q̈) and from the
     inertial frame (ANCF: Aq + r₀, A(q̇ + ω×q) + ṙ₀, A(q̈ + 2ω×q̇ + ω̇×q + ω×(ω×q)) + r̈₀, the
@@ -136,7 +136,7 @@ def _inertia_and_loads(model, t, q, v, a):
     return model.residual(t, q, v, a).reshape(-1, 3) - model.body.elastic_force(q.reshape(-1, 3))
 
 
-@pytest.mark.parametrize("force", ["tensor", "projected"])
+@pytest.mark.parametrize("force", [pytest.param("tensor", marks=pytest.mark.slow), "projected"])
 def test_reduced_residual_is_the_projected_full_residual_under_general_motion(beam, force):
     """THEORY §4: the reduced residual equals Ψᵀ r(q° + Ψp, Ψṗ, Ψp̈) of the full RNCF model, for a
     motion whose ω spans all three directions and whose origin accelerates."""
@@ -174,6 +174,7 @@ def test_fixed_axis_reduced_model_keeps_one_direction(beam):
     red.with_motion(SpinUp(5.0, 1.0))  # same axis: fine
 
 
+@pytest.mark.slow
 def test_axis_motion_frame_terms_equal_the_general_form():
     """A fixed-axis motion writes its frame terms with the rates factored out (θ̇ ẽ, θ̈ ẽ); they
     equal the general form (ω = θ̇ e) to round-off."""

@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import PENDULUM_RUN, RTOL_ROUNDOFF
+from conftest import EPS, PENDULUM_RUN, RTOL_ROUNDOFF
 from scipy.special import ellipk
 
 from nrrncf_jax.bodies.body import beam_body
@@ -275,5 +275,5 @@ def test_body_by_body_solver_matches_the_dense_one():
     z, A = both(x, F)
     A = np.asarray(A)
     z_dense = np.linalg.solve(A, np.asarray(F))
-    bound = 10 * np.finfo(float).eps * np.linalg.cond(A) * np.abs(z_dense).max()
+    bound = 10 * EPS * np.linalg.cond(A) * np.abs(z_dense).max()
     assert np.abs(np.asarray(z) - z_dense).max() < bound

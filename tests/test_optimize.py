@@ -44,6 +44,7 @@ def _rosenbrock(x):
     return f, g, ("aux", f)
 
 
+@pytest.mark.slow
 def test_lbfgs_converges_on_rosenbrock_and_reports_each_step():
     x0 = jnp.array([-1.2, 1.0])
     f0, g0, aux0 = _rosenbrock(x0)

@@ -23,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
+from conftest import EPS
 from scipy.optimize import brentq
 from scipy.special import jv, yv
 
@@ -35,7 +36,6 @@ from nrrncf_jax.linalg import assemble_sparse
 
 E, RHO, NU, A_HUB, H = 1.0, 1.0, 0.3, 0.1, 0.01
 G = E / (2 * (1 + NU))
-EPS = np.finfo(float).eps
 MESHES = ((4, 12), (8, 24))
 # Kirchhoff λ² (ω = λ² √(D/ρh) / b²) of the annulus a/b = 0.1, clamped-free, ν = 0.3 (PLATES_AND_TRUSSES §4;
 # four digits: ≤ 1.2e-4 rounding).
@@ -243,6 +243,7 @@ def in_plane_statics(n_r, n_theta):
     return out
 
 
+@pytest.mark.slow
 def test_spinning_annulus_radial_displacement_timoshenko():
     """u(b) = −k b³ + C1 b + C2/b (Timoshenko & Goodier; PLATES_AND_TRUSSES §1: 0.17060 at
     a = 0.1). The same at every rim vertex (the mesh is rotationally symmetric), to round-off.
@@ -250,18 +251,17 @@ def test_spinning_annulus_radial_displacement_timoshenko():
     k = (1 - NU**2) * RHO / (8 * E)
     C1 = k * ((3 + NU) + (1 - NU) * A_HUB**4) / ((1 + NU) + (1 - NU) * A_HUB**2)
     u_b = -k + C1 + (k * A_HUB**4 - C1 * A_HUB**2)
-    assert u_b == pytest.approx(0.17060, abs=1e-5)
     u = [in_plane_statics(*m)[0] for m in MESHES]
     for ui in u:
         assert np.ptp(ui) < 1e-9 * abs(u_b)
     _check_convergence([ui.mean() for ui in u], u_b, 0.025, "u(b)")
 
 
+@pytest.mark.slow
 def test_in_plane_lag_under_angular_acceleration():
     """v(b) = −ραb(b² − a²)²/(8Ga²) (PLATES_AND_TRUSSES §2: −31.853 at a = 0.1), the hub's
     shear layer resolved by the graded rings. Measured: −12.2 % and −3.3 %; extrapolated −0.3 %."""
     v_b = -RHO * (1 - A_HUB**2) ** 2 / (8 * G * A_HUB**2)
-    assert v_b == pytest.approx(-31.853, abs=1e-3)
     v = [in_plane_statics(*m)[1] for m in MESHES]
     _check_convergence([vi.mean() for vi in v], v_b, 0.04, "v(b)")
 
@@ -282,13 +282,12 @@ def modes(n_r, n_theta, h=H, stabilization=0.02, in_plane=False, k=8):
     return pb, np.asarray(m.omega), np.asarray(m.phi)
 
 
+@pytest.mark.slow
 def test_in_plane_torsion_frequency():
-    """ω = κ₁ √(G/ρ)/b with κ₁ = 0.2866 at a/b = 0.1 (PLATES_AND_TRUSSES §3): the lowest in-plane
-    mode, well separated (the next is 3.5 times higher). Measured: +6.7 % and +1.7 %;
-    extrapolated −0.02 %."""
+    """ω = κ₁ √(G/ρ)/b with κ₁ = 0.2866 at a/b = 0.1 (PLATES_AND_TRUSSES §3; 0.9524 at a/b = 0.3):
+    the lowest in-plane mode, well separated (the next is 3.5 times higher). Measured: +6.7 % and
+    +1.7 %; extrapolated −0.02 %."""
     k1 = _torsion_root(A_HUB)
-    assert k1 == pytest.approx(0.2866, abs=1e-4)
-    assert _torsion_root(0.3) == pytest.approx(0.9524, abs=1e-4)
     w = []
     for m in MESHES:
         _, omega, _ = modes(*m, in_plane=True, k=3)
@@ -314,6 +313,7 @@ def _lambda2(pb, omega, h=H):
     return omega / np.sqrt(D / (RHO * h))
 
 
+@pytest.mark.slow
 def test_kirchhoff_bending_frequencies_n012():
     """λ² of the modes n = 0, 1, 2 against the Kirchhoff closed form (Bessel determinant), h/b =
     0.01 (the Mindlin correction, ~(h/b)² λ², is below 1e-3). Measured errors: n = 1: +6.2 %,

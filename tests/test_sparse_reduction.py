@@ -15,14 +15,15 @@ Tolerances come from each result's own residual, not from what passes:
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
-from conftest import paper_body
+from conftest import EPS, paper_body
 
 from nrrncf_jax import RotatingFrameModel, Stationary
 from nrrncf_jax.linalg import DENSE_MAX_DOFS, assemble_sparse
 from nrrncf_jax.reduction import modal_derivatives, vibration_modes
 from nrrncf_jax.reduction.modes import _element_blocks
 
-EPS = np.finfo(float).eps
+# The tests share the 1026-DOF body (``large``): one worker builds it once.
+pytestmark = pytest.mark.xdist_group("sparse_large")
 
 
 @pytest.fixture(scope="module")

@@ -24,6 +24,7 @@ def test_spinup_driver_eq43():
         assert float(m(t)[2]) == pytest.approx((float(m(t + h)[1]) - float(m(t - h)[1])) / (2 * h), rel=1e-6)
 
 
+@pytest.mark.slow
 def test_ancf_and_rncf_agree_on_paper_beam_omega_4():
     kw = dict(beam="paper", omega_s=4.0, T_s=15.0, t_end=20.0, elements=6)
     rncf = run_spinup("rncf", **kw)
@@ -38,6 +39,7 @@ def test_ancf_and_rncf_agree_on_paper_beam_omega_4():
     assert ancf.steps > 3 * rncf.steps
 
 
+@pytest.mark.slow
 def test_rncf_matches_paper_peak_deflection_omega_40():
     """Paper Fig. 6(h): maximum transverse tip deflection 2.3309 m at ωs = 40 rad/s (24 elements)."""
     r = run_spinup("rncf", "paper", 40.0, T_s=15.0, t_end=16.0, elements=24)

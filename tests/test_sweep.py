@@ -1,8 +1,9 @@
 """Batched spin-up sweeps: the vmapped sweep against single runs, the sharded sweep against the
 unsharded one (4 forced host devices, in a subprocess), input errors before tracing, the CLI.
 
-One tiny basis (2 elements, 4 candidate modes) and one grid serve every test, and the CLI test
-asks for the same settings, so it reuses the code compiled for the library tests.
+One tiny basis (2 elements, 4 candidate modes) and one grid serve every sweep, and the CLI test
+asks for the same settings, so it reuses the code compiled for the library tests. The sweeps are in
+the slow tier (the basis and the compiled sweep take ~15 s); the input checks are not.
 """
 
 import json
@@ -16,6 +17,7 @@ import equinox as eqx
 import jax
 import numpy as np
 import pytest
+from conftest import paper_body
 
 from nrrncf_jax.cli import main
 from nrrncf_jax.scenarios.spinup import sweep_reduction
@@ -52,6 +54,7 @@ def res(red, grid):
     return spinup_sweep(red, grid, t_end=T_END, dt_out=DT_OUT)
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("sweep_basis")
 def test_vmapped_sweep_equals_single_runs(red, grid, res):
     assert grid.shape == (3, 1, 2) and res.cases == 6 and res.tip.shape == (6, res.ts.size, 3)
@@ -95,6 +98,7 @@ _SUBPROCESS = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("sweep_basis")
 def test_sharded_sweep_equals_unsharded_on_4_host_devices(red, tmp_path):
     path = tmp_path / "model.pkl"
@@ -118,15 +122,9 @@ def test_sharded_sweep_equals_unsharded_on_4_host_devices(red, tmp_path):
     assert d["peak_diff"] <= 1e-11 * d["scale"], d
 
 
-@pytest.mark.xdist_group("sweep_basis")
-def test_bad_input_raises_before_tracing(red, grid, monkeypatch):
-    import nrrncf_jax.studies.sweep as sweep_mod
-
-    class NoTrace:
-        def lower(self, *a, **k):
-            raise AssertionError("traced before the input was checked")
-
-    monkeypatch.setattr(sweep_mod, "_sweep_kernel", NoTrace())
+def test_grid_and_ranges_refuse_bad_input():
+    """``sweep_grid``, ``SweepGrid`` and ``parse_range`` (the ``--omega`` syntax ``start:stop:count``
+    or a list) refuse bad values naming them; good ones give the grid's values."""
     for kwargs, match in [
         (dict(omega_s=[]), "empty"),
         (dict(omega_s=[2.0, -1.0]), "omega_s"),
@@ -145,6 +143,27 @@ def test_bad_input_raises_before_tracing(red, grid, monkeypatch):
         parse_range("2:40:0", "--omega")
     np.testing.assert_allclose(parse_range("2:40:64"), np.linspace(2, 40, 64))
     np.testing.assert_allclose(parse_range("4, 10,20"), [4, 10, 20])
+    grid = sweep_grid(OMEGA, TS, E_SCALE)
+    assert grid.shape == (3, 1, 2) and grid.cases == 6
+    np.testing.assert_array_equal(grid.omega_s, np.repeat(OMEGA, 2))
+    np.testing.assert_array_equal(grid.E_scale, np.tile(E_SCALE, 3))
+
+
+def test_bad_input_raises_before_tracing(monkeypatch):
+    """``spinup_sweep`` checks its input before it traces anything, on a reduced model of the
+    paper's beam (2 elements, its first 2 modes: nothing runs)."""
+    import nrrncf_jax.studies.sweep as sweep_mod
+    from nrrncf_jax import RotatingFrameModel, SpinUp, reduce_rotating_model, vibration_modes
+
+    full = RotatingFrameModel(paper_body(ELEMENTS), SpinUp(4.0, TS))
+    red = reduce_rotating_model(full, vibration_modes(full.body, full.free_mask(), 2).phi)
+    grid = sweep_grid(OMEGA, TS, E_SCALE)
+
+    class NoTrace:
+        def lower(self, *a, **k):
+            raise AssertionError("traced before the input was checked")
+
+    monkeypatch.setattr(sweep_mod, "_sweep_kernel", NoTrace())
     for kwargs, match in [
         (dict(t_end=0.0), "t_end"),
         (dict(t_end=-1.0), "t_end"),
@@ -173,6 +192,7 @@ def test_schedule_sorts_pads_and_balances():
     assert schedule(cost, 1).tolist() == [0, 2, 4, 3, 1]
 
 
+@pytest.mark.slow
 @pytest.mark.xdist_group("sweep_basis")
 def test_cli_sweep_json_and_errors(res, tmp_path, capsys):
     png = tmp_path / "sweep.png"

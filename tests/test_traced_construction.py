@@ -37,6 +37,7 @@ def _tip(model):
     return lambda t, q, v: model.displacements(t, q)[tip]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["rncf", "ancf"])
 def test_full_order_model_built_in_jit_and_vmap(body, kind):
     """The issue's example: a spin-up simulated from a traced spin rate, under jit and vmap; the
@@ -53,6 +54,7 @@ def test_full_order_model_built_in_jit_and_vmap(body, kind):
     np.testing.assert_allclose(batch[0], eager, rtol=RTOL_ROUNDOFF, atol=RTOL_ROUNDOFF)
 
 
+@pytest.mark.slow
 def test_body_built_from_traced_youngs_modulus():
     """A body (element integrals) and its model built from a traced E: jit, grad (against a
     central difference; the residual is smooth in E) and vmap."""
@@ -95,6 +97,7 @@ def pendulum_parts():
     return ancf, floating
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which", ["ancf", "floating"])
 def test_multibody_systems_built_in_jit_grad_vmap(pendulum_parts, which):
     """Jointed systems (inertial-frame ANCF bodies; reduced bodies in floating frames) built from
