@@ -10,6 +10,7 @@ from conftest import EPS, RTOL_ROUNDOFF, paper_body
 from nrrncf_jax import Loads, RotatingFrameModel, Stationary, linalg, static_equilibrium
 from nrrncf_jax.bodies.body import Body, element_group, truss_body
 from nrrncf_jax.elements import Bar
+from nrrncf_jax.integrate import ConstantStepSize, GeneralizedAlpha, Newton
 
 E, RHO, AREA = 70e9, 2700.0, 1e-4
 
@@ -175,8 +176,9 @@ def test_sparse_solver_inside_the_integrator_equals_dense():
     for solver in ("dense", "sparse"):
         m = RotatingFrameModel(body, Stationary(), loads=loads, clamped=np.arange(n), solver=solver)
         assert isinstance(m.solver, {"dense": linalg.Dense, "sparse": linalg.Sparse}[solver])
-        runs[solver] = simulate(m, jnp.linspace(0.0, 2e-3, 5), adaptive=False, dt0=5e-5, newton_tol=1e-8,
-                                rtol=1e-4, atol=1e-6, observe=lambda t, q, v: q.reshape(-1, 3)[n, 1])
+        runs[solver] = simulate(m, GeneralizedAlpha(0.9), ConstantStepSize(5e-5, rtol=1e-4, atol=1e-6),
+                                jnp.linspace(0.0, 2e-3, 5), newton=Newton(1e-8),
+                                observe=lambda t, q, v: q.reshape(-1, 3)[n, 1])
         assert int(runs[solver].num_rejected) == 0  # Newton converged in every step
     np.testing.assert_allclose(runs["sparse"].ys, runs["dense"].ys, rtol=0, atol=1e-10 * h)
     assert float(runs["dense"].ys[-1]) < h  # it moved

@@ -10,6 +10,7 @@ import pytest
 from conftest import RTOL_FD, RTOL_ROUNDOFF, paper_body
 
 from nrrncf_jax import RotatingFrameModel, SpinUp, reduce_rotating_model, vibration_modes
+from nrrncf_jax.integrate import ConstantStepSize, Newton
 from nrrncf_jax.models.observe import tip_index, tip_observer
 from nrrncf_jax.motion.profiles import FourierSpinUp
 from nrrncf_jax.studies.control import optimal_spinup, residual_amplitude, residual_mean_square, tip_response
@@ -17,7 +18,7 @@ from nrrncf_jax.studies.control import optimal_spinup, residual_amplitude, resid
 OMEGA_S, T_S, T_END = 1.0, 3.0, 5.0  # a short manoeuvre; still tip deflections of ~0.8 m
 FIXED = dict(adaptive=False, dt0=0.02)  # fixed steps: finite differences must not see step choices
 # ... and Newton converged far below the finite-difference step (rtol/atol only scale its test)
-TIGHT = dict(FIXED, newton="full", rtol=1e-10, atol=1e-12)
+TIGHT = dict(controller=ConstantStepSize(0.02, rtol=1e-10, atol=1e-12), newton=Newton(kind="full"))
 
 
 def _random_profile(seed, n=3, omega_s=OMEGA_S, T_s=T_S, scale=1.0):

@@ -7,7 +7,7 @@ import pytest
 from conftest import RTOL_ROUNDOFF, paper_body
 
 from nrrncf_jax import RayleighDamping, RotatingFrameModel, SpinUp, Stationary, simulate
-from nrrncf_jax.integrate import GeneralizedAlpha
+from nrrncf_jax.integrate import ConstantStepSize, GeneralizedAlpha
 from nrrncf_jax.models import InertialFrameModel
 from nrrncf_jax.reduction import reduce_rotating_model, vibration_modes
 
@@ -46,7 +46,7 @@ def test_free_decay_of_the_first_mode_matches_closed_form():
     M = jnp.kron(model.M, jnp.eye(3))
     T = 2 * np.pi / w1
     ts = jnp.linspace(0.0, 3 * T, 61)
-    sol = simulate(model, ts, y0=(q0, jnp.zeros_like(q0)), solver=GeneralizedAlpha(1.0), adaptive=False, dt0=T / 400,
+    sol = simulate(model, GeneralizedAlpha(1.0), ConstantStepSize(T / 400), ts, y0=(q0, jnp.zeros_like(q0)),
                    observe=lambda t, q, v: phi @ (M @ (q - body.q_hat.reshape(-1))))
     wd = w1 * np.sqrt(1 - zeta**2)
     t = np.asarray(ts)

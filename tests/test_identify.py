@@ -12,7 +12,7 @@ from conftest import FD_STEP, RTOL_ROUNDOFF, paper_body
 
 from nrrncf_jax import RotatingFrameModel, SpinUp, nr_rncf
 from nrrncf_jax.cli import main
-from nrrncf_jax.integrate import GeneralizedAlpha
+from nrrncf_jax.integrate import ConstantStepSize, GeneralizedAlpha, Newton
 from nrrncf_jax.integrate.simulate import simulate
 from nrrncf_jax.reduction.modes import eigh
 from nrrncf_jax.scenarios import beam_preset
@@ -44,7 +44,8 @@ def curved():
 def _measurement(family, params):
     """A synthetic record of ``family(params)`` plus a small deterministic disturbance."""
     m = family(params)
-    ys = simulate(m, jnp.asarray(TS), observe=Observation(m, tip_deflection(m)), adaptive=False, dt0=0.02).ys
+    ys = simulate(m, GeneralizedAlpha(0.9), ConstantStepSize(0.02), jnp.asarray(TS),
+                  observe=Observation(m, tip_deflection(m))).ys
     return Measurement(TS, np.asarray(ys) + 1e-3 * np.sin(7 * TS))
 
 
@@ -72,8 +73,9 @@ def test_misfit_is_the_relative_mean_square_misfit(straight):
     params = {"E": 1.1 * E0, "zeta": 0.03, "omega_s": 6.3, "T_s": 1.4}
     m = fam(params)
     sim = dict(rtol=1e-6, atol=1e-9, newton_tol=1e-5, max_steps=100_000)
-    y = np.asarray(simulate(m, jnp.asarray(TS), solver=GeneralizedAlpha(0.9), adaptive=False, dt0=0.02,
-                            adjoint="forward", observe=Observation(m, tip_deflection(m)), **sim).ys)
+    y = np.asarray(simulate(m, GeneralizedAlpha(0.9), ConstantStepSize(0.02, rtol=1e-6, atol=1e-9), jnp.asarray(TS),
+                            adjoint="forward", observe=Observation(m, tip_deflection(m)), newton=Newton(1e-5),
+                            max_steps=100_000).ys)
     assert np.abs(y).max() > 1e-2  # the beam deflects
     value = float(misfit(fam, params, Measurement(TS, 2 * y), rho_inf=0.9, adaptive=False, dt=0.02, adjoint="forward",
                          **sim))

@@ -8,10 +8,14 @@ import pytest
 from conftest import FD_STEP, RTOL_FD, counts_close, paper_body, step_flip_bound
 
 from nrrncf_jax import (
+    AdaptiveStepSize,
+    ConstantStepSize,
     GeneralizedAlpha,
     LinearModel,
+    Newton,
     RotatingFrameModel,
     SimulationError,
+    SimulationResult,
     SpinUp,
     Stationary,
     simulate,
@@ -20,6 +24,7 @@ from nrrncf_jax import (
 )
 
 OMEGA = 2.0 * np.pi  # oscillator: period 1 s
+GA = GeneralizedAlpha(0.9)
 
 
 def _oscillator(force=None):
@@ -35,8 +40,7 @@ def test_second_order_on_linear_oscillator(rho_inf):
     errs, hs = [], [0.02, 0.01, 0.005, 0.0025]
     T = 1.25  # a quarter period past a full one: the phase error shows at first order in q
     for h in hs:
-        sol = simulate(_oscillator(), jnp.array([T]), solver=GeneralizedAlpha(rho_inf), adaptive=False, dt0=h,
-                       observe=_first)
+        sol = simulate(_oscillator(), GeneralizedAlpha(rho_inf), ConstantStepSize(h), jnp.array([T]), observe=_first)
         errs.append(abs(float(sol.ys[0]) - np.cos(OMEGA * T)))
     order = np.polyfit(np.log(hs), np.log(errs), 1)[0]
     assert 1.85 < order < 2.2, (order, errs)
@@ -56,7 +60,7 @@ def test_adaptive_error_falls_with_tolerance():
     exact = np.cos(OMEGA * np.asarray(ts))
     errs, steps = [], []
     for rtol in (1e-3, 1e-5, 1e-7):
-        sol = simulate(_oscillator(), ts, rtol=rtol, atol=rtol, observe=_first)
+        sol = simulate(_oscillator(), GA, AdaptiveStepSize(rtol, rtol), ts, observe=_first)
         errs.append(np.abs(np.asarray(sol.ys) - exact).max())
         steps.append(int(sol.num_steps))
     assert errs[0] > 10 * errs[1] > 100 * errs[2]
@@ -77,14 +81,14 @@ def test_energy_conserved_in_free_vibration_rho_inf_one():
     q0 = body.q_hat.reshape(-1)
     v0 = 0.1 / float(jnp.abs(phi.reshape(-1, 3)[tip]).max()) * 2.9 * phi  # 0.1 m tip amplitude
     h = 0.01
-    sol = simulate(model, jnp.arange(1, 1001) * h, y0=(q0, v0), solver=GeneralizedAlpha(1.0), adaptive=False, dt0=h,
-                   observe=energy, newton_tol=1e-8)
+    sol = simulate(model, GeneralizedAlpha(1.0), ConstantStepSize(h), jnp.arange(1, 1001) * h, y0=(q0, v0),
+                   observe=energy, newton=Newton(1e-8))
     E0 = float(energy(0.0, q0, v0))
     drift = np.abs(np.asarray(sol.ys) - E0).max() / E0
     assert drift < 1e-6
     # Numerical damping: ρ∞ = 0.5 removes energy (while ρ∞ = 1 does not).
-    sol_d = simulate(model, jnp.arange(1, 1001) * h, y0=(q0, v0), solver=GeneralizedAlpha(0.5), adaptive=False,
-                     dt0=h, observe=energy, newton_tol=1e-8)
+    sol_d = simulate(model, GeneralizedAlpha(0.5), ConstantStepSize(h), jnp.arange(1, 1001) * h, y0=(q0, v0),
+                     observe=energy, newton=Newton(1e-8))
     assert float(sol_d.ys[-1]) < E0 * (1 - 10 * drift)
 
 
@@ -94,14 +98,16 @@ def _nan_after_half(t):
 
 def test_nan_stops_with_error_naming_time():
     with pytest.raises(SimulationError, match=r"t = 0\.5\d* s: .*non-finite"):
-        simulate(_oscillator(_nan_after_half), jnp.linspace(0, 1, 11), observe=_first)
-    sol = simulate(_oscillator(_nan_after_half), jnp.linspace(0, 1, 11), observe=_first, throw=False)
-    assert int(sol.result) == 3 and 0.49 < float(sol.t_final) <= 0.5
+        simulate(_oscillator(_nan_after_half), GA, AdaptiveStepSize(), jnp.linspace(0, 1, 11), observe=_first)
+    sol = simulate(_oscillator(_nan_after_half), GA, AdaptiveStepSize(), jnp.linspace(0, 1, 11), observe=_first,
+                   throw=False)
+    assert sol.result == SimulationResult.nonfinite and int(sol.code) == 3 and 0.49 < float(sol.t_final) <= 0.5
+    assert "non-finite" in sol.message
 
 
 def test_max_steps_is_an_error():
     with pytest.raises(SimulationError, match="max_steps"):
-        simulate(_oscillator(), jnp.array([10.0]), observe=_first, max_steps=20, rtol=1e-8, atol=1e-8)
+        simulate(_oscillator(), GA, AdaptiveStepSize(1e-8, 1e-8), jnp.array([10.0]), observe=_first, max_steps=20)
 
 
 def _oscillator_of(k):
@@ -119,38 +125,38 @@ def test_batch_members_keep_their_own_steps_and_end():
     ks = jnp.array([1.0, 4.0, 16.0]) * OMEGA**2
     ts = jnp.linspace(0.0, 2.0, 21)
     rtol, atol = 1e-6, 1e-8
-    kw = dict(observe=_first, rtol=rtol, atol=atol)
-    batch = simulate_batch(_oscillator_of, ks, ts, **kw)
+    run, kw = (GA, AdaptiveStepSize(rtol, atol), ts), dict(observe=_first)
+    batch = simulate_batch(_oscillator_of, ks, *run, **kw)
     assert batch.ys.shape == (3, 21) and batch.num_steps.shape == (3,)
     bound = step_flip_bound(rtol, atol, batch.ys)
     for i, k in enumerate(ks):
-        one = simulate(_oscillator_of(k), ts, **kw)
+        one = simulate(_oscillator_of(k), *run, **kw)
         np.testing.assert_allclose(batch.ys[i], one.ys, rtol=0, atol=bound)
         assert counts_close(batch.num_steps[i], one.num_steps) and counts_close(batch.num_newton[i], one.num_newton)
     n = np.asarray(batch.num_steps + batch.num_rejected)
     assert n[0] < n[1] < n[2]
     # Fewer lanes than members: the third waits for a lane, and members end out of their order.
     for width in (1, 2):
-        queued = simulate_batch(_oscillator_of, ks[::-1], ts, width=width, **kw)
+        queued = simulate_batch(_oscillator_of, ks[::-1], *run, width=width, **kw)
         np.testing.assert_allclose(queued.ys[::-1], batch.ys, rtol=0, atol=bound)
         assert all(map(counts_close, np.asarray(queued.num_newton[::-1]), np.asarray(batch.num_newton)))
         np.testing.assert_array_equal(np.asarray(queued.t_final), 2.0)
     # A cap between the second member's steps and the third's (far from both: the third needs
     # about twice the second's), so that a flipped decision cannot move a member across it.
     cap = int(n[1] + n[2]) // 2
-    cut = simulate_batch(_oscillator_of, ks, ts, max_steps=cap, throw=False, width=2, **kw)
-    np.testing.assert_array_equal(np.asarray(cut.result), [0, 0, 1])
+    cut = simulate_batch(_oscillator_of, ks, *run, max_steps=cap, throw=False, width=2, **kw)
+    np.testing.assert_array_equal(np.asarray(cut.code), [0, 0, 1])  # the third: max_steps_reached
     np.testing.assert_allclose(cut.ys[:2], batch.ys[:2], rtol=0, atol=bound)
     with pytest.raises(SimulationError, match="max_steps"):
-        simulate_batch(_oscillator_of, ks, ts, max_steps=cap, **kw)
+        simulate_batch(_oscillator_of, ks, *run, max_steps=cap, **kw)
     with pytest.raises(ValueError, match="leading batch axis"):
-        simulate_batch(lambda p: _oscillator_of(p[0] + p[1]), (ks, ks[:2]), ts)
+        simulate_batch(lambda p: _oscillator_of(p[0] + p[1]), (ks, ks[:2]), *run)
     with pytest.raises(ValueError, match="leading batch axis"):
-        simulate_batch(_oscillator_of, jnp.zeros(0), ts)
-    with pytest.raises(ValueError, match="adjoint"):
-        simulate_batch(_oscillator_of, ks, ts, adjoint="reverse")
+        simulate_batch(_oscillator_of, jnp.zeros(0), *run)
+    with pytest.raises(TypeError, match="adjoint"):  # a batch runs in forward mode: no such keyword
+        simulate_batch(_oscillator_of, ks, *run, adjoint="reverse")
     with pytest.raises(ValueError, match="width"):
-        simulate_batch(_oscillator_of, ks, ts, width=0)
+        simulate_batch(_oscillator_of, ks, *run, width=0)
 
 
 @pytest.mark.slow
@@ -194,16 +200,25 @@ def test_solve_once_forms_agree_under_vmap_and_jvp():
 
 def test_bad_integrator_input():
     m = _oscillator()
+    ctrl = AdaptiveStepSize()
     with pytest.raises(ValueError, match="t_end"):
-        simulate(m, jnp.array([0.0]))
+        simulate(m, GA, ctrl, jnp.array([0.0]))
     with pytest.raises(ValueError, match="t_end"):
-        simulate(m, jnp.array([-1.0]))
+        simulate(m, GA, ctrl, jnp.array([-1.0]))
     with pytest.raises(ValueError, match="increasing"):
-        simulate(m, jnp.array([0.5, 0.2]))
+        simulate(m, GA, ctrl, jnp.array([0.5, 0.2]))
     with pytest.raises(ValueError, match="rtol"):
-        simulate(m, jnp.array([1.0]), rtol=0.0)
+        AdaptiveStepSize(rtol=0.0)
+    with pytest.raises(ValueError, match="dt"):
+        ConstantStepSize(-1.0)
     with pytest.raises(ValueError, match="y0"):
-        simulate(m, jnp.array([1.0]), y0=(jnp.zeros(2), jnp.zeros(2)))
+        simulate(m, GA, ctrl, jnp.array([1.0]), y0=(jnp.zeros(2), jnp.zeros(2)))
+    with pytest.raises(ValueError, match="solver must be"):
+        simulate(m, jnp.array([1.0]), ctrl, jnp.array([1.0]))
+    with pytest.raises(ValueError, match="controller must be"):
+        simulate(m, GA, jnp.array([1.0]), jnp.array([1.0]))
+    with pytest.raises(ValueError, match="Newton kind"):
+        Newton(kind="exact")
 
 
 # --- vmap and grad through the spin-up of a small RNCF beam ------------------------------------
@@ -236,7 +251,8 @@ def _spin(omega_s, E_scale=1.0, adjoint="forward", T_s=6.0):
     body = paper_body(2)
     body = eqx_scale_kappa(body, E_scale)
     model = RotatingFrameModel(body, SpinUp(omega_s, T_s))
-    return simulate(model, TS_SPIN, observe=_tip_uy, adaptive=False, dt0=0.05, adjoint=adjoint, newton="full")
+    return simulate(model, GA, ConstantStepSize(0.05), TS_SPIN, observe=_tip_uy, adjoint=adjoint,
+                    newton=Newton(kind="full"))
 
 
 def eqx_scale_kappa(body, s):
@@ -370,8 +386,8 @@ def test_reverse_gradient_with_adaptive_steps_matches_finite_differences():
     body = paper_body(2)
 
     def run(w, adjoint):
-        return simulate(RotatingFrameModel(body, SpinUp(w, 6.0)), TS_SPIN, observe=_tip_uy, adjoint=adjoint,
-                        rtol=1e-6, atol=1e-8)
+        return simulate(RotatingFrameModel(body, SpinUp(w, 6.0)), GA, AdaptiveStepSize(1e-6, 1e-8), TS_SPIN,
+                        observe=_tip_uy, adjoint=adjoint)
 
     g = float(jax.grad(lambda w: jnp.sum(run(w, "reverse").ys ** 2))(3.0))
     eps = 1e-5

@@ -12,7 +12,13 @@ import pytest
 from conftest import EPS, counts_close, paper_body
 
 from nrrncf_jax import GeneralizedAlpha, LinearModel, RotatingFrameModel, SpinUp, simulate
-from nrrncf_jax.integrate import AbstractSolver, GeneralizedAlphaState, NewtonOptions
+from nrrncf_jax.integrate import (
+    AbstractSolver,
+    ConstantStepSize,
+    GeneralizedAlphaState,
+    Newton,
+    NewtonOptions,
+)
 
 H = 2.0**-4  # a binary fraction: t = i·H and the output times are exact, so is every step's size
 N_STEPS = 8
@@ -37,7 +43,7 @@ def _rms(ex, scale, mask):
 
 @functools.partial(jax.jit, static_argnames="variant")
 def _step(model, t0, t1, state, variant):
-    """One fixed step as ``simulate(adaptive=False)`` takes it: Newton to ``NEWTON_TOL`` in the
+    """One fixed step as ``simulate`` with ``ConstantStepSize`` takes it: Newton to ``NEWTON_TOL`` in the
     error space's units of ``ATOL + RTOL|q|`` at the step's start, at most 50 corrections."""
     x0, _, mask = model.error_space(state.q, jnp.zeros_like(state.q))
     scale = ATOL + RTOL * jnp.abs(x0)
@@ -53,7 +59,8 @@ def _step(model, t0, t1, state, variant):
 
 def _steps_and_simulate(model, variant):
     """``(q after each of N_STEPS manual steps, Newton iterations, final state, simulate's Solution)``."""
-    sol = simulate(model, H * jnp.arange(1, N_STEPS + 1), adaptive=False, dt0=H, newton=variant)
+    sol = simulate(model, GeneralizedAlpha(0.9), ConstantStepSize(H, rtol=RTOL, atol=ATOL),
+                   H * jnp.arange(1, N_STEPS + 1), newton=Newton(NEWTON_TOL, kind=variant))
     assert int(sol.num_rejected) == 0  # no step split: the manual steps are simulate's
     t0 = jnp.asarray(0.0)
     st = _init()(model, t0, *model.initial_state(t0))

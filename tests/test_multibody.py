@@ -21,7 +21,12 @@ from nrrncf_jax.bodies.body import beam_body
 from nrrncf_jax.bodies.mesh import straight_reference
 from nrrncf_jax.elements.material import Material
 from nrrncf_jax.elements.section import TubeSection
-from nrrncf_jax.integrate import GeneralizedAlpha, GeneralizedAlphaIndex3, simulate
+from nrrncf_jax.integrate import (
+    AdaptiveStepSize,
+    GeneralizedAlpha,
+    GeneralizedAlphaIndex3,
+    simulate,
+)
 from nrrncf_jax.multibody import Fixed, MultibodySystem, Revolute, Spherical, placed
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum
 
@@ -41,7 +46,7 @@ def test_stiff_hinged_beam_has_the_compound_pendulums_exact_period():
     system = MultibodySystem([beam], [Revolute(None, None, None, 0, 0, 4)], gravity=(0.0, -G, 0.0))
     tip = beam.n_vectors - 6
     ts = jnp.linspace(0.0, 1.6, 1601)
-    sol = simulate(system, ts, solver=GeneralizedAlphaIndex3(0.5), rtol=1e-5, atol=1e-5,
+    sol = simulate(system, GeneralizedAlphaIndex3(0.5), AdaptiveStepSize(1e-5, 1e-5), ts,
                    observe=lambda t, x, v: x.reshape(-1, 3)[tip])
     x = np.asarray(sol.ys)[:, 0]
     t = np.asarray(ts)
@@ -250,7 +255,7 @@ def test_bad_systems_are_refused():
         placed(beam, rotation=np.diag([1.0, 1.0, -1.0]))
     system = MultibodySystem([beam], [Fixed(0, [0, 1, 2, 4], values=np.asarray(beam.q_hat)[[0, 1, 2, 4]])])
     with pytest.raises(ValueError, match="needs a constrained solver"):
-        simulate(system, jnp.array([0.0, 0.1]), solver=GeneralizedAlpha(0.9))
+        simulate(system, GeneralizedAlpha(0.9), AdaptiveStepSize(), jnp.array([0.0, 0.1]))
 
 
 def test_body_by_body_solver_matches_the_dense_one():

@@ -9,6 +9,9 @@ import pytest
 from conftest import EPS, FD_STEP, RTOL_FD, RTOL_ROUNDOFF, paper_body
 
 from nrrncf_jax import (
+    AdaptiveStepSize,
+    ConstantStepSize,
+    GeneralizedAlpha,
     Loads,
     RotatingFrameModel,
     SpinUp,
@@ -24,6 +27,8 @@ from nrrncf_jax import (
 from nrrncf_jax.reduction import ritz_frequencies, spinning_equilibrium, spinning_modes
 from nrrncf_jax.reduction.modal_derivatives import dK_deta_times, dK_deta_times_autodiff
 from nrrncf_jax.reduction.selection import mmi_matrix, select
+
+GA = GeneralizedAlpha(0.9)
 
 
 # The tests of ``curved`` (and ``reduced``) share an xdist group, so that one worker builds them once.
@@ -166,7 +171,7 @@ def test_closed_form_modal_response_equals_the_integrated_linear_model(curved):
     history, _ = modal_loads(full, modes.phi, ts)
     eta = modal_response(ts, history, modes.omega)
     linear = reduce_rotating_model(full, modes.phi, linear=True)
-    ref = simulate(linear, ts, rtol=1e-8, atol=1e-12, observe=lambda t, p, v: p).ys
+    ref = simulate(linear, GA, AdaptiveStepSize(1e-8, 1e-12), ts, observe=lambda t, p, v: p).ys
     assert np.abs(eta - ref).max() < 1e-5 * np.abs(ref).max()
     # η̈ + 2ζωη̇ + ω²η = 1 from rest (a step load; exact under the first-order hold).
     w, z = 3.0, 0.1
@@ -193,7 +198,7 @@ def spin4(spin4_model):
     """``spin4_model`` and its full RNCF run (the reference): the tests that use it share an xdist
     group, so that one worker runs it once."""
     full, ts = spin4_model
-    ref = simulate(full, ts, observe=_all_displacements(full))
+    ref = simulate(full, GA, AdaptiveStepSize(), ts, observe=_all_displacements(full))
     return full, ts, np.asarray(ref.ys).reshape(ts.size, -1)
 
 
@@ -224,13 +229,13 @@ def test_nr_rncf_reproduces_full_rncf_spinup_omega_4(spin4, red4):
     # Planar load: the out-of-plane partner of each bending pair is never selected.
     phi = np.asarray(red.model.Psi).reshape(full.body.n_vectors, 3, -1)
     assert np.abs(phi[:, 2, :]).max() < 1e-3 * np.abs(phi).max()
-    sol = simulate(red.model, ts, observe=_p)
+    sol = simulate(red.model, GA, AdaptiveStepSize(), ts, observe=_p)
     err = float(chi_rel(w_ref, _displacements(red.model, sol.ys)))
     assert err <= 1.5, err
     # The same number of vibration modes alone (no modal derivatives) is far worse.
     vm_only = nr_rncf(full, ts, n_modes=16, vms=red.dofs, mds=0)
     assert vm_only.dofs == red.dofs and vm_only.n_mds == 0
-    sol_vm = simulate(vm_only.model, ts, observe=_p)
+    sol_vm = simulate(vm_only.model, GA, AdaptiveStepSize(), ts, observe=_p)
     err_vm = float(chi_rel(w_ref, _displacements(vm_only.model, sol_vm.ys)))
     assert err_vm > 5 * err
 
@@ -248,7 +253,8 @@ def test_spinning_state_enrichment_helps_at_omega_4(spin4, red4):
     assert red4.n_spin == len(chk.vms) + len(chk.pairs)
     paper = nr_rncf(full, ts, n_modes=16, spin_state=False)
     assert paper.spin is None
-    errs = [float(chi_rel(w_ref, _displacements(r.model, simulate(r.model, ts, observe=_p).ys))) for r in (red4, paper)]
+    errs = [float(chi_rel(w_ref, _displacements(r.model, simulate(r.model, GA, AdaptiveStepSize(), ts, observe=_p).ys)))
+            for r in (red4, paper)]
     assert errs[0] < 0.75 * errs[1], errs  # 0.34 % against 0.52 % (measured; the integrator floor is near)
     with pytest.raises(ValueError, match="spin_state"):
         nr_rncf(full, ts, spin_state="always")
@@ -301,8 +307,8 @@ def test_reduced_spinup_vmap_and_gradient(spin4_model):
         m = eqx.tree_at(lambda r: r.elastic, red0, red0.elastic.scaled(E_scale))
         m = eqx.tree_at(lambda r: r.motion, m, SpinUp(omega, 6.0))
         if fixed:  # fixed steps: finite differences of an adaptive solution see its step choices
-            return simulate(m, ts, observe=_tip(m), adjoint=adjoint, adaptive=False, dt0=0.05).ys
-        return simulate(m, ts, observe=_tip(m), adjoint=adjoint, rtol=1e-6, atol=1e-9).ys
+            return simulate(m, GA, ConstantStepSize(0.05), ts, observe=_tip(m), adjoint=adjoint).ys
+        return simulate(m, GA, AdaptiveStepSize(1e-6, 1e-9), ts, observe=_tip(m), adjoint=adjoint).ys
 
     def _tip(m):
         return _TipUy(m.Psi[tip])

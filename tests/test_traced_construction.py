@@ -46,7 +46,7 @@ def test_full_order_model_built_in_jit_and_vmap(body, kind):
 
     def run(w):
         m = cls(body, nr.SpinUp(w, 2.0))
-        return nr.simulate(m, TS, observe=lambda t, q, v: q).ys
+        return nr.simulate(m, nr.GeneralizedAlpha(0.9), nr.AdaptiveStepSize(), TS, observe=lambda t, q, v: q).ys
 
     eager = run(3.0)
     np.testing.assert_allclose(jax.jit(run)(3.0), eager, rtol=RTOL_ROUNDOFF, atol=RTOL_ROUNDOFF)

@@ -84,47 +84,14 @@ def _default_observe(t, q, v):
     return q
 
 
-def simulate(model, *args, **kwargs) -> Solution:
-    """``simulate(model, solver, controller, ts, ...)`` (see ``_simulate_run``). Until every caller
-    has moved, the old keyword form ``simulate(model, ts, rtol=..., ...)`` is translated here."""
-    if args and isinstance(args[0], AbstractSolver):
-        return _simulate_run(model, *args, **kwargs)
-    pos, kw = _from_legacy(model, args, kwargs)
-    return _simulate_run(model, *pos, **kw)
-
-
-def _from_legacy(model, args, kwargs):
-    """The old keyword form's ``(solver, controller, ts, kwargs)`` (transition only)."""
-    from ..models.constrained import AbstractConstrainedModel
-    from .generalized_alpha import GeneralizedAlpha
-    from .index3 import GeneralizedAlphaIndex3
-    from .step_size import AdaptiveStepSize, ConstantStepSize
-
-    kw = dict(kwargs)
-    ts = args[0] if args else kw.pop("ts")
-    solver = kw.pop("solver", None)
-    if solver is None:
-        solver = GeneralizedAlphaIndex3(0.9) if isinstance(model, AbstractConstrainedModel) else GeneralizedAlpha(0.9)
-    rtol, atol = kw.pop("rtol", 1e-4), kw.pop("atol", 1e-6)
-    dt0, dt_min, dt_max = kw.pop("dt0", None), kw.pop("dt_min", 1e-10), kw.pop("dt_max", np.inf)
-    if kw.pop("adaptive", True):
-        controller = AdaptiveStepSize(rtol, atol, dt0=dt0, dt_min=dt_min, dt_max=dt_max)
-    else:
-        if dt0 is None:
-            raise ValueError("adaptive=False needs a step size dt0")
-        controller = ConstantStepSize(dt0, rtol=rtol, atol=atol, dt_min=dt_min)
-    kw["newton"] = Newton(kw.pop("newton_tol", 1e-3), kw.pop("max_newton", None), kw.pop("newton", "auto"))
-    return (solver, controller, ts), kw
-
-
-def _simulate_run(
+def simulate(
     model: "AbstractModel",
     solver: AbstractSolver,
     controller: AbstractStepSizeController,
     ts,
     *,
     observe: Callable | None = None,
-    newton: Newton = Newton(),
+    newton: Newton | None = None,
     t0: float = 0.0,
     y0: tuple | None = None,
     adjoint: Literal["forward", "reverse"] = "forward",
@@ -153,20 +120,8 @@ def _simulate_run(
     return _check(_simulate(*args), throw)
 
 
-def simulate_batch(model_fn: Callable, params, *args, **kwargs) -> Solution:
-    """``simulate_batch(model_fn, params, solver, controller, ts, ...)`` (``_simulate_batch_run``);
-    the old keyword form is translated until every caller has moved."""
-    if args and isinstance(args[0], AbstractSolver):
-        return _simulate_batch_run(model_fn, params, *args, **kwargs)
-    width = kwargs.pop("width", None)
-    member = model_fn(jtu.tree_map(lambda x: x[0], params))
-    pos, kw = _from_legacy(member, args, kwargs)
-    return _simulate_batch_run(model_fn, params, *pos, width=width, **kw)
-
-
-def _simulate_batch_run(model_fn: Callable, params, solver: AbstractSolver, controller: AbstractStepSizeController,
-                        ts, *,
-                   observe: Callable | None = None, newton: Newton = Newton(), t0: float = 0.0,
+def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controller: AbstractStepSizeController, ts, *,
+                   observe: Callable | None = None, newton: Newton | None = None, t0: float = 0.0,
                    max_steps: int = 200_000, width: int | None = None, throw: bool = True) -> Solution:
     """``simulate`` for a batch of models, ``model_fn(p)`` for each ``p`` along the leading axis of
     the pytree ``params``, in one loop: each member keeps its own adaptive steps. Returns a
@@ -202,17 +157,8 @@ def _simulate_batch_run(model_fn: Callable, params, solver: AbstractSolver, cont
     return _check(sol, throw)
 
 
-def simulate_timed(model, *args, **kwargs) -> tuple[Solution, float, float]:
-    """``simulate_timed(model, solver, controller, ts, ...)`` (``_simulate_timed_run``); the old
-    keyword form is translated until every caller has moved."""
-    if args and isinstance(args[0], AbstractSolver):
-        return _simulate_timed_run(model, *args, **kwargs)
-    pos, kw = _from_legacy(model, args, kwargs)
-    return _simulate_timed_run(model, *pos, **kw)
-
-
-def _simulate_timed_run(model: "AbstractModel", solver: AbstractSolver, controller: AbstractStepSizeController, ts,
-                        **kwargs) -> tuple[Solution, float, float]:
+def simulate_timed(model: "AbstractModel", solver: AbstractSolver, controller: AbstractStepSizeController, ts,
+                   **kwargs) -> tuple[Solution, float, float]:
     """``simulate`` with compilation and execution timed apart: ``(solution, compile_s, run_s)``.
 
     Compiles ahead of time (``lower().compile()``), then runs to ``block_until_ready``. The
@@ -223,7 +169,7 @@ def _simulate_timed_run(model: "AbstractModel", solver: AbstractSolver, controll
           if k in kwargs}
     if kwargs:
         raise TypeError(f"simulate_timed got unexpected keyword arguments {sorted(kwargs)}")
-    args = _prepare(model, solver, controller, ts, kw.get("observe"), kw.get("newton", Newton()), kw.get("t0", 0.0),
+    args = _prepare(model, solver, controller, ts, kw.get("observe"), kw.get("newton"), kw.get("t0", 0.0),
                     kw.get("y0"), kw.get("adjoint", "forward"), kw.get("max_steps", 200_000), kw.get("progress", False))
     t0 = time.perf_counter()
     compiled = _simulate.lower(*args).compile()
@@ -241,6 +187,7 @@ def _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, ma
     if not isinstance(controller, AbstractStepSizeController):
         raise ValueError(f"controller must be a step-size controller (AdaptiveStepSize, ConstantStepSize), got "
                          f"{type(controller).__name__}: simulate(model, solver, controller, ts, ...)")
+    newton = Newton() if newton is None else newton  # built here, not at import (no array before x64 is set)
     if not isinstance(newton, Newton):
         raise ValueError(f"newton must be an integrate.Newton, got {type(newton).__name__}")
     solver.check(model)
