@@ -471,3 +471,48 @@ def test_release_sweep_runs_each_angle_as_its_own_run():
     for bad in ([], [0.1, np.nan]):
         with pytest.raises(ValueError, match="angles"):
             release_sweep(system, bad, **kw)
+
+
+@pytest.mark.slow
+def test_a_system_mixes_full_order_and_reduced_bodies():
+    """One ``FloatingFrameSystem`` with a full-order RNCF beam (``full_floating_body``) and two
+    NR-RNCF beams: each body's equations are those it has in its own kind's system (the residual
+    of a body depends on its own coordinates alone; identity up to round-off of the same
+    operations), the joints act on the nodal vectors of either kind alike, and the mixed chain
+    integrates with its joints closed and, with ρ∞ = 1, its energy kept."""
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, build_rncf_pendulum, run_chain
+
+    spec = PendulumSpec(elements=2)
+    full = build_rncf_pendulum(spec)
+    reduced, _ = build_reduced_pendulum(spec, n_vms=3, pairs="all")
+    mixed = FloatingFrameSystem((full.bodies[0],) + reduced.bodies[1:], full.joints, gravity=full.gravity)
+    assert mixed.stacked is None and mixed.formulation == "nr-rncf"
+    assert mixed.body_sizes() == (full.body_sizes()[0],) + reduced.body_sizes()[1:]
+    # A state with every body deformed and moving: the full body's part from the full system's
+    # coordinates, the reduced bodies' from the reduced system's.
+    rng = np.random.default_rng(0)
+
+    def deformed(system):  # each body's deformation coordinates (after its 7 frame coordinates) moved
+        return jnp.concatenate([zb.at[7:].add(1e-3 * rng.standard_normal(zb.shape[0] - 7))
+                                for zb in system.split(system.reference())])
+
+    z_f, z_r = deformed(full), deformed(reduced)
+    v_f, v_r = (jnp.asarray(rng.standard_normal(z.shape)) for z in (z_f, z_r))
+    a_f, a_r = (jnp.asarray(rng.standard_normal(z.shape)) for z in (z_f, z_r))
+    n0 = full.body_sizes()[0]
+    o1 = reduced.offsets[1]
+    z, v, a = (jnp.concatenate([x[:n0], y[o1:]]) for x, y in ((z_f, z_r), (v_f, v_r), (a_f, a_r)))
+    r = mixed.residual(0.0, z, v, a)
+    r_f, r_r = full.residual(0.0, z_f, v_f, a_f), reduced.residual(0.0, z_r, v_r, a_r)
+    scale = float(jnp.abs(r).max())
+    np.testing.assert_allclose(r[:n0], r_f[:n0], rtol=0, atol=RTOL_RESIDUAL * scale)
+    np.testing.assert_allclose(r[n0:], r_r[o1:], rtol=0, atol=RTOL_RESIDUAL * scale)
+    xs = mixed.nodal_vectors(z)
+    for x_mixed, x_own in zip(xs, full.nodal_vectors(z_f)[:1] + reduced.nodal_vectors(z_r)[1:]):
+        np.testing.assert_array_equal(x_mixed, x_own)
+    np.testing.assert_allclose(mixed.constraints(z)[:mixed.n_joint_equations], mixed.joint_equations(xs),
+                               rtol=0, atol=RTOL_RESIDUAL)
+    run = run_chain(mixed, t_end=0.2, dt_out=0.01, rho_inf=1.0, rtol=1e-5, atol=1e-6)
+    assert run.constraint_max < 1e-8
+    assert np.abs(run.energy - run.energy[0]).max() < 1e-3 * run.kinetic.max()
+    assert run.kinetic[-1] > 0.1 * run.kinetic.max()  # it swings

@@ -16,9 +16,9 @@
   mode 19 its first in-plane mode and modes 3 and 8 axisymmetric), its in-plane spin-up and its
   bending-torsion case (the spin-up with the hub oscillating along Z), full RNCF (sparse SuperLU)
   against NR-RNCF with the paper's bases, found by mode shape.
-- ``truss``: the beamlike truss of Sec. 4.5 (its Table 10 is lost: issue 16's substitute
-  geometry, beams rigidly joined and pin-ended bars in one body), its modes and mode types, the
-  equivalent-beam closed forms, and the resonant tip excitation, full RNCF against NR-RNCF.
+- ``truss``: the beamlike truss of Sec. 4.5 (its Table 10 is lost in the paper's text: a
+  substitute geometry of the same kind, beams rigidly joined and pin-ended bars in one body), its
+  modes and mode types, the equivalent-beam closed forms, and the resonant tip excitation, full RNCF against NR-RNCF.
 - ``pendulum``: the three-beam pendulum of Sec. 4.4: full order as ANCF bodies (``build_pendulum``)
   or as the paper's full RNCF (``build_rncf_pendulum``), NR-RNCF in floating frames
   (``build_reduced_pendulum``: modes and modal derivatives, the joints' static modes, or the

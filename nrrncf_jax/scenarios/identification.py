@@ -1,4 +1,4 @@
-"""The identification demonstration (issue 4): recover E and a damping ratio from a noisy
+"""The identification demonstration: recover E and a damping ratio from a noisy
 tip-deflection record of the classic beam's spin-up, with the NR-RNCF reduced model.
 
 1. The *measurement*: the full RNCF model of the classic beam (true E, Rayleigh damping with

@@ -103,7 +103,8 @@ class Membrane:
 
 @functools.lru_cache(maxsize=2)
 def build_membrane(spec: MembraneSpec = MembraneSpec()) -> Membrane:
-    """Mesh and build the membrane (cached: the 15-ring body takes about 12 s to integrate)."""
+    """Mesh and build the membrane (cached: integrating the 15-ring body's element integrals takes
+    seconds, and several functions start from it)."""
     V, T = hexagonal_disk(spec.radius, spec.rings)
     return Membrane(spec=spec, plate=plate_body(V, T, spec.element))
 

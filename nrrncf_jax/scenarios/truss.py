@@ -1,4 +1,5 @@
-"""The beamlike truss of the paper's Sec. 4.5 (its Table 10 is lost; the substitute of issue 16).
+"""The beamlike truss of the paper's Sec. 4.5 (its Table 10 is lost in the paper's text; a substitute
+geometry of the same kind).
 
 A cantilevered space truss along x: ``bays`` bays of length ``bay`` with an equilateral
 triangular cross-section of side ``side`` (vertices on a circle of radius side/√3, one on +y).
@@ -45,7 +46,7 @@ from .forced_run import FORMULATIONS, ForcedRun, run_forced
 
 @dataclasses.dataclass(frozen=True)
 class TrussSpec:
-    """Geometry, material and mesh of the truss (defaults: issue 16's substitute for Table 10)."""
+    """Geometry, material and mesh of the truss (defaults: the substitute for the lost Table 10)."""
 
     bays: int = 36
     bay: float = 1.0  # [m]
