@@ -25,12 +25,15 @@ Cases (representative runs of the other benchmarks, the paper beam spun up by Eq
 - ``sweep``: ``simulate_batch`` over 8 speeds ωs = 1 … 4 rad/s, 0-``SWEEP_T_END`` s, of that
   NR-RNCF model (as ``sweep.py``: one basis, the motion swapped per member);
 - ``grad``: ``jax.grad`` of Σ uy_tip² (every 0.1 s, 0-30 s) through ``simulate(adjoint="reverse")``
-  of that NR-RNCF model with respect to ωs (as ``optimal_spinup.py`` differentiates it).
+  of that NR-RNCF model with respect to ωs (as ``optimal_spinup.py`` differentiates it);
+- ``pendulum``: the three-beam pendulum with NR-RNCF bodies in floating frames (5 VMs + 15 MDs a
+  beam, 10 elements, 0-2 s; ``pendulum.md``'s NR-RNCF row), an index-3 run of a constrained system;
+- ``pendulum_rncf``: the same pendulum at full order in floating frames (4 elements, 0-0.5 s).
 
 The cases on the RNCF model and its NR-RNCF basis (``rncf``, ``nr_rncf``, ``sweep``, ``grad``) run
 in one subprocess per revision and repeat, in that order, since the basis (``nr_rncf``'s offline
-stage) costs most of their time; ``ancf`` runs in its own. Compile and run seconds are each case's
-own (ahead-of-time compilation, then a blocked run).
+stage) costs most of their time; ``ancf`` runs in its own, and the two pendulums in a third.
+Compile and run seconds are each case's own (ahead-of-time compilation, then a blocked run).
 
 Results compared: accepted and rejected steps and Newton iterations (must be equal), and to
 ``TOL`` relative: the tip's extremes (min and max of each displacement component in the rotating
@@ -57,7 +60,8 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 TREE = os.path.dirname(HERE)
 TOL = 1e-9
-CASES = ("rncf", "ancf", "nr_rncf", "sweep", "grad")
+CASES = ("rncf", "ancf", "nr_rncf", "sweep", "grad", "pendulum", "pendulum_rncf")
+PENDULUM_GROUP = ("pendulum", "pendulum_rncf")
 ANCF_T_END = 10.0
 SWEEP_T_END = 20.0
 TIP_NAMES = [f"tip u{c} {m}" for c in "xyz" for m in ("min", "max")]
@@ -130,6 +134,32 @@ def case_rncf(shared):
 def case_ancf(shared):
     _, tip, sol, w, _, c, r = _full_spinup(True, ANCF_T_END)
     return {**_stats(sol), "tip": _tip_extremes(w[:, tip])}, c, r, {}
+
+
+def _pendulum(formulation, elements, t_end):
+    """The three-beam pendulum (``scenarios.pendulum.run_pendulum``, the same call in both
+    revisions): results, compile and run seconds."""
+    import numpy as np
+
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum
+
+    run = run_pendulum(PendulumSpec(elements=elements), formulation=formulation, t_end=t_end)
+    tip = np.asarray(run.tips)[:, -1, :]  # the third beam's free end
+    res = {"steps": int(run.steps), "rejected": int(run.rejected), "newton": int(run.newton_iters),
+           "dofs": int(run.dofs), "tip": _tip_extremes(tip)}
+    return res, run.compile_s, run.run_s, {}
+
+
+def case_pendulum(shared):
+    """The NR-RNCF pendulum (5 VMs + 15 MDs a beam, 10 elements, 0-2 s): the floating-frame
+    system with reduced bodies."""
+    return _pendulum("nr-rncf", 10, 2.0)
+
+
+def case_pendulum_rncf(shared):
+    """The full-order RNCF pendulum (4 elements, 0-0.5 s): floating frames with every nodal
+    coordinate kept."""
+    return _pendulum("rncf", 4, 0.5)
 
 
 def _reduction(shared):
@@ -324,9 +354,10 @@ def main(argv=None):
     subprocess.run(["git", "worktree", "add", "--detach", base_dir, sha], cwd=TREE, check=True, capture_output=True)
     trees = {"A": base_dir, "B": TREE}
     runs = {(c, r): [] for c in a.cases for r in trees}
-    # The cases on the RNCF model and its NR-RNCF basis share one subprocess; ANCF runs in its own.
-    groups = [g for g in ([c for c in CASES if c in a.cases and c != "ancf"], ["ancf"] if "ancf" in a.cases else [])
-              if g]
+    # The cases on the RNCF model and its NR-RNCF basis share one subprocess; ANCF runs in its own,
+    # and the pendulums in a third.
+    groups = [g for g in ([c for c in CASES if c in a.cases and c != "ancf" and c not in PENDULUM_GROUP],
+                          ["ancf"] if "ancf" in a.cases else [], [c for c in PENDULUM_GROUP if c in a.cases]) if g]
     t_start = time.perf_counter()
     load0 = os.getloadavg()[0]
     try:
