@@ -1,6 +1,9 @@
 """Multibody systems: bodies joined by joints (index-3 DAE, THEORY §7).
 
-- ``joints``: ``Spherical``, ``Revolute``, ``Fixed`` (to another body or to the ground).
+- ``joints``: ``Spherical``, ``Revolute``, ``Fixed`` (to another body or to the ground), on
+  nodal-vector indices.
+- ``markers``: the same joints in physical terms, ``hinge``, ``ball``, ``clamp`` on ``Marker``s (a
+  body and a point of its reference configuration), which a system resolves into ``joints``.
 - ``system``: ``MultibodySystem`` of inertial-frame (ANCF) bodies under gravity, run with
   ``integrate.GeneralizedAlphaIndex3``; ``placed`` moves a body into place.
 - ``floating``: ``FloatingFrameSystem`` of bodies in free-floating frames (Euler parameters)
@@ -46,5 +49,9 @@ from .joints import AbstractJoint as AbstractJoint
 from .joints import Fixed as Fixed
 from .joints import Revolute as Revolute
 from .joints import Spherical as Spherical
+from .markers import Marker as Marker
+from .markers import ball as ball
+from .markers import clamp as clamp
+from .markers import hinge as hinge
 from .system import MultibodySystem as MultibodySystem
 from .system import placed as placed

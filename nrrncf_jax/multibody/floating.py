@@ -63,6 +63,7 @@ from ..models.constrained import AbstractConstrainedModel
 from ..motion import unit_axis
 from ..reduction.tensors import ElasticTensors
 from .joints import AbstractJoint
+from .markers import BodyGeometry, JointSpec, resolve_joints
 
 
 def rotation(e: Float[Array, " 4"]) -> Float[Array, "3 3"]:
@@ -338,11 +339,17 @@ class FloatingFrameSystem(AbstractConstrainedModel):
 
     def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0)):
         self.bodies = tuple(bodies)
-        self.joints = tuple(joints)
         if not self.bodies or not all(isinstance(b, FloatingBody) for b in self.bodies):
             raise ValueError("bodies must be a non-empty sequence of FloatingBody")
+        joints = tuple(joints)
+        if any(isinstance(j, JointSpec) for j in joints):  # markers: on the bodies' reference nodal vectors
+            joints = resolve_joints(joints, tuple(
+                BodyGeometry(np.asarray(b.nodal_vectors(b.initial())), np.asarray(b.body.is_position),
+                             b.body.vectors_per_node) for b in self.bodies))
+        self.joints = joints
         if not all(isinstance(j, AbstractJoint) for j in self.joints):
-            raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...)")
+            raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...) or joints on markers "
+                             "(hinge, ball, clamp)")
         self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
         self.stacked = _stack(self.bodies)
         self.check_joints()

@@ -31,6 +31,7 @@ from ..linalg import AbstractLinearSolver, AugmentedFactor, DenseLU, dense_augme
 from ..models.constrained import AbstractConstrainedModel
 from ..motion import rotation_about, unit_axis
 from .joints import AbstractJoint
+from .markers import BodyGeometry, JointSpec, resolve_joints
 
 
 def placed(body: Body, rotation=None, translation=(0.0, 0.0, 0.0)) -> Body:
@@ -78,11 +79,16 @@ class MultibodySystem(AbstractConstrainedModel):
         self.bodies = tuple(bodies)
         self.solver = ("bodies" if all(getattr(b, "chain", False) for b in self.bodies) else "dense") \
             if solver == "auto" else solver
-        self.joints = tuple(joints)
         if not self.bodies or not all(isinstance(b, Body) for b in self.bodies):
             raise ValueError("bodies must be a non-empty sequence of Body")
+        joints = tuple(joints)
+        if any(isinstance(j, JointSpec) for j in joints):  # markers: on the bodies' reference nodal vectors
+            joints = resolve_joints(joints, tuple(
+                BodyGeometry(np.asarray(b.q_hat), np.asarray(b.is_position), b.vectors_per_node) for b in self.bodies))
+        self.joints = joints
         if not all(isinstance(j, AbstractJoint) for j in self.joints):
-            raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...)")
+            raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...) or joints on markers "
+                             "(hinge, ball, clamp)")
         self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
         self.body_solvers = tuple(_body_solver(b) for b in self.bodies)
         masses = [b.mass_matrix() for b in self.bodies]  # scalar M_αβ; the body's is M_αβ ⊗ I3

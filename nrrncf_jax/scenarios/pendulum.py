@@ -39,11 +39,13 @@ from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simula
 from ..integrate.simulate import simulate_timed
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody import (
+    GROUND,
     FloatingBody,
     FloatingFrameSystem,
+    Marker,
     MultibodySystem,
-    Revolute,
     full_floating_body,
+    hinge,
     placed,
 )
 from .run_record import RunRecord
@@ -80,9 +82,12 @@ def _beam(spec: PendulumSpec):
 
 
 def _joints(spec: PendulumSpec) -> list:
-    end = _PER_NODE * spec.elements  # the last node's first vector
-    joints = [Revolute(None, None, None, 0, _R, _RZ)]
-    return joints + [Revolute(k, end + _R, (end + _RX, end + _RY), k + 1, _R, _RZ) for k in range(spec.beams - 1)]
+    """Hinges about Z: beam 0's left end to the ground at the origin, and beam k's right end to beam
+    k + 1's left end, at x = (k + 1) L (markers; the systems resolve them to nodal vectors)."""
+    z = (0.0, 0.0, 1.0)
+    joints = [hinge(GROUND, Marker(0, (0.0, 0.0, 0.0)), axis=z)]
+    ends = [((k + 1) * spec.length, 0.0, 0.0) for k in range(spec.beams - 1)]
+    return joints + [hinge(Marker(k, x), Marker(k + 1, x), axis=z) for k, x in enumerate(ends)]
 
 
 REFERENCE_CONDITIONS = (_R, _RY, _RZ)
