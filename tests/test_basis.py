@@ -135,6 +135,7 @@ def test_offline_family_map_reproduces_the_reduction_basis(curved):
     np.testing.assert_allclose(fam.basis(body, free), red.model.Psi, rtol=0, atol=10 * np.finfo(float).eps * kappa)
 
 
+@pytest.mark.slow
 def test_pendulum_beam_bases_are_the_direct_construction():
     """``build_reduced_pendulum``'s beams (2 elements): deflate([Φ, Θ_pairs, joint static modes])
     of the in-plane cantilever modes, one basis for all beams or one a beam (``body_pairs``)."""
