@@ -9,6 +9,7 @@ speed-up, the reference's run time over this run's. Each scenario's record (``Pe
 χ_rel covers (``displacement_series``).
 """
 
+import abc
 import dataclasses
 from typing import ClassVar
 
@@ -18,7 +19,7 @@ from ..post.metrics import chi_rel
 
 
 @dataclasses.dataclass(kw_only=True)
-class RunRecord:
+class RunRecord(abc.ABC):
     """One run: its ``formulation`` (e.g. ``"rncf"``, ``"nr-rncf"``), coordinates ``dofs``, output
     times ``ts``, the integrator's accepted and rejected ``steps``/``rejected`` and Newton
     iterations ``newton_iters``, the compile and run times [s] (measured apart); after ``compare``
@@ -41,10 +42,10 @@ class RunRecord:
     REFERENCE: ClassVar[str] = "a run of the same model and output times"
     """What ``compare`` accepts as the reference, for its error message."""
 
+    @abc.abstractmethod
     def displacement_series(self) -> np.ndarray | None:
         """The displacements χ_rel is computed on, (nt, ...) at the output times ``ts`` (None when
-        the run did not keep them)."""
-        raise NotImplementedError(f"{type(self).__name__} does not say which displacements χ_rel covers")
+        the run did not keep them): each scenario's record says which."""
 
     def compare(self, reference: "RunRecord") -> "RunRecord":
         """Fill in χ_rel (Eq. 40) of ``displacement_series`` against ``reference``'s, the
