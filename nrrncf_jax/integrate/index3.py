@@ -96,8 +96,8 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
         def equations(z):
             a1, lam = z[:n], z[n:]
             q1, v1, a1, _ = stage(a1)
-            r = model.residual(t1, q1, v1, a1) + model.constraint_force(q1, lam)
-            return jnp.concatenate([r, model.constraints(q1) / c_K]), q1, v1, a1
+            r = model.residual(t1, q1, v1, a1) + model.constraint_force(q1, lam, t1)
+            return jnp.concatenate([r, model.constraints(q1, t1) / c_K]), q1, v1, a1
 
         z0 = jnp.concatenate([state.a, state.lam])
         if newton.variant == "modified":
@@ -123,15 +123,17 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
 
     @staticmethod
     def _velocity_correction(model, t1, q1, v1, lam1, c_C, c_K, reuse=None) -> Float[Array, " n"]:
-        """Δv with C_q (v1 − Δv) = 0, in the iteration matrix's metric (module docstring)."""
+        """Δv with C_q (v1 − Δv) + C_t = 0, in the iteration matrix's metric (module docstring;
+        C_t, the drivers' rate, is zero without drivers)."""
         if reuse is not None and reuse.bodies is not None:
-            B = model.constraint_jacobian(q1)
+            B = model.constraint_jacobian(q1, t1)
             fac = reuse.with_constraints(B)
         else:
             fac = model.factor_augmented(t1, q1, v1, lam1, c_C, c_K)
             B = getattr(fac, "B", None)
-            B = model.constraint_jacobian(q1) if B is None else B
-        return fac.solve(jnp.concatenate([jnp.zeros_like(v1), B @ v1]))[:v1.shape[0]]
+            B = model.constraint_jacobian(q1, t1) if B is None else B
+        violation = B @ v1 + model.constraint_rate(q1, t1) if model.rheonomic else B @ v1
+        return fac.solve(jnp.concatenate([jnp.zeros_like(v1), violation]))[:v1.shape[0]]
 
 
 __all__ = ["GeneralizedAlphaIndex3"]

@@ -78,11 +78,12 @@ class AbstractConstrainedModel(AbstractModel):
         """M(x), all coordinates (dense; for the consistent accelerations and checks)."""
 
     @abc.abstractmethod
-    def constraints(self, x: Float[Array, " n"]) -> Float[Array, " m"]:
-        """C(x): the joints' equations, joint by joint, then any equations of the bodies."""
+    def constraints(self, x: Float[Array, " n"], t: Scalar = 0.0) -> Float[Array, " m"]:
+        """C(x, t): the joints' equations, joint by joint, then any equations of the bodies (t is
+        read by drivers only)."""
 
     @abc.abstractmethod
-    def constraint_jacobian(self, x: Float[Array, " n"]) -> Float[Array, "m n"]:
+    def constraint_jacobian(self, x: Float[Array, " n"], t: Scalar = 0.0) -> Float[Array, "m n"]:
         """C_x = ∂C/∂x (dense)."""
 
     @abc.abstractmethod
@@ -136,23 +137,42 @@ class AbstractConstrainedModel(AbstractModel):
     def constrain(self, t, q, v, a):
         return q, v, a
 
-    def joint_equations(self, xs: tuple[Float[Array, "nv 3"], ...]) -> Float[Array, " mj"]:
-        """The joints' equations on the bodies' nodal vectors ``xs``, joint by joint."""
+    def joint_equations(self, xs: tuple[Float[Array, "nv 3"], ...], t: Scalar = 0.0) -> Float[Array, " mj"]:
+        """The joints' equations on the bodies' nodal vectors ``xs`` at time ``t``, joint by joint."""
         if not self.joints:
             return jnp.zeros((0,), jnp.result_type(*xs))
-        return jnp.concatenate([j(xs) for j in self.joints])
+        return jnp.concatenate([j(xs, t) for j in self.joints])
 
-    def constraint_force(self, q: Float[Array, " n"], lam: Float[Array, " m"]) -> Float[Array, " n"]:
+    @property
+    def rheonomic(self) -> bool:
+        """Whether a joint prescribes a motion in time (a driver): C depends on t."""
+        return any(j.rheonomic for j in self.joints)
+
+    def constraint_force(self, q: Float[Array, " n"], lam: Float[Array, " m"], t: Scalar = 0.0) -> Float[Array, " n"]:
         """C_xᵀ λ, by one reverse-mode product: C_x is not formed, as Newton needs this product
         every iteration and the matrix once a step."""
-        return jax.vjp(self.constraints, q)[1](lam)[0]
+        return jax.vjp(lambda y: self.constraints(y, t), q)[1](lam)[0]
 
-    def constraint_acceleration(self, x, v) -> Float[Array, " m"]:
-        """(C_x v)_x v: the part of C̈ = C_x a + (C_x v)_x v that does not hold a."""
-        def rate(y):
-            return jax.jvp(self.constraints, (y,), (v,))[1]
+    def constraint_rate(self, x, t: Scalar) -> Float[Array, " m"]:
+        """C_t = ∂C/∂t (zero without drivers): velocities on the constraint satisfy C_x v = −C_t."""
+        if not self.rheonomic:
+            return jnp.zeros(self.n_constraints, x.dtype)
+        return jax.jvp(lambda s: self.constraints(x, s), (jnp.asarray(t, x.dtype),), (jnp.ones((), x.dtype),))[1]
 
-        return jax.jvp(rate, (x,), (v,))[1]
+    def constraint_acceleration(self, x, v, t: Scalar = 0.0) -> Float[Array, " m"]:
+        """The part of C̈ = C_x a + (C_x v)_x v + 2 C_xt v + C_tt that does not hold a: the second
+        derivative of C along the path (x + s v, t + s) (the t terms only with drivers)."""
+        if not self.rheonomic:
+            def rate(y):
+                return jax.jvp(lambda z: self.constraints(z, t), (y,), (v,))[1]
+
+            return jax.jvp(rate, (x,), (v,))[1]
+        one = jnp.ones((), x.dtype)
+
+        def path_rate(y, s):
+            return jax.jvp(self.constraints, (y, s), (v, one))[1]
+
+        return jax.jvp(path_rate, (x, jnp.asarray(t, x.dtype)), (v, one))[1]
 
     def consistent_accelerations(self, t: Scalar, x, v) -> tuple[Float[Array, " n"], Float[Array, " m"]]:
         """``(a, λ)`` that satisfy the equations of motion and C̈ = 0 at (x, v):
@@ -160,10 +180,10 @@ class AbstractConstrainedModel(AbstractModel):
             [M   C_xᵀ] [a]   [−(g(t, x, v))  ]
             [C_x  0  ] [λ] = [−(C_x v)_x v   ]
         """
-        B = self.constraint_jacobian(x)
+        B = self.constraint_jacobian(x, t)
         n, m = self.n_dof, B.shape[0]
         A = jnp.block([[self.mass_matrix(x), B.T], [B, jnp.zeros((m, m), x.dtype)]])
-        rhs = jnp.concatenate([-self.residual(t, x, v, jnp.zeros_like(x)), -self.constraint_acceleration(x, v)])
+        rhs = jnp.concatenate([-self.residual(t, x, v, jnp.zeros_like(x)), -self.constraint_acceleration(x, v, t)])
         z = DenseLU.factor(A).solve(rhs)
         return z[:n], z[n:]
 

@@ -43,14 +43,17 @@ class AbstractJoint(eqx.Module):
     """A joint: ``n_equations`` position-level equations on nodal vectors of its bodies."""
 
     n_equations: ClassVar[int]
+    rheonomic: ClassVar[bool] = False
+    """Whether the equations depend on time (``drivers``)."""
 
     @abc.abstractmethod
     def references(self) -> list[tuple[int, int]]:
         """The ``(body, nodal vector)`` pairs the equations read (ground excluded)."""
 
     @abc.abstractmethod
-    def __call__(self, xs: tuple[Float[Array, "n 3"], ...]) -> Float[Array, " m"]:
-        """The equations' values for the bodies' nodal vectors ``xs`` (one (n, 3) array a body)."""
+    def __call__(self, xs: tuple[Float[Array, "n 3"], ...], t=0.0) -> Float[Array, " m"]:
+        """The equations' values for the bodies' nodal vectors ``xs`` (one (n, 3) array a body) at
+        time ``t`` (read only by joints that prescribe a motion: ``drivers``)."""
 
     def bodies(self) -> set[int]:
         return {b for b, _ in self.references()}
@@ -92,7 +95,7 @@ class Spherical(AbstractJoint):
     def turned(self, A):
         return eqx.tree_at(lambda j: j.point, self, A @ self.point)
 
-    def __call__(self, xs):
+    def __call__(self, xs, t=0.0):
         other = self.point if self.body_b is None else _vector(xs, self.body_b, self.vector_b)
         return _vector(xs, self.body_a, self.vector_a) - other
 
@@ -139,7 +142,7 @@ class Revolute(AbstractJoint):
     def turned(self, A):
         return eqx.tree_at(lambda j: (j.point, j.ground_normals), self, (A @ self.point, self.ground_normals @ A.T))
 
-    def __call__(self, xs):
+    def __call__(self, xs, t=0.0):
         d = _vector(xs, self.body_b, self.axis_b)
         r_b = _vector(xs, self.body_b, self.position_b)
         if self.body_a is None:
@@ -186,7 +189,7 @@ class Fixed(AbstractJoint):
         # a position and gradient vectors alike: v → A v (a rotation about the origin is linear)
         return self if self.values is None else eqx.tree_at(lambda j: j.values, self, self.values @ A.T)
 
-    def __call__(self, xs):
+    def __call__(self, xs, t=0.0):
         a = jnp.stack([_vector(xs, self.body_a, v) for v in self.vectors_a])
         b = self.values if self.body_b is None else jnp.stack([_vector(xs, self.body_b, v) for v in self.vectors_b])
         return (a - b).reshape(-1)

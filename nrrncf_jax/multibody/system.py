@@ -143,18 +143,19 @@ class MultibodySystem(AbstractConstrainedModel):
         return (x - self.reference()).reshape(-1, 3)
 
     # --- the equations ----------------------------------------------------------------------------
-    def constraints(self, x: Float[Array, " n"]) -> Float[Array, " m"]:
-        """C(x): the joints' equations, joint by joint."""
-        return self.joint_equations(self.split(x)) if self.joints else jnp.zeros((0,), x.dtype)
+    def constraints(self, x: Float[Array, " n"], t: Scalar = 0.0) -> Float[Array, " m"]:
+        """C(x, t): the joints' equations, joint by joint."""
+        return self.joint_equations(self.split(x), t) if self.joints else jnp.zeros((0,), x.dtype)
 
-    def constraint_jacobian(self, x: Float[Array, " n"]) -> Float[Array, "m n"]:
+    def constraint_jacobian(self, x: Float[Array, " n"], t: Scalar = 0.0) -> Float[Array, "m n"]:
         """C_x = ∂C/∂x (dense)."""
-        return jax.jacfwd(self.constraints)(x)
+        return jax.jacfwd(lambda y: self.constraints(y, t))(x)
 
-    def constraint_hessian(self, x: Float[Array, " n"], lam: Float[Array, " m"]) -> Float[Array, "n n"]:
-        """∂(C_xᵀ λ)/∂x: the joints' contribution to the tangent stiffness (constant: the
+    def constraint_hessian(self, x: Float[Array, " n"], lam: Float[Array, " m"], t: Scalar = 0.0
+                           ) -> Float[Array, "n n"]:
+        """∂(C_xᵀ λ)/∂x: the joints' contribution to the tangent stiffness (constant in x: the
         equations are quadratic)."""
-        return jax.hessian(lambda y: jnp.dot(lam, self.constraints(y)))(x)
+        return jax.hessian(lambda y: jnp.dot(lam, self.constraints(y, t)))(x)
 
     def residual(self, t: Scalar, x, v, a) -> Float[Array, " n"]:
         """M a + F(x) − Q, without the joints' forces (the stepper adds C_xᵀ λ)."""
@@ -188,9 +189,9 @@ class MultibodySystem(AbstractConstrainedModel):
         linearly, at a rate of about c_K |H_λ| / |M| (the reactions times h²β against the nodal
         masses: small), to the same solution. ``a`` (the step's acceleration) is not used: the
         inertial frame's mass matrix is constant."""
-        B = self.constraint_jacobian(x)
+        B = self.constraint_jacobian(x, t)
         if self.solver == "dense":
-            S = self.iteration_matrix(t, x, v, 1.0, c_C, c_K) + c_K * self.constraint_hessian(x, lam)
+            S = self.iteration_matrix(t, x, v, 1.0, c_C, c_K) + c_K * self.constraint_hessian(x, lam, t)
             return dense_augmented(S, B)
         factors = []
         for b, solver, q in zip(self.bodies, self.body_solvers, self.split(x)):
