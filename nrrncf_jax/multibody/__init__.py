@@ -4,6 +4,12 @@
   nodal-vector indices.
 - ``markers``: the same joints in physical terms, ``hinge``, ``ball``, ``clamp`` on ``Marker``s (a
   body and a point of its reference configuration), which a system resolves into ``joints``.
+- ``prismatic``: ``Prismatic``, a slider; ``drivers``: ``AngleDriver``, ``DistanceDriver``, a
+  hinge's angle or a slider's travel prescribed in time (their multipliers the driving torque or
+  force).
+- ``mechanism``: ``Mechanism``, bodies of any kind (``kinds``: ``FloatingBody``, a ``RigidBody``
+  in its frame, an ANCF ``Body`` in the inertial frame as ``InertialBody``, ``PointMass``) in one
+  system, run with ``integrate.GeneralizedAlphaIndex3``.
 - ``system``: ``MultibodySystem`` of inertial-frame (ANCF) bodies under gravity, run with
   ``integrate.GeneralizedAlphaIndex3``; ``placed`` moves a body into place.
 - ``floating``: ``FloatingFrameSystem`` of bodies in free-floating frames (Euler parameters)
@@ -40,8 +46,9 @@ of the paper, all three ways: ``scenarios.pendulum``, ``notebooks/07_pendulum.ip
 ``benchmarks/results/pendulum.md`` (and what is not met there yet).
 """
 
+from .drivers import AngleDriver as AngleDriver
+from .drivers import DistanceDriver as DistanceDriver
 from .floating import FloatingBody as FloatingBody
-from .floating import FloatingFrameSystem as FloatingFrameSystem
 from .full_order_frame import NodalElasticForce as NodalElasticForce
 from .full_order_frame import full_floating_body as full_floating_body
 from .joints import GROUND as GROUND
@@ -49,9 +56,16 @@ from .joints import AbstractJoint as AbstractJoint
 from .joints import Fixed as Fixed
 from .joints import Revolute as Revolute
 from .joints import Spherical as Spherical
+from .kinds import AbstractBodyKind as AbstractBodyKind
 from .markers import Marker as Marker
 from .markers import ball as ball
 from .markers import clamp as clamp
 from .markers import hinge as hinge
+from .markers import slider as slider
+from .mechanism import FloatingFrameSystem as FloatingFrameSystem
+from .mechanism import Mechanism as Mechanism
+from .point_mass import PointMass as PointMass
+from .prismatic import Prismatic as Prismatic
+from .rigid import rigid_floating_body as rigid_floating_body
 from .system import MultibodySystem as MultibodySystem
 from .system import placed as placed

@@ -56,14 +56,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._types import Array, Float, Scalar
+from .._types import Array, Float
 from ..bodies.body import Body
-from ..linalg import AugmentedFactor, DenseLU, schur_factor
-from ..models.constrained import AbstractConstrainedModel
-from ..motion import unit_axis
 from ..reduction.tensors import ElasticTensors
-from .joints import AbstractJoint
-from .markers import BodyGeometry, JointSpec, resolve_joints
+from .kinds import AbstractBodyKind
+from .markers import BodyGeometry
 
 
 def rotation(e: Float[Array, " 4"]) -> Float[Array, "3 3"]:
@@ -127,7 +124,7 @@ def _rotation_basis() -> np.ndarray:
 _B = _rotation_basis()
 
 
-class FloatingBody(eqx.Module):
+class FloatingBody(AbstractBodyKind):
     """A body in a floating frame, deformation reduced: ``body`` in its own frame (its ``q_hat``
     the stress-free state in frame coordinates), the deformation basis ``basis`` (n_dof × k,
     zero on the reference conditions), its ``tensors`` (``reduction.elastic_tensors(body,
@@ -295,18 +292,67 @@ class FloatingBody(eqx.Module):
     def initial(self) -> Float[Array, " nz"]:
         return jnp.concatenate([self.R0, self.e0, jnp.zeros(self.k)])
 
+    # --- as a body kind of a mechanism (``kinds.AbstractBodyKind``) -------------------------------
+    n_own_equations = 1  # |e|² = 1
 
-def _stack(bodies) -> FloatingBody | None:
-    """The bodies' arrays stacked into one ``FloatingBody`` (leading axis: the body), or None when
-    their structures or shapes differ."""
-    leaves = [jax.tree_util.tree_flatten(b) for b in bodies]
-    first, treedef = leaves[0]
-    if any(td != treedef or len(ls) != len(first) for ls, td in leaves):
-        return None
-    if any(not all(isinstance(x, jax.Array) and x.shape == y.shape and x.dtype == y.dtype for x, y in zip(ls, first))
-           for ls, _ in leaves):
-        return None
-    return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *bodies)
+    @property
+    def kind(self) -> str:  # type: ignore[override]
+        if self.k == 0:
+            return "rigid"
+        return "rncf" if getattr(self.tensors, "full_order", False) else "nr-rncf"
+
+    @property
+    def n_vectors(self) -> int:
+        return self.body.n_vectors
+
+    def geometry(self) -> BodyGeometry:
+        return BodyGeometry(np.asarray(self.nodal_vectors(self.initial())), np.asarray(self.body.is_position),
+                            self.body.vectors_per_node)
+
+    def residual(self, z, v, a, gravity) -> Float[Array, " nz"]:
+        """J ᵀ(M ẍ − Q) + ∂U/∂z, the elastic force the reduced cubic one (or the elements')."""
+        F = self.nodal_force(z, v, a, gravity)
+        return self.generalized(z, F).at[7:].add(self.tensors.force(z[7:]))
+
+    def block(self, z, c_M, c_K, gravity, state=None, c_C=0.0) -> Float[Array, "nz nz"]:
+        """c_M M_z and the elastic stiffness c_K (K + 2Lp + 3Npp); with ``state`` = (v, a, the
+        joints' nodal forces) also the inertia terms' p columns (``deformation_tangent``; the
+        system's docstring says why)."""
+        _, K = self.tensors.force_and_jacobian(z[7:])
+        S = (c_M * self.mass_matrix(z)).at[7:, 7:].add(c_K * K)
+        if state is None:
+            return S
+        v, a, reaction = state
+        F = self.nodal_force(z, v, a, gravity) + reaction
+        return S.at[:, 7:].add(self.deformation_tangent(z, v, a, F, c_C, c_K))
+
+    def own_equations(self, z) -> Float[Array, " 1"]:
+        """|e|² − 1."""
+        return jnp.atleast_1d(z[3:7] @ z[3:7] - 1.0)
+
+    def own_jacobian(self, z) -> Float[Array, "1 nz"]:
+        """The row 2eᵀ."""
+        return jnp.concatenate([jnp.zeros(3), 2.0 * z[3:7], jnp.zeros(self.k)])[None]
+
+    def kinetic_energy(self, z, v) -> Float[Array, ""]:
+        xv = self.tangent(z, v)
+        return 0.5 * jnp.sum(xv * (self.mass @ xv))
+
+    def potential_energy(self, z, gravity) -> Float[Array, ""]:
+        x = self.nodal_vectors(z)
+        return self.tensors.energy(z[7:]) - jnp.sum(self.weights[:, None] * x * gravity[None, :])
+
+    def turned(self, e, A) -> "FloatingBody":
+        """The frame's origin and orientation turned (the deformation, in the frame, stays)."""
+        return eqx.tree_at(lambda b: (b.R0, b.e0), self, (self.R0 @ A.T, _compose_last(e, self.e0)))
+
+    def rigid_velocity(self, z, velocity, omega) -> Float[Array, " nz"]:
+        """Ṙ = velocity + ω × R, ė = ½ ω ⊗ e (the quaternion rate of Ȧ = ω̃ A), ṗ = 0."""
+        R, e = z[:3], z[3:7]
+        w = jnp.asarray(omega, dtype=float).reshape(3)
+        de = 0.5 * jnp.concatenate([(-w @ e[1:])[None], e[0] * w + jnp.cross(w, e[1:])])
+        return jnp.concatenate([jnp.asarray(velocity, dtype=float).reshape(3) + jnp.cross(w, R), de,
+                                jnp.zeros(self.k)])
 
 
 def _compose_last(a, b):
@@ -323,230 +369,4 @@ def _dA_hat(e):
     return 2.0 * jnp.einsum("l,klij->kij", e, jnp.asarray(_B))
 
 
-class FloatingFrameSystem(AbstractConstrainedModel):
-    """Floating-frame bodies (``FloatingBody``) joined by ``joints`` (acting on the bodies'
-    inertial nodal vectors, as in ``MultibodySystem``), under ``gravity``. Coordinates z: each
-    body's (R, e, p), stacked. Constraints: the joints' equations, then |e_b|² − 1 per body.
-    See the module docstring for the equations. Runs with ``integrate.GeneralizedAlphaIndex3``."""
-
-    bodies: tuple[FloatingBody, ...]
-    joints: tuple[AbstractJoint, ...]
-    gravity: Float[Array, " 3"]
-    stacked: FloatingBody | None  # the bodies' arrays stacked, when they have one structure (vmapped)
-
-    preferred_newton = "modified"
-    project_velocities = True  # GeneralizedAlphaIndex3 projects v onto C_z v = 0 after each step (see there)
-
-    def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0)):
-        self.bodies = tuple(bodies)
-        if not self.bodies or not all(isinstance(b, FloatingBody) for b in self.bodies):
-            raise ValueError("bodies must be a non-empty sequence of FloatingBody")
-        joints = tuple(joints)
-        if any(isinstance(j, JointSpec) for j in joints):  # markers: on the bodies' reference nodal vectors
-            joints = resolve_joints(joints, tuple(
-                BodyGeometry(np.asarray(b.nodal_vectors(b.initial())), np.asarray(b.body.is_position),
-                             b.body.vectors_per_node) for b in self.bodies))
-        self.joints = joints
-        if not all(isinstance(j, AbstractJoint) for j in self.joints):
-            raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...) or joints on markers "
-                             "(hinge, ball, clamp)")
-        self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
-        self.stacked = _stack(self.bodies)
-        self.check_joints()
-
-    # --- coordinates ------------------------------------------------------------------------------
-    def body_sizes(self) -> tuple[int, ...]:
-        return tuple(b.n_z for b in self.bodies)
-
-    def vector_counts(self) -> tuple[int, ...]:
-        return tuple(b.body.n_vectors for b in self.bodies)
-
-    @property
-    def n_body_equations(self) -> int:
-        """One |e_b|² = 1 a body."""
-        return len(self.bodies)
-
-    @property
-    def formulation(self) -> str:
-        """``"rncf"`` when the bodies keep every nodal coordinate (``full_order_frame``), else
-        ``"nr-rncf"``."""
-        return "rncf" if all(b.tensors.full_order for b in self.bodies) else "nr-rncf"
-
-    @property
-    def masses(self) -> tuple[Float[Array, "nv nv"], ...]:
-        """Each body's mass matrix on its nodal vectors (the same for each component)."""
-        return tuple(b.mass for b in self.bodies)
-
-    def _map(self, fn, *vectors) -> list:
-        """``[fn(body_b, *(each vector's part b))]``: one vmapped call over the stacked bodies when
-        they share one structure (a chain of equal beams: a third of the operations for three
-        bodies, and XLA's time here is per operation), else a loop. A vector is split by the
-        bodies' coordinates; a tuple holds its parts already (one a body)."""
-        if self.stacked is None:
-            parts = [x if isinstance(x, tuple) else self.split(x) for x in vectors]
-            return [fn(b, *ps) for b, *ps in zip(self.bodies, *parts)]
-        out = self._vmap(fn, *vectors)
-        return [jax.tree_util.tree_map(lambda y, i=i: y[i], out) for i in range(len(self.bodies))]
-
-    def _vmap(self, fn, *vectors):
-        """``fn`` over the stacked bodies (``stacked`` not None), its outputs with the body as
-        their leading axis. Equal bodies have equal coordinate counts, so a vector's parts are a
-        reshape of it, not slices and a stack, whose copies are a noticeable share of a small
-        model's operations (figures: ``benchmarks/results/design_notes.md``)."""
-        nb = len(self.bodies)
-        return jax.vmap(fn)(self.stacked, *(jnp.stack(x) if isinstance(x, tuple) else x.reshape(nb, -1)
-                                            for x in vectors))
-
-    def _concat_map(self, fn, *vectors) -> Float[Array, " n"]:
-        """``jnp.concatenate(self._map(fn, *vectors))`` (each part a vector, or flattened)."""
-        if self.stacked is None:
-            return jnp.concatenate([y.reshape(-1) for y in self._map(fn, *vectors)])
-        return self._vmap(fn, *vectors).reshape(-1)
-
-    def nodal_vectors(self, z: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
-        """Every body's nodal vectors in the inertial frame (the full system's ``split``)."""
-        return tuple(self._map(FloatingBody.nodal_vectors, z))
-
-    def nodal_velocities(self, z: Float[Array, " n"], v: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
-        """ẋ_b = J_b ż_b."""
-        return tuple(self._map(FloatingBody.tangent, z, v))
-
-    def reference(self) -> Float[Array, " n"]:
-        return jnp.concatenate([b.initial() for b in self.bodies])
-
-    def turned(self, axis, angle) -> "FloatingFrameSystem":
-        """The system turned as a whole by ``angle`` [rad] about ``axis`` through the origin: each
-        frame's origin and orientation (so the initial state, ``reference``) and the joints' fixed
-        data in space (``AbstractJoint.turned``); gravity stays. The deformation, measured in the
-        frames, does not change. Traceable in ``angle``: a batch of release angles is a ``vmap``
-        over it (``scenarios.pendulum.release_sweep``)."""
-        e = axis_angle(unit_axis(axis), angle)
-        A = rotation(e)
-
-        def turn(b):
-            return eqx.tree_at(lambda b: (b.R0, b.e0), b, (b.R0 @ A.T, _compose_last(e, b.e0)))
-
-        out = eqx.tree_at(lambda s: (s.bodies, s.joints), self,
-                          (tuple(turn(b) for b in self.bodies), tuple(j.turned(A) for j in self.joints)))
-        return out if self.stacked is None else eqx.tree_at(lambda s: s.stacked, out, turn(self.stacked))
-
-    def error_space(self, z, e):
-        """The step error in the inertial nodal vectors (J e), so that a tolerance means what it
-        means for the full system."""
-        x = self._concat_map(FloatingBody.nodal_vectors, z)
-        dx = self._concat_map(FloatingBody.tangent, z, e)
-        return x, dx, jnp.ones(x.shape[0], bool)
-
-    # --- the equations ----------------------------------------------------------------------------
-    def _euler_norms(self, z):
-        return [jnp.atleast_1d(zb[3:7] @ zb[3:7] - 1.0) for zb in self.split(z)]
-
-    def constraints(self, z: Float[Array, " n"]) -> Float[Array, " m"]:
-        xs = self.nodal_vectors(z)
-        return jnp.concatenate([self.joint_equations(xs)] + self._euler_norms(z))
-
-    def _joint_rows(self) -> tuple[int, ...]:
-        """The nodal vectors any joint reads (on any body: one list for the stacked bodies)."""
-        return tuple(sorted({v for j in self.joints for _, v in j.references()}))
-
-    def constraint_jacobian(self, z):
-        """C_z = ∂C/∂x J: the joints differentiated with respect to the few nodal vectors they
-        read, times those rows of each body's J; then the rows 2 e_bᵀ of |e_b|² = 1."""
-        xs = self.nodal_vectors(z)
-        zs = self.split(z)
-        rows = self._joint_rows()
-        if rows:
-            idx = jnp.asarray(rows)
-
-            def on_rows(x_rows):
-                return self.joint_equations(tuple(x.at[idx].set(xr) for x, xr in zip(xs, x_rows)))
-
-            dC = jax.jacfwd(on_rows)(tuple(x[idx] for x in xs))  # per body (m, rows, 3)
-            Js = self._map(lambda b, zb: b.jacobian(zb, rows), z)  # per body (rows, 3, nz)
-            C_joints = jnp.concatenate([jnp.einsum("mvi,vik->mk", d, J) for d, J in zip(dC, Js)], axis=1)
-        else:
-            C_joints = jnp.zeros((0, self.n_dof), z.dtype)
-        C_norms = jax.scipy.linalg.block_diag(*[jnp.concatenate([jnp.zeros(3), 2.0 * zb[3:7], jnp.zeros(b.k)])[None]
-                                                for b, zb in zip(self.bodies, zs)])
-        return jnp.concatenate([C_joints, C_norms], axis=0)
-
-    def residual(self, t: Scalar, z, v, a) -> Float[Array, " n"]:
-        """J ᵀ(M ẍ − Q) + ∂U/∂z, ẍ = J z̈ + J̇ ż, without the joints' forces (the stepper adds
-        C_zᵀ λ). Through the nodal vectors, not the inertia invariants: written with the invariants
-        it takes a dozen 3 × 3 × k × k contractions, more operations, and XLA's time here is per
-        operation (figures: ``benchmarks/results/design_notes.md``)."""
-        def body_residual(b, zb, vb, ab):
-            F = b.nodal_force(zb, vb, ab, self.gravity)
-            return b.generalized(zb, F).at[7:].add(b.tensors.force(zb[7:]))
-
-        return self._concat_map(body_residual, z, v, a)
-
-    def mass_matrix(self, z) -> Float[Array, "n n"]:
-        """M_z = blockdiag(J_bᵀ M_b J_b)."""
-        return jax.scipy.linalg.block_diag(*self._map(FloatingBody.mass_matrix, z))
-
-    def iteration_matrix(self, t, z, v, c_M, c_C, c_K):
-        """``c_M M_z + c_K ∂F/∂z``: the mass matrix and the reduced elastic stiffness. The
-        derivatives of the inertia terms through J (centrifugal, gyroscopic, the load's change of
-        direction) are left out here: they are of order c_K ω² M and c_C ω M against M, and a
-        modified Newton on this matrix converges linearly, at that rate, to the same solution.
-        ``factor_augmented`` with the state's acceleration adds their p columns (the module
-        docstring says why)."""
-        return jax.scipy.linalg.block_diag(*self._blocks(z, c_M, c_K))
-
-    def _blocks(self, z, c_M, c_K, v=None, a=None, lam=None, c_C=0.0) -> list:
-        """The ``iteration_matrix``'s diagonal blocks, one a body; with the state's velocity
-        ``v``, acceleration ``a`` and multipliers ``lam``, also the p columns of the inertia
-        terms' derivatives (``FloatingBody.deformation_tangent``)."""
-        def block(b, zb, *state):
-            _, K = b.tensors.force_and_jacobian(zb[7:])
-            S = (c_M * b.mass_matrix(zb)).at[7:, 7:].add(c_K * K)
-            if not state:
-                return S
-            vb, ab, reaction = state
-            F = b.nodal_force(zb, vb, ab, self.gravity) + reaction
-            return S.at[:, 7:].add(b.deformation_tangent(zb, vb, ab, F, c_C, c_K))
-
-        if a is None:
-            return self._map(block, z)
-        return self._map(block, z, v, a, tuple(self._nodal_reactions(z, lam)))
-
-    def _nodal_reactions(self, z, lam) -> tuple:
-        """The joints' forces on each body's nodal vectors, C_xᵀλ (zero without joints)."""
-        xs = self.nodal_vectors(z)
-        if not self.joints:
-            return tuple(jnp.zeros_like(x) for x in xs)
-        m = sum(j.n_equations for j in self.joints)
-        _, pullback = jax.vjp(self.joint_equations, xs)
-        return pullback(lam[:m])[0]
-
-    def factor_iteration_matrix(self, t, z, v, c_M, c_C, c_K):
-        return DenseLU.factor(self.iteration_matrix(t, z, v, c_M, c_C, c_K))
-
-    def factor_augmented(self, t, z, v, lam, c_C, c_K, a=None) -> AugmentedFactor:
-        """``[[S, C_zᵀ], [C_z, 0]]`` factored body by body: each body's block of S, the
-        ``iteration_matrix`` (with ``a``, the step's acceleration, plus the inertia terms' p
-        columns, ``FloatingBody.deformation_tangent``), on its own, and the joints by the m × m Schur complement
-        C_z S⁻¹ C_zᵀ (as ``MultibodySystem``'s ``"bodies"`` solver). The joints' Hessian c_K H_λ
-        is left out as well: of the order of the reactions times c_K. Small LU factorisations of
-        the bodies' blocks instead of one of the whole matrix: a small fraction of its arithmetic,
-        and on a CPU one LU of the whole matrix can cost more than the rest of the step
-        (figures: ``benchmarks/results/design_notes.md``)."""
-        B = self.constraint_jacobian(z)
-        factors = tuple(DenseLU.factor(S_b) for S_b in self._blocks(z, 1.0, c_K, v, a, lam, c_C))
-        return schur_factor(factors, self.offsets, self.body_sizes(), B)
-
-    def kinetic_energy(self, z, v) -> Float[Array, ""]:
-        """½ Σ_b ẋ_bᵀ M_b ẋ_b, ẋ_b = J_b ż_b."""
-        return sum(0.5 * jnp.sum(xv * (b.mass @ xv)) for b, xv in zip(self.bodies, self.nodal_velocities(z, v)))
-
-    def potential_energy(self, z) -> Float[Array, ""]:
-        """Strain energy (the bodies' ``tensors.energy``: the reduced cubic force's potential, or
-        the elements' own on full-order bodies) plus the gravity potential −Σ ϱ_α x_α·g."""
-        total = 0.0
-        for b, zb, x in zip(self.bodies, self.split(z), self.nodal_vectors(z)):
-            total = total + b.tensors.energy(zb[7:]) - jnp.sum(b.weights[:, None] * x * self.gravity[None, :])
-        return total
-
-
-__all__ = ["FloatingBody", "FloatingFrameSystem", "axis_angle", "euler_parameters", "rotation"]
+__all__ = ["FloatingBody", "axis_angle", "euler_parameters", "rotation"]

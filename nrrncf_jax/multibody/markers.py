@@ -23,7 +23,9 @@ import dataclasses
 
 import numpy as np
 
+from .drivers import AngleDriver, DistanceDriver
 from .joints import Fixed, Revolute, Spherical
+from .prismatic import Prismatic
 
 POINT_TOL = 1e-9
 """A marker's point matches a node when closer than this times the body's size."""
@@ -78,6 +80,9 @@ class BodyGeometry:
     def along(self, node: int, direction, what: str) -> int:
         """The node's unit gradient vector parallel to ``direction``."""
         e = _unit(direction)
+        if not self.unit_gradients(node):
+            raise ValueError(f"{what}: the node at {tuple(float(x) for x in self.vectors[node])} carries no direction "
+                             "(a point mass, a bar's node): put the joint on a body with directions there")
         for v in self.unit_gradients(node):
             if np.linalg.norm(np.cross(self.vectors[v], e)) < ANGLE_TOL:
                 return v
@@ -110,6 +115,7 @@ class JointSpec:
     a: Marker | None
     b: Marker
     axis: tuple[float, float, float] | None = None
+    drive: object = None  # a motion, motion(t)[0] the prescribed angle or travel (``drivers``)
 
     def resolve(self, geometry: tuple[BodyGeometry, ...]):
         """The nodal-vector joint of these markers on the system's bodies."""
@@ -125,12 +131,49 @@ class JointSpec:
         if self.kind == "hinge":
             axis_b = gb.along(nb, self.axis, "hinge axis")
             if self.a is None:
-                return Revolute(None, None, None, self.b.body, nb, axis_b, point=self.b.point, axis=self.axis)
+                joint = Revolute(None, None, None, self.b.body, nb, axis_b, point=self.b.point, axis=self.axis)
+                if self.drive is None:
+                    return joint
+                u_b = gb.normal_to(nb, self.axis, "hinge axis")[0]
+                u = gb.vectors[u_b] / np.linalg.norm(gb.vectors[u_b])
+                return joint, AngleDriver(None, None, None, self.b.body, u_b, self.drive,
+                                          ground=(u, np.cross(self.axis, u)))
             ga = geometry[self.a.body]
             na = ga.node(self.a)
             if np.linalg.norm(ga.vectors[na] - gb.vectors[nb]) > POINT_TOL * max(1.0, np.abs(gb.vectors).max()):
                 raise ValueError(f"hinge: the markers' points differ, {self.a.point} and {self.b.point}")
-            return Revolute(self.a.body, na, ga.normal_to(na, self.axis, "hinge axis"), self.b.body, nb, axis_b)
+            normals = ga.normal_to(na, self.axis, "hinge axis")
+            joint = Revolute(self.a.body, na, normals, self.b.body, nb, axis_b)
+            if self.drive is None:
+                return joint
+            u_a, w_a = normals if np.cross(ga.vectors[normals[0]], ga.vectors[normals[1]]) @ self.axis > 0 \
+                else normals[::-1]
+            u_b = gb.along(nb, ga.vectors[u_a], "the driven hinge's reference direction")
+            return joint, AngleDriver(self.a.body, u_a, w_a, self.b.body, u_b, self.drive)
+        if self.kind == "slider":
+            axis = np.asarray(self.axis)
+            axis_b = gb.along(nb, axis, "slider axis")
+            if self.a is None:
+                m_b = gb.normal_to(nb, axis, "slider axis")[0]
+                m = gb.vectors[m_b] / np.linalg.norm(gb.vectors[m_b])
+                joint = Prismatic(None, None, None, self.b.body, nb, axis_b, m_b, point=self.b.point,
+                                  normals=(m, np.cross(axis, m)))
+                driver = None if self.drive is None else DistanceDriver(None, None, None, self.b.body, nb, self.drive,
+                                                                        point=self.b.point, axis=axis)
+            else:
+                ga = geometry[self.a.body]
+                na = ga.node(self.a)
+                gap = gb.vectors[nb] - ga.vectors[na]
+                if np.linalg.norm(np.cross(gap, axis)) > POINT_TOL * max(1.0, np.abs(gb.vectors).max()):
+                    raise ValueError(f"slider: the markers' points {self.a.point} and {self.b.point} are not on one "
+                                     f"line along the axis {tuple(axis)}")
+                normals = ga.normal_to(na, axis, "slider axis")
+                m_b = gb.along(nb, ga.vectors[normals[0]], "the slider's reference direction")
+                joint = Prismatic(self.a.body, na, normals, self.b.body, nb, axis_b, m_b)
+                driver = None if self.drive is None else DistanceDriver(
+                    self.a.body, na, ga.along(na, axis, "slider axis"), self.b.body, nb, self.drive,
+                    s_ref=float(gap @ axis))
+            return joint if driver is None else (joint, driver)
         if self.kind == "clamp":
             vb = [nb] + gb.unit_gradients(nb)
             if self.a is None:
@@ -143,11 +186,30 @@ class JointSpec:
         raise ValueError(f"unknown joint kind {self.kind!r}")
 
 
-def hinge(a: Marker | None, b: Marker, axis) -> JointSpec:
+def _check_drive(drive):
+    if drive is not None and not callable(drive):
+        raise ValueError("drive must be a motion (motion(t)[0] the prescribed angle or travel, e.g. "
+                         f"motion.SteadySpin), got {type(drive).__name__}")
+    return drive
+
+
+def hinge(a: Marker | None, b: Marker, axis, drive=None) -> JointSpec:
     """A revolute joint about ``axis`` between the nodes at markers ``a`` and ``b`` (the same point),
     or of ``b`` to the ground (``a=None``) at its point: the positions coincide and b's gradient
-    vector along the axis stays normal to a's two gradient vectors normal to it (``Revolute``)."""
-    return JointSpec("hinge", a, b, tuple(float(x) for x in _unit(axis)))
+    vector along the axis stays normal to a's two gradient vectors normal to it (``Revolute``).
+    With ``drive`` (a motion: ``drive(t)[0]`` the angle, e.g. ``motion.SteadySpin``), b's angle
+    about the axis relative to a follows drive(t)[0] − drive(0)[0] (``drivers.AngleDriver``,
+    which the system puts right after the hinge)."""
+    return JointSpec("hinge", a, b, tuple(float(x) for x in _unit(axis)), _check_drive(drive))
+
+
+def slider(a: Marker | None, b: Marker, axis, drive=None) -> JointSpec:
+    """A prismatic joint: b's node slides along ``axis`` through a's node (on one line along the
+    axis), or through its own point when ``a=None``, keeping its orientation relative to a (or
+    to the ground) (``prismatic.Prismatic``). Both nodes need directions: a gradient vector
+    along the axis and two normal to it. With ``drive``, the travel along the axis follows
+    drive(t)[0] − drive(0)[0] (``drivers.DistanceDriver``, right after the slider)."""
+    return JointSpec("slider", a, b, tuple(float(x) for x in _unit(axis)), _check_drive(drive))
 
 
 def ball(a: Marker | None, b: Marker) -> JointSpec:
@@ -163,9 +225,14 @@ def clamp(a: Marker | None, b: Marker) -> JointSpec:
 
 
 def resolve_joints(joints, geometry: tuple[BodyGeometry, ...]) -> tuple:
-    """The system's joints with every ``JointSpec`` resolved (nodal-vector joints pass as they are)."""
-    return tuple(j.resolve(geometry) if isinstance(j, JointSpec) else j for j in joints)
+    """The system's joints with every ``JointSpec`` resolved (nodal-vector joints pass as they are;
+    a driven joint becomes the joint and its driver, in that order)."""
+    out = []
+    for j in joints:
+        r = j.resolve(geometry) if isinstance(j, JointSpec) else j
+        out.extend(r if isinstance(r, tuple) else (r,))
+    return tuple(out)
 
 
 __all__ = ["ANGLE_TOL", "POINT_TOL", "BodyGeometry", "JointSpec", "Marker", "ball", "clamp", "hinge",
-           "resolve_joints"]
+           "resolve_joints", "slider"]

@@ -1,0 +1,319 @@
+"""A mechanism: bodies of any kind (``kinds``: NR-RNCF and RNCF bodies in floating frames, rigid
+bodies, ANCF bodies in the inertial frame, point masses) joined by joints and drivers under
+gravity, the index-3 DAE of ``models.constrained`` (THEORY §7):
+
+    Σ_b J_bᵀ(M_b ẍ_b − Q_b) + ∂U/∂z + C_zᵀ λ = 0,    C(z, t) = 0,
+
+with z the bodies' coordinates stacked, x_b = f_b(z_b) their nodal vectors in the inertial frame
+(where the joints act) and C the joints' equations, then each body's own (a floating frame's
+|e|² = 1). Each body supplies its map, residual, iteration block and energies; the system
+assembles them and the joints. ``FloatingFrameSystem`` is the mechanism whose bodies are all
+floating frames (the paper's NR-RNCF pendulum); its equations and the reasons for its choices
+(Euler parameters, inertia invariants, the p columns of the iteration matrix, the velocity
+projection) are ``floating``'s docstring.
+
+The iteration matrix is block-diagonal, one dense block a body; the constrained matrix is
+factored body by body with the joints' m × m Schur complement (``factor_augmented``). The joints'
+Hessian and the inertia terms' derivatives with respect to the frames' coordinates are left to
+Newton's iterations (``preferred_newton = "modified"``).
+
+Bodies of one structure (a chain of equal beams) are evaluated in one ``vmap``: on a CPU the
+time of these small models is per XLA operation.
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._types import Array, Float, Scalar
+from ..bodies.body import Body
+from ..bodies.rigid import RigidBody
+from ..linalg import AugmentedFactor, DenseLU, schur_factor
+from ..models.constrained import AbstractConstrainedModel
+from ..motion import unit_axis
+from .floating import FloatingBody, axis_angle, rotation
+from .inertial import InertialBody
+from .joints import AbstractJoint
+from .kinds import AbstractBodyKind
+from .markers import JointSpec, resolve_joints
+from .rigid import rigid_floating_body
+
+
+def as_body_kind(body) -> AbstractBodyKind:
+    """A mechanism's body: a body kind as it is; an element ``Body`` (placed in space) as an ANCF
+    body in the inertial frame; a ``RigidBody`` in its floating frame."""
+    if isinstance(body, AbstractBodyKind):
+        return body
+    if isinstance(body, Body):
+        return InertialBody(body)
+    if isinstance(body, RigidBody):
+        return rigid_floating_body(body)
+    raise ValueError(f"a mechanism's bodies are Body, RigidBody, PointMass or FloatingBody; got {type(body).__name__}")
+
+
+def _stack(bodies) -> AbstractBodyKind | None:
+    """The bodies' arrays stacked into one body (leading axis: the body), or None when their
+    kinds, structures or shapes differ."""
+    leaves = [jax.tree_util.tree_flatten(b) for b in bodies]
+    first, treedef = leaves[0]
+    if any(td != treedef or len(ls) != len(first) for ls, td in leaves):
+        return None
+    if any(not all(isinstance(x, jax.Array) and x.shape == y.shape and x.dtype == y.dtype for x, y in zip(ls, first))
+           for ls, _ in leaves):
+        return None
+    return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *bodies)
+
+
+class Mechanism(AbstractConstrainedModel):
+    """``bodies`` (any of ``as_body_kind``'s), ``joints`` (joints on nodal vectors, or on markers:
+    ``hinge``, ``ball``, ``clamp``, ``slider``) and ``gravity`` (an acceleration, 3-vector). See the
+    module docstring. Runs with ``integrate.GeneralizedAlphaIndex3``.
+
+    Raises ``ValueError`` before anything is traced for a joint on a missing body or nodal vector,
+    an initial state that violates the joints, and redundant joint equations (a mechanism that
+    locks, or a driver incompatible with its joints)."""
+
+    bodies: tuple[AbstractBodyKind, ...]
+    joints: tuple[AbstractJoint, ...]
+    gravity: Float[Array, " 3"]
+    stacked: AbstractBodyKind | None  # the bodies' arrays stacked, when they have one structure (vmapped)
+
+    preferred_newton = "modified"
+    project_velocities = True  # GeneralizedAlphaIndex3 projects v onto C_z v = −C_t after each step (floating)
+
+    def __init__(self, bodies, joints=(), gravity=(0.0, 0.0, 0.0)):
+        bodies = tuple(bodies)
+        if not bodies:
+            raise ValueError("a mechanism needs at least one body")
+        self.bodies = tuple(as_body_kind(b) for b in bodies)
+        joints = tuple(joints)
+        if any(isinstance(j, JointSpec) for j in joints):  # markers: on the bodies' reference nodal vectors
+            joints = resolve_joints(joints, tuple(b.geometry() for b in self.bodies))
+        self.joints = joints
+        if not all(isinstance(j, AbstractJoint) for j in self.joints):
+            raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, Prismatic, drivers) or "
+                             "joints on markers (hinge, ball, clamp, slider)")
+        self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
+        self.stacked = _stack(self.bodies)
+        self.check_joints()
+
+    # --- coordinates ------------------------------------------------------------------------------
+    def body_sizes(self) -> tuple[int, ...]:
+        return tuple(b.n_z for b in self.bodies)
+
+    def vector_counts(self) -> tuple[int, ...]:
+        return tuple(b.n_vectors for b in self.bodies)
+
+    @property
+    def n_body_equations(self) -> int:
+        """The bodies' own constraints (one |e|² = 1 a floating frame)."""
+        return sum(b.n_own_equations for b in self.bodies)
+
+    @property
+    def formulation(self) -> str:
+        """The deformable bodies' kind (``"ancf"``, ``"rncf"``, ``"nr-rncf"``) when they share
+        one, ``"rigid"`` without deformable bodies, else ``"mixed"``."""
+        kinds = {b.kind for b in self.bodies} - {"rigid", "point"}
+        return kinds.pop() if len(kinds) == 1 else ("rigid" if not kinds else "mixed")
+
+    @property
+    def masses(self) -> tuple[Float[Array, "nv nv"], ...]:
+        """Each body's mass matrix on its nodal vectors (the same for each component)."""
+        return tuple(b.mass for b in self.bodies)
+
+    def _map(self, fn, *vectors) -> list:
+        """``[fn(body_b, *(each vector's part b))]``: one vmapped call over the stacked bodies when
+        they share one structure (a chain of equal beams: a third of the operations for three
+        bodies, and XLA's time here is per operation), else a loop. A vector is split by the
+        bodies' coordinates; a tuple holds its parts already (one a body)."""
+        if self.stacked is None:
+            parts = [x if isinstance(x, tuple) else self.split(x) for x in vectors]
+            return [fn(b, *ps) for b, *ps in zip(self.bodies, *parts)]
+        out = self._vmap(fn, *vectors)
+        return [jax.tree_util.tree_map(lambda y, i=i: y[i], out) for i in range(len(self.bodies))]
+
+    def _vmap(self, fn, *vectors):
+        """``fn`` over the stacked bodies (``stacked`` not None), its outputs with the body as
+        their leading axis. Equal bodies have equal coordinate counts, so a vector's parts are a
+        reshape of it, not slices and a stack, whose copies are a noticeable share of a small
+        model's operations (figures: ``benchmarks/results/design_notes.md``)."""
+        nb = len(self.bodies)
+        return jax.vmap(fn)(self.stacked, *(jnp.stack(x) if isinstance(x, tuple) else x.reshape(nb, -1)
+                                            for x in vectors))
+
+    def _concat_map(self, fn, *vectors) -> Float[Array, " n"]:
+        """``jnp.concatenate(self._map(fn, *vectors))`` (each part a vector, or flattened)."""
+        if self.stacked is None:
+            return jnp.concatenate([y.reshape(-1) for y in self._map(fn, *vectors)])
+        return self._vmap(fn, *vectors).reshape(-1)
+
+    def nodal_vectors(self, z: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
+        """Every body's nodal vectors in the inertial frame."""
+        return tuple(self._map(lambda b, zb: b.nodal_vectors(zb), z))
+
+    def nodal_velocities(self, z: Float[Array, " n"], v: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
+        """ẋ_b = J_b ż_b."""
+        return tuple(self._map(lambda b, zb, vb: b.tangent(zb, vb), z, v))
+
+    def reference(self) -> Float[Array, " n"]:
+        return jnp.concatenate([b.initial() for b in self.bodies])
+
+    def rigid_velocity(self, velocity=(0.0, 0.0, 0.0), omega=(0.0, 0.0, 0.0), z=None, bodies=None
+                       ) -> Float[Array, " n"]:
+        """ż of the rigid motion ẋ(p) = velocity + omega × p of the bodies ``bodies`` (indices;
+        all by default; the others at rest) at z (the reference by default): an initial velocity
+        in physical terms, for ``simulate(..., y0=(z, v))``. Velocities that the joints do not
+        allow are refused by ``check_velocity``."""
+        z = self.reference() if z is None else z
+        chosen = set(range(len(self.bodies))) if bodies is None else {int(b) for b in bodies}
+        return jnp.concatenate([b.rigid_velocity(zb, velocity, omega) if i in chosen else jnp.zeros_like(zb)
+                                for i, (b, zb) in enumerate(zip(self.bodies, self.split(z)))])
+
+    def check_velocity(self, z, v, t: Scalar = 0.0, rtol: float = 1e-8) -> None:
+        """``ValueError`` unless C_z v + C_t = 0 to ``rtol`` of |C_z| |v|: an initial velocity
+        that the joints and drivers allow."""
+        B, v = np.asarray(self.constraint_jacobian(z, t)), np.asarray(v)
+        r = np.abs(B @ v + np.asarray(self.constraint_rate(z, t)))
+        bound = rtol * max(1.0, float(np.abs(B).max() * np.abs(v).max()))
+        if r.max(initial=0.0) > bound:
+            raise ValueError(f"the initial velocities violate the joints' velocity equations (largest {r.max():.3g} "
+                             f"at constraints {np.flatnonzero(r > bound)[:10].tolist()})")
+
+    def turned(self, axis, angle) -> "Mechanism":
+        """The system turned as a whole by ``angle`` [rad] about ``axis`` through the origin: each
+        body (its frame, or its nodal vectors) and the joints' fixed data in space
+        (``AbstractJoint.turned``); gravity stays. Traceable in ``angle``: a batch of release
+        angles is a ``vmap`` over it (``scenarios.pendulum.release_sweep``)."""
+        e = axis_angle(unit_axis(axis), angle)
+        A = rotation(e)
+        out = eqx.tree_at(lambda s: (s.bodies, s.joints), self,
+                          (tuple(b.turned(e, A) for b in self.bodies), tuple(j.turned(A) for j in self.joints)))
+        return out if self.stacked is None else eqx.tree_at(lambda s: s.stacked, out, self.stacked.turned(e, A))
+
+    def error_space(self, z, e):
+        """The step error in the inertial nodal vectors (J e), so that a tolerance means what it
+        means for the full system."""
+        x = self._concat_map(lambda b, zb: b.nodal_vectors(zb), z)
+        dx = self._concat_map(lambda b, zb, eb: b.tangent(zb, eb), z, e)
+        return x, dx, jnp.ones(x.shape[0], bool)
+
+    # --- the equations ----------------------------------------------------------------------------
+    def _own_equations(self, z) -> list:
+        return [b.own_equations(zb) for b, zb in zip(self.bodies, self.split(z))]
+
+    def constraints(self, z: Float[Array, " n"], t: Scalar = 0.0) -> Float[Array, " m"]:
+        xs = self.nodal_vectors(z)
+        return jnp.concatenate([self.joint_equations(xs, t)] + self._own_equations(z))
+
+    def _joint_rows(self) -> tuple[tuple[int, ...], ...]:
+        """Each body's nodal vectors that any joint reads; with stacked bodies one list for all
+        (the union), so that they are evaluated in one vmap."""
+        per_body = [sorted({v for j in self.joints for b, v in j.references() if b == i})
+                    for i in range(len(self.bodies))]
+        if self.stacked is not None:
+            union = tuple(sorted({v for rows in per_body for v in rows}))
+            return tuple(union for _ in self.bodies)
+        return tuple(tuple(rows) for rows in per_body)
+
+    def constraint_jacobian(self, z, t: Scalar = 0.0):
+        """C_z = ∂C/∂x J: the joints differentiated with respect to the few nodal vectors they
+        read, times those rows of each body's J; then the bodies' own rows (2 e_bᵀ of
+        |e_b|² = 1)."""
+        xs = self.nodal_vectors(z)
+        rows = self._joint_rows()
+        if self.joints:
+            idx = [jnp.asarray(r, dtype=int) for r in rows]
+
+            def on_rows(x_rows):
+                return self.joint_equations(tuple(x.at[i].set(xr) for x, i, xr in zip(xs, idx, x_rows)), t)
+
+            dC = jax.jacfwd(on_rows)(tuple(x[i] for x, i in zip(xs, idx)))  # per body (m, rows, 3)
+            if self.stacked is not None:
+                Js = self._map(lambda b, zb: b.jacobian(zb, rows[0]), z)
+            else:
+                Js = [b.jacobian(zb, r) for b, zb, r in zip(self.bodies, self.split(z), rows)]
+            C_joints = jnp.concatenate([jnp.einsum("mvi,vik->mk", d, J) for d, J in zip(dC, Js)], axis=1)
+        else:
+            C_joints = jnp.zeros((0, self.n_dof), z.dtype)
+        own = []
+        for b, zb, o in zip(self.bodies, self.split(z), self.offsets):
+            if b.n_own_equations:
+                Jb = b.own_jacobian(zb)
+                own.append(jnp.zeros((Jb.shape[0], self.n_dof), z.dtype).at[:, o:o + b.n_z].set(Jb))
+        return jnp.concatenate([C_joints] + own, axis=0)
+
+    def residual(self, t: Scalar, z, v, a) -> Float[Array, " n"]:
+        """Σ_b J_bᵀ(M_b ẍ_b − Q_b) + ∂U/∂z, without the joints' forces (the stepper adds C_zᵀ λ).
+        Through the nodal vectors, not the inertia invariants: written with the invariants it
+        takes a dozen 3 × 3 × k × k contractions, more operations, and XLA's time here is per
+        operation (figures: ``benchmarks/results/design_notes.md``)."""
+        return self._concat_map(lambda b, zb, vb, ab: b.residual(zb, vb, ab, self.gravity), z, v, a)
+
+    def mass_matrix(self, z) -> Float[Array, "n n"]:
+        """M_z = blockdiag(J_bᵀ M_b J_b)."""
+        return jax.scipy.linalg.block_diag(*self._map(lambda b, zb: b.mass_matrix(zb), z))
+
+    def iteration_matrix(self, t, z, v, c_M, c_C, c_K):
+        """``c_M M_z + c_K ∂F/∂z``: the mass matrix and the elastic stiffness, block by block.
+        The derivatives of the inertia terms through J (centrifugal, gyroscopic, the load's
+        change of direction) are left out here: they are of order c_K ω² M and c_C ω M against
+        M, and a modified Newton on this matrix converges linearly, at that rate, to the same
+        solution. ``factor_augmented`` with the state's acceleration adds their p columns."""
+        return jax.scipy.linalg.block_diag(*self._blocks(z, c_M, c_K))
+
+    def _blocks(self, z, c_M, c_K, v=None, a=None, lam=None, c_C=0.0) -> list:
+        """The ``iteration_matrix``'s diagonal blocks, one a body; with the state's velocity
+        ``v``, acceleration ``a`` and multipliers ``lam``, the terms each body keeps of them
+        (``AbstractBodyKind.block``)."""
+        if a is None:
+            return self._map(lambda b, zb: b.block(zb, c_M, c_K, self.gravity), z)
+        return self._map(lambda b, zb, vb, ab, reaction: b.block(zb, c_M, c_K, self.gravity, (vb, ab, reaction), c_C),
+                         z, v, a, tuple(self._nodal_reactions(z, lam)))
+
+    def _nodal_reactions(self, z, lam, t: Scalar = 0.0) -> tuple:
+        """The joints' forces on each body's nodal vectors, C_xᵀλ (zero without joints)."""
+        xs = self.nodal_vectors(z)
+        if not self.joints:
+            return tuple(jnp.zeros_like(x) for x in xs)
+        m = self.n_joint_equations
+        _, pullback = jax.vjp(lambda y: self.joint_equations(y, t), xs)
+        return pullback(lam[:m])[0]
+
+    def factor_iteration_matrix(self, t, z, v, c_M, c_C, c_K):
+        return DenseLU.factor(self.iteration_matrix(t, z, v, c_M, c_C, c_K))
+
+    def factor_augmented(self, t, z, v, lam, c_C, c_K, a=None) -> AugmentedFactor:
+        """``[[S, C_zᵀ], [C_z, 0]]`` factored body by body: each body's block of S (``block``,
+        with ``a``, the step's acceleration, the state's terms), on its own, and the joints by
+        the m × m Schur complement C_z S⁻¹ C_zᵀ (as ``MultibodySystem``'s ``"bodies"`` solver).
+        The joints' Hessian c_K H_λ is left out: of the order of the reactions times c_K. Small
+        LU factorisations of the bodies' blocks instead of one of the whole matrix: a small
+        fraction of its arithmetic, and on a CPU one LU of the whole matrix can cost more than
+        the rest of the step (figures: ``benchmarks/results/design_notes.md``)."""
+        B = self.constraint_jacobian(z, t)
+        factors = tuple(DenseLU.factor(S_b) for S_b in self._blocks(z, 1.0, c_K, v, a, lam, c_C))
+        return schur_factor(factors, self.offsets, self.body_sizes(), B)
+
+    def kinetic_energy(self, z, v) -> Float[Array, ""]:
+        """½ Σ_b ẋ_bᵀ M_b ẋ_b, ẋ_b = J_b ż_b."""
+        return sum(self._map(lambda b, zb, vb: b.kinetic_energy(zb, vb), z, v))
+
+    def potential_energy(self, z) -> Float[Array, ""]:
+        """Strain energy (the reduced cubic force's potential, or the elements' own) plus the
+        gravity potential −Σ ϱ_α x_α·g."""
+        return sum(b.potential_energy(zb, self.gravity) for b, zb in zip(self.bodies, self.split(z)))
+
+
+class FloatingFrameSystem(Mechanism):
+    """A mechanism of floating-frame bodies only (``FloatingBody``: NR-RNCF or full-order RNCF;
+    ``floating``'s docstring gives the equations): the paper's jointed NR-RNCF systems."""
+
+    def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0)):
+        bodies = tuple(bodies)
+        if not bodies or not all(isinstance(b, FloatingBody) for b in bodies):
+            raise ValueError("bodies must be a non-empty sequence of FloatingBody")
+        super().__init__(bodies, joints, gravity)
+
+
+__all__ = ["FloatingFrameSystem", "Mechanism", "as_body_kind"]

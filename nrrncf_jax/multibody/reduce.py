@@ -1,0 +1,93 @@
+"""One call from a placed flexible body to its mechanism body: ``reduce(body, interfaces, ...)``
+returns the ``FloatingBody`` of NR-RNCF (THEORY §5-6, paper Algorithm 1), or the full-order RNCF
+body, choosing the reference conditions from where the body is joined.
+
+The recipe it runs, the one the paper's examples run by hand:
+
+1. the floating frame: at the first interface's node, its axes the node's unit gradient vectors
+   (a C1 beam's tangent and section vectors); the body is expressed in that frame;
+2. the reference conditions: that node's position and its unit gradient vectors but the first
+   (a beam's section vectors: r, r_y, r_z held, the cantilever of the paper's pendulum);
+3. with ``plane_normal`` (a planar mechanism), the coordinates odd under the mirror through the
+   plane held at zero (``elements.beam.mirror_even``: exactly the in-plane modes, C1 beams whose
+   section axes contain the normal);
+4. ``vms`` vibration modes of the held body, the modal derivatives of ``mds`` pairs
+   (``"all"``: every i ≤ j; a list of (i, j), e.g. ``reduction.select``'s maximum modal
+   interaction; ``()``: none), deflated by SVD (``reduction.modal_basis``); ``basis="craig-bampton"``:
+   the extended Craig-Bampton basis instead, the other interfaces' positions its boundary
+   coordinates (``reduction.craig_bampton``); ``basis="full"``: every free coordinate kept, the
+   elements' own force (the full-order RNCF reference, ``full_order_frame``);
+5. the reduced cubic elastic force's tensors (``reduction.elastic_tensors``, Eq. 24).
+"""
+
+import numpy as np
+
+from ..bodies.body import Body
+from ..elements.beam import NODAL_VECTORS_PER_NODE, mirror_even
+from ..reduction import craig_bampton as craig_bampton_basis
+from ..reduction import elastic_tensors, modal_basis, vibration_modes
+from .floating import FloatingBody
+from .full_order_frame import full_floating_body
+from .markers import BodyGeometry, Marker
+from .system import placed
+
+
+def _point(p):
+    return p.point if isinstance(p, Marker) else tuple(float(x) for x in np.asarray(p, dtype=float).reshape(3))
+
+
+def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free", plane_normal=None,
+           deflation_tol: float = 1e-6) -> FloatingBody:
+    """``body`` (placed in space: its ``q_hat`` the stress-free, initial state) as a floating-frame
+    body of a mechanism, its deformation reduced (see the module docstring). ``interfaces``: the
+    points (or ``Marker``s) where it is joined, the first one holding its frame.
+    ``basis``: ``"free"`` (vibration modes and modal derivatives), ``"craig-bampton"`` or
+    ``"full"``. ``plane_normal``: the normal of the plane of a planar mechanism (in-plane modes
+    only), or None."""
+    if not isinstance(body, Body):
+        raise ValueError(f"reduce takes a flexible bodies.Body, got {type(body).__name__}")
+    if basis not in ("free", "craig-bampton", "full"):
+        raise ValueError(f"basis must be 'free', 'craig-bampton' or 'full', got {basis!r}")
+    points = [_point(p) for p in interfaces]
+    if not points:
+        raise ValueError("reduce needs at least one interface point (the first one holds the body's frame)")
+    geometry = BodyGeometry(np.asarray(body.q_hat), np.asarray(body.is_position), body.vectors_per_node)
+    nodes = [geometry.node(Marker(0, p)) for p in points]
+    frame = nodes[0]
+    gradients = geometry.unit_gradients(frame)
+    if len(gradients) != 3:
+        raise ValueError(f"the first interface's node has {len(gradients)} unit gradient vectors; its frame needs "
+                         "three")
+    A0 = np.stack([geometry.vectors[v] for v in gradients], axis=1)
+    if not np.allclose(A0.T @ A0, np.eye(3), atol=1e-9) or np.linalg.det(A0) < 0:
+        raise ValueError("the first interface's node's unit gradient vectors are not a right-handed orthonormal frame")
+    R0 = geometry.vectors[frame]
+    local = placed(body, A0.T, -A0.T @ R0)
+    held = [frame] + gradients[1:]
+    free = np.ones((body.n_vectors, 3), bool)
+    free[held] = False
+    free = free.reshape(-1)
+    if plane_normal is not None:
+        n_local = A0.T @ (np.asarray(plane_normal, dtype=float) / np.linalg.norm(plane_normal))
+        axis = int(np.argmax(np.abs(n_local)))
+        if body.vectors_per_node != NODAL_VECTORS_PER_NODE or axis == 0 or abs(abs(n_local[axis]) - 1) > 1e-9:
+            raise ValueError("plane_normal: in-plane modes are built for C1 beams whose section axes hold the "
+                             "plane's normal")
+        free &= mirror_even(body.n_vectors // NODAL_VECTORS_PER_NODE, "yz"[axis - 1])
+    if basis == "full":
+        return full_floating_body(local, free, R0=R0, A0=A0)
+    pairs = [(i, j) for i in range(vms) for j in range(i, vms)] if mds == "all" else [tuple(p) for p in mds]
+    if any(not 0 <= i <= j < vms for i, j in pairs):
+        raise ValueError(f"mds must be pairs (i, j) with 0 <= i <= j < vms = {vms}")
+    if basis == "craig-bampton":
+        boundary = [3 * v + c for v in nodes[1:] for c in range(3) if free[3 * v + c]]
+        if not boundary:
+            raise ValueError("a Craig-Bampton basis needs a second interface (its boundary coordinates)")
+        Psi = np.asarray(craig_bampton_basis(local, free, boundary, vms, pairs, deflate_tol=deflation_tol).basis)
+    else:
+        modes = vibration_modes(local, free, vms)
+        Psi = np.asarray(modal_basis(local, free, modes.phi, pairs, deflation_tol=deflation_tol).Psi)
+    return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0)
+
+
+__all__ = ["reduce"]

@@ -1,0 +1,162 @@
+"""Sensors: named outputs of a mechanism's run, defined in physical terms and recorded at the
+output times (``observe``, for ``simulate(..., observe=...)``).
+
+A sensor is a function of the system and its state, ``sensor(system, t, z, v) -> array``:
+
+- ``Position(marker, component)``, ``Velocity(marker, component)``: a marker's point (a node's
+  position vector) in the inertial frame, all three components or one (0, 1, 2 for x, y, z);
+- ``ChordDeflection(a, b, m, normal)``: the signed distance of marker m's point from the chord
+  through a's and b's points, positive to the left of the direction from a to b about ``normal``
+  (a flexible link's transverse deflection);
+- ``JointReaction(index)``: the multipliers λ of the system's joint ``index`` (``joints`` gives
+  their sign; the consistent ones of the state, ``reactions``); ``DriverEffort(index)``: the
+  torque or force a driver (``drivers``) applies to its body;
+- ``Energy(kind)``: kinetic, potential or total; ``AngularMomentum()`` about the origin.
+
+Markers resolve against the system's bodies in ``observe`` (``resolve``: static node indices,
+before anything is traced), so a sensor is written before the system exists.
+"""
+
+import dataclasses
+
+import equinox as eqx
+import jax.numpy as jnp
+
+from .._types import Array, Float
+from .markers import Marker
+
+
+def _node(system, marker: Marker) -> int:
+    if not 0 <= marker.body < len(system.bodies):
+        raise ValueError(f"sensor marker on body {marker.body}; the system has bodies 0..{len(system.bodies) - 1}")
+    return system.bodies[marker.body].geometry().node(marker)
+
+
+class _MarkerSensor(eqx.Module):
+    """A sensor on markers: ``resolve(system)`` fills ``nodes``, the markers' nodal vectors."""
+
+    nodes: tuple[int, ...] | None = eqx.field(static=True, default=None, kw_only=True)
+
+    def markers(self) -> tuple[Marker, ...]:
+        return tuple(getattr(self, f) for f in ("marker", "a", "b", "m") if isinstance(getattr(self, f, None), Marker))
+
+    def resolve(self, system) -> "_MarkerSensor":
+        return dataclasses.replace(self, nodes=tuple(_node(system, m) for m in self.markers()))
+
+    def _points(self, xs) -> list:
+        if self.nodes is None:
+            raise ValueError("a sensor on markers must be resolved against its system first (sensors.observe)")
+        return [xs[m.body][n] for m, n in zip(self.markers(), self.nodes)]
+
+
+def _component(x, component):
+    return x if component is None else x[component]
+
+
+class Position(_MarkerSensor):
+    """A marker's position (or one component) in the inertial frame."""
+
+    marker: Marker = eqx.field(static=True)
+    component: int | None = eqx.field(static=True, default=None)
+
+    def __call__(self, system, t, z, v) -> Float[Array, "..."]:
+        return _component(self._points(system.nodal_vectors(z))[0], self.component)
+
+
+class Velocity(_MarkerSensor):
+    """A marker's velocity (or one component) in the inertial frame."""
+
+    marker: Marker = eqx.field(static=True)
+    component: int | None = eqx.field(static=True, default=None)
+
+    def __call__(self, system, t, z, v) -> Float[Array, "..."]:
+        return _component(self._points(system.nodal_velocities(z, v))[0], self.component)
+
+
+class ChordDeflection(_MarkerSensor):
+    """m's signed distance from the chord a → b, positive to the left (about ``normal``)."""
+
+    a: Marker = eqx.field(static=True)
+    b: Marker = eqx.field(static=True)
+    m: Marker = eqx.field(static=True)
+    normal: tuple[float, float, float] = eqx.field(static=True, default=(0.0, 0.0, 1.0))
+
+    def __call__(self, system, t, z, v) -> Float[Array, ""]:
+        xa, xb, xm = self._points(system.nodal_vectors(z))
+        chord = (xb - xa) / jnp.linalg.norm(xb - xa)
+        left = jnp.cross(jnp.asarray(self.normal), chord)
+        return (xm - xa) @ left
+
+
+class JointReaction(eqx.Module):
+    """The multipliers of joint ``index`` at the state (``system.reactions``)."""
+
+    index: int = eqx.field(static=True)
+
+    def __call__(self, system, t, z, v) -> Float[Array, " m"]:
+        lam = system.reactions(t, z, v)
+        return lam[system.joint_slices()[self.index]]
+
+
+class DriverEffort(eqx.Module):
+    """The driving torque or force of the driver ``index`` (``drivers``: −λ)."""
+
+    index: int = eqx.field(static=True)
+
+    def __call__(self, system, t, z, v) -> Float[Array, ""]:
+        joint = system.joints[self.index]
+        if not hasattr(joint, "effort"):
+            raise ValueError(f"joint {self.index} ({type(joint).__name__}) is not a driver")
+        lam = system.reactions(t, z, v)
+        return joint.effort(lam[system.joint_slices()[self.index]])
+
+
+class Energy(eqx.Module):
+    """``"kinetic"``, ``"potential"`` (strain and gravity) or ``"total"``."""
+
+    kind: str = eqx.field(static=True, default="total")
+
+    def __check_init__(self):
+        if self.kind not in ("kinetic", "potential", "total"):
+            raise ValueError(f"energy kind must be 'kinetic', 'potential' or 'total', got {self.kind!r}")
+
+    def __call__(self, system, t, z, v) -> Float[Array, ""]:
+        if self.kind == "kinetic":
+            return system.kinetic_energy(z, v)
+        if self.kind == "potential":
+            return system.potential_energy(z)
+        return system.energy(z, v)
+
+
+class AngularMomentum(eqx.Module):
+    """The system's angular momentum about the origin, Σ_b Σ_vw M_b,vw x_v × ẋ_w: for the nodal
+    vectors x(ξ) = Σ_v N_v(ξ) x_v of any body, ∫ρ x × ẋ dV is this sum (on a rigid body's
+    axes, Σ Θ'_kl g_k × ġ_l is its spin J ω)."""
+
+    def __call__(self, system, t, z, v) -> Float[Array, " 3"]:
+        xs, vs = system.nodal_vectors(z), system.nodal_velocities(z, v)
+        return sum(jnp.sum(jnp.cross(x[:, None, :], xv[None, :, :]) * M[:, :, None], axis=(0, 1))
+                   for M, x, xv in zip(system.masses, xs, vs))
+
+
+def observe(system, sensors: dict):
+    """``observe(t, z, v) -> {name: value}`` for ``simulate``: every sensor at the output times.
+    The markers are resolved here, so that a bad one fails before the run."""
+    for name, sensor in sensors.items():
+        if not callable(sensor):
+            raise ValueError(f"sensor {name!r} is not callable (a sensor is sensor(system, t, z, v))")
+    sensors = {name: s.resolve(system) if isinstance(s, _MarkerSensor) else s for name, s in sensors.items()}
+
+    def fn(t, z, v):
+        return {name: jnp.asarray(sensor(system, t, z, v)) for name, sensor in sensors.items()}
+
+    return fn
+
+
+def driver_index(system) -> list[int]:
+    """The indices of the system's drivers."""
+    return [i for i, j in enumerate(system.joints) if getattr(j, "rheonomic", False)]
+
+
+__all__ = ["AngularMomentum", "ChordDeflection", "DriverEffort", "Energy", "JointReaction", "Position", "Velocity",
+           "driver_index", "observe"]
