@@ -21,6 +21,7 @@ LAYERS = (
     ("post",),
     ("studies",),
     ("scenarios",),
+    ("examples",),
     ("cli",),
 )
 """The package's units (its private modules and subpackages), lowest first."""

@@ -6,7 +6,11 @@ reference geometry and the body itself, element groups on one set of nodal vecto
   force F(q), the tangent stiffness, the mass integrals and the rigid modes; ``beam_body`` and
   ``truss_body`` build the simple cases;
 - ``frame.frame_body``: straight beams rigidly joined at joints of any angle, and pin-ended bars;
-- ``plate_mesh.plate_body``: triangle meshes (a hexagonal disk, an annulus) of plates and membranes.
+- ``plate_mesh.plate_body``: triangle meshes (a hexagonal disk, an annulus) of plates and membranes;
+- ``rigid.RigidBody``: a rigid body (mass, centre of mass, inertia tensor, attachment points) on
+  nodal vectors, for mechanisms (``multibody.Mechanism``);
+- ``mesh_io``: plate triangle meshes read from files (gmsh ``.msh``, VTK; through meshio) and
+  ``plate_body_from_file``.
 
 A body holds groups of elements of several types on one set of nodal vectors
 (``body.ElementGroup``): beams, bars and joint cells share one body, with one constant κ, one
@@ -32,7 +36,11 @@ from .mesh import BeamReference as BeamReference
 from .mesh import arc_reference as arc_reference
 from .mesh import centerline_reference as centerline_reference
 from .mesh import straight_reference as straight_reference
+from .mesh_io import plate_body_from_file as plate_body_from_file
+from .mesh_io import read_triangle_mesh as read_triangle_mesh
 from .plate_mesh import PlateBody as PlateBody
 from .plate_mesh import annulus as annulus
 from .plate_mesh import hexagonal_disk as hexagonal_disk
 from .plate_mesh import plate_body as plate_body
+from .rigid import RigidBody as RigidBody
+from .rigid import slender_rod as slender_rod

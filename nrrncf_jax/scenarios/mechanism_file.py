@@ -1,0 +1,149 @@
+"""Mechanisms of the user's own: what a model file returns (``MechanismSetup``), how it is found
+(``load_setup``: a Python file, or a bundled example of ``nrrncf_jax.examples`` by name) and how
+it runs (``run_setup``: the run's sensors at the output times and its statistics, a
+``MechanismRun``).
+
+A model file defines ``mechanism(**params) -> MechanismSetup``: the system (a
+``multibody.Mechanism`` or any constrained system), its named sensors (``multibody.sensors``),
+optionally the initial state ``y0 = (z0, v0)`` and the default end time. ``nrrncf run FILE
+--param KEY=VALUE`` passes the parameters as keyword arguments (numbers parsed as numbers).
+"""
+
+import dataclasses
+import importlib
+import importlib.util
+import inspect
+import pathlib
+import time
+
+import jax
+import numpy as np
+
+from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, simulate
+from ..models.constrained import AbstractConstrainedModel
+from ..multibody.sensors import observe
+
+
+@dataclasses.dataclass
+class MechanismSetup:
+    """``system`` (constrained), ``sensors`` ({name: sensor}), the initial state ``y0`` (None:
+    the system's reference at rest), ``t_end`` [s] (the default end time), ``rtol`` (the default
+    step tolerance) and ``info`` (anything the example reports: its parameters, an offline
+    time)."""
+
+    system: AbstractConstrainedModel
+    sensors: dict
+    y0: tuple | None = None
+    t_end: float = 1.0
+    rtol: float = 1e-6
+    info: dict = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self):
+        if not isinstance(self.system, AbstractConstrainedModel):
+            raise ValueError(f"a model's system must be a constrained system (multibody.Mechanism), got "
+                             f"{type(self.system).__name__}")
+        if not isinstance(self.sensors, dict) or not self.sensors:
+            raise ValueError("a model needs its sensors: a dict {name: sensor} (multibody.sensors)")
+
+
+@dataclasses.dataclass
+class MechanismRun:
+    """The sensors' histories ``series`` ({name: (n_out, ...) array}) at ``ts``, and the run's
+    ``dofs``, ``steps``, ``rejected``, ``newton_iters``, ``compile_s`` and ``run_s``."""
+
+    ts: np.ndarray
+    series: dict
+    dofs: int
+    steps: int
+    rejected: int
+    newton_iters: int
+    compile_s: float
+    run_s: float
+    formulation: str
+
+    def table(self) -> tuple[list[str], np.ndarray]:
+        """CSV columns ``t`` and each sensor (a vector sensor as ``name_0, name_1, ...``)."""
+        names, cols = ["t"], [self.ts]
+        for name, y in self.series.items():
+            y = np.asarray(y).reshape(len(self.ts), -1)
+            if y.shape[1] == 1:
+                names.append(name)
+                cols.append(y[:, 0])
+            else:
+                names += [f"{name}_{i}" for i in range(y.shape[1])]
+                cols += list(y.T)
+        return names, np.stack(cols, axis=1)
+
+    def summary(self) -> dict:
+        return {"formulation": self.formulation, "dofs": self.dofs, "steps": self.steps, "rejected": self.rejected,
+                "newton_iters": self.newton_iters, "compile_s": self.compile_s, "run_s": self.run_s}
+
+
+def load_setup(source: str, params: dict | None = None) -> MechanismSetup:
+    """The ``MechanismSetup`` of ``source``: a path to a Python file, or the name of a bundled
+    example (``nrrncf_jax/examples/<name>.py``), its ``mechanism(**params)`` called. Raises
+    ``ValueError`` for a missing file or example, a file without ``mechanism``, an unknown
+    parameter, or a function that does not return a ``MechanismSetup``."""
+    params = dict(params or {})
+    path = pathlib.Path(source)
+    if path.suffix == ".py":
+        if not path.is_file():
+            raise ValueError(f"model file {source!r} does not exist")
+        spec = importlib.util.spec_from_file_location(f"nrrncf_model_{path.stem}", path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    else:
+        try:
+            module = importlib.import_module(f"nrrncf_jax.examples.{source}")
+        except ModuleNotFoundError:
+            raise ValueError(f"no model file or bundled example {source!r} (examples: {', '.join(examples())})") \
+                from None
+    fn = getattr(module, "mechanism", None)
+    if not callable(fn):
+        raise ValueError(f"{source!r} does not define mechanism(**params) returning a MechanismSetup")
+    accepted = inspect.signature(fn).parameters
+    unknown = [k for k in params if k not in accepted]
+    if unknown and not any(p.kind == p.VAR_KEYWORD for p in accepted.values()):
+        raise ValueError(f"{source!r}: unknown parameter(s) {unknown}; mechanism() takes {list(accepted)}")
+    setup = fn(**params)
+    if not isinstance(setup, MechanismSetup):
+        raise ValueError(f"{source!r}: mechanism() returned {type(setup).__name__}, not a MechanismSetup")
+    return setup
+
+
+def examples() -> list[str]:
+    """The bundled examples' names."""
+    folder = pathlib.Path(__file__).parent.parent / "examples"
+    return sorted(p.stem for p in folder.glob("*.py") if not p.stem.startswith("_"))
+
+
+def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | None = None, n_out: int = 201,
+              rho_inf: float = 0.9, progress: bool = False) -> MechanismRun:
+    """Run ``setup`` to ``t_end`` (its default) at ``rtol`` (atol = rtol/10 of the nodal vectors'
+    metres) with ``GeneralizedAlphaIndex3(rho_inf)``, the sensors at ``n_out`` equal output times;
+    compile and run timed apart (ahead-of-time compilation, then a blocked run)."""
+    t_end = setup.t_end if t_end is None else float(t_end)
+    rtol = setup.rtol if rtol is None else float(rtol)
+    if not t_end > 0 or not 0 < rtol < 1:
+        raise ValueError(f"t_end must be > 0 and 0 < rtol < 1, got {t_end}, {rtol}")
+    system = setup.system
+    ts = np.linspace(0.0, t_end, int(n_out))
+    fn = observe(system, setup.sensors)
+    y0 = setup.y0 if setup.y0 is not None else (system.reference(), 0.0 * system.reference())
+
+    def run(y0):
+        return simulate(system, GeneralizedAlphaIndex3(rho_inf), AdaptiveStepSize(rtol, rtol / 10), ts, observe=fn,
+                        y0=y0, progress=progress)
+
+    t0 = time.perf_counter()
+    compiled = jax.jit(run).lower(y0).compile()
+    t1 = time.perf_counter()
+    sol = jax.block_until_ready(compiled(y0))
+    t2 = time.perf_counter()
+    if not sol.succeeded:
+        raise RuntimeError(f"the run stopped early: {sol.message}")
+    return MechanismRun(ts, {k: np.asarray(v) for k, v in sol.ys.items()}, system.n_dof, int(sol.num_steps),
+                        int(sol.num_rejected), int(sol.num_newton), t1 - t0, t2 - t1, system.formulation)
+
+
+__all__ = ["MechanismRun", "MechanismSetup", "examples", "load_setup", "run_setup"]

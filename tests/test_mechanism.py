@@ -1,0 +1,202 @@
+"""Mechanisms of the user's own (``multibody.Mechanism``): rigid bodies, ANCF and floating-frame
+bodies in one system, prismatic joints and drivers, sensors, one-call reduction and model files.
+
+Closed forms: the rigid body's kinetic energy ½ m v² + ½ ωᵀJω from its nodal mass matrix; the
+compound pendulum's period 2π √(J_O / m g d) (1 + θ₀²/16); the rigid slider-crank's x_B(θ) and its
+driving torque τ = dT/dθ from the kinematics alone; a free rigid body's angular momentum."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from conftest import RTOL_ROUNDOFF
+
+from nrrncf_jax.bodies import Material, TubeSection, beam_body, straight_reference
+from nrrncf_jax.bodies.rigid import RigidBody, slender_rod
+from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, simulate
+from nrrncf_jax.multibody import Marker, Mechanism, MultibodySystem, PointMass, ball, hinge, slider
+from nrrncf_jax.multibody.rigid import rigid_floating_body
+from nrrncf_jax.multibody.sensors import AngularMomentum, Energy, Position
+from nrrncf_jax.scenarios.mechanism_file import load_setup, run_setup
+
+Z = (0.0, 0.0, 1.0)
+
+
+def test_a_rigid_body_has_its_mass_and_inertia():
+    """T(ż) for the rigid motion (V, ω) is ½ m |V_c|² + ½ ωᵀJω, V_c the centre of mass's velocity,
+    to round-off: the nodal mass matrix (m on the centre, Θ' = ½ tr J − J on the axes) is the
+    body's, for any axes the nodes carry."""
+    rng = np.random.default_rng(0)
+    Q = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    J = Q @ np.diag([2.0, 3.0, 4.0]) @ Q.T
+    axes = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    axes[:, 2] *= np.sign(np.linalg.det(axes))
+    body = rigid_floating_body(RigidBody(1.7, J, com=(0.3, -0.2, 0.5), points=[(1.0, 0.0, 0.0)], axes=axes))
+    z = body.initial()
+    V, w = rng.normal(size=3), rng.normal(size=3)
+    v = body.rigid_velocity(z, V, w)
+    Vc = V + np.cross(w, [0.3, -0.2, 0.5])
+    expected = 0.5 * 1.7 * Vc @ Vc + 0.5 * w @ J @ w
+    assert abs(float(body.kinetic_energy(z, v)) - expected) < RTOL_ROUNDOFF * expected
+    # and the nodal velocities are the rigid field's, at every node
+    x, xv = body.nodal_vectors(z), body.tangent(z, v)
+    pos = np.asarray(body.body.is_position)
+    field = np.where(pos[:, None], V[None] + np.cross(w[None], x), np.cross(w[None], x))
+    np.testing.assert_allclose(xv, field, atol=RTOL_ROUNDOFF * np.abs(field).max())
+
+
+@pytest.mark.slow
+def test_the_compound_pendulum_has_its_period():
+    """A uniform rigid rod hinged at one end, released from θ₀ = 0.05 rad: the period
+    2π √(J_O / (m g L/2)) (1 + θ₀²/16) (the next term, 11θ₀⁴/3072, is 2e-8). The zero crossings
+    are interpolated from 400 outputs a period, where the swing is nearly linear in t (error
+    ~ (ωΔt)³/… ≪ 1e-6); the run's own phase error at rtol 1e-8 is far below the 2e-5 allowed."""
+    m, L, g, th0 = 1.0, 1.0, 9.81, 0.05
+    rod = slender_rod(m, L, (0.0, 0.0, 0.0), (L * np.sin(th0), -L * np.cos(th0), 0.0))
+    mech = Mechanism([rod], [hinge(None, Marker(0, (0.0, 0.0, 0.0)), Z)], gravity=(0.0, -g, 0.0))
+    T = 2 * np.pi * np.sqrt((m * L**2 / 3) / (m * g * L / 2)) * (1 + th0**2 / 16)
+    ts = np.linspace(0.0, 1.5 * T, 601)
+    end = Position(Marker(0, (L * np.sin(th0), -L * np.cos(th0), 0.0)), 0).resolve(mech)
+    sol = simulate(mech, GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(1e-8, 1e-10), ts,
+                   observe=lambda t, z, v: end(mech, t, z, v))
+    x = np.asarray(sol.ys)
+    i = np.flatnonzero(np.diff(np.sign(x)) != 0)
+    crossings = ts[i] - x[i] * (ts[i + 1] - ts[i]) / (x[i + 1] - x[i])
+    assert len(crossings) >= 3
+    np.testing.assert_allclose(2 * np.diff(crossings), T, rtol=2e-5)
+
+
+@pytest.fixture(scope="module")
+def rigid_crank():
+    setup = load_setup("slider_crank", {"formulation": "rigid"})
+    return setup, run_setup(setup, rtol=1e-6, n_out=201)
+
+
+def _rigid_kinetic_energy(theta, omega=150.0, r=0.152, L=0.304, rho=2770.0, radius=0.005, m_s=0.033):
+    """T(θ) of the rigid slider-crank at crank speed ω, from its kinematics alone: the crank about
+    O, the rod's centre and spin, the slider; the rates d/dθ by forward-mode differentiation."""
+    area = np.pi * radius**2
+    m_c, m_r = rho * area * r, rho * area * L
+
+    def positions(th):
+        A = jnp.stack([r * jnp.cos(th), r * jnp.sin(th)])
+        B = jnp.stack([r * jnp.cos(th) + jnp.sqrt(L**2 - (r * jnp.sin(th)) ** 2), 0.0 * th])
+        return 0.5 * (A + B), jnp.arctan2(B[1] - A[1], B[0] - A[0]), B[0]
+
+    _, (dG, dphi, dB) = jax.jvp(positions, (theta,), (jnp.ones_like(theta),))
+    return 0.5 * omega**2 * (m_c * r**2 / 3 + m_r * dG @ dG + (m_r * L**2 / 12) * dphi**2 + m_s * dB**2)
+
+
+@pytest.mark.slow
+def test_the_rigid_slider_crank_follows_its_kinematics_and_driving_torque(rigid_crank):
+    """All rigid, crank driven at ω = 150 rad/s: x_B = r cos θ + √(L² − r² sin² θ) to the Newton
+    tolerance (the index-3 constraints hold at every step), and the driving torque (the driver's
+    multiplier) τ = dT/dθ, T(θ) the mechanism's kinetic energy from its kinematics (no gravity,
+    constant ω: τ ω = dT/dt), differentiated by JAX: both to round-off of the consistent solve.
+    (Nested central differences of T are not accurate enough here: ε T / δ is 1e-5 of τ.)"""
+    from nrrncf_jax.examples.slider_crank import rigid_slider_position
+
+    setup, run = rigid_crank
+    np.testing.assert_allclose(run.series["x_B"], rigid_slider_position(run.ts), atol=1e-8)
+    tau = np.asarray(jax.vmap(jax.grad(_rigid_kinetic_energy))(jnp.asarray(150.0 * run.ts)))
+    scale = np.abs(tau).max()
+    np.testing.assert_allclose(run.series["torque"], tau, atol=1e-6 * scale)
+    assert np.abs(run.series["w_mid"]).max() < 1e-12  # a rigid rod does not bend
+
+
+def test_a_free_rigid_body_keeps_its_angular_momentum():
+    """A torque-free asymmetric body spinning about a tilted axis (it tumbles): its angular
+    momentum about the origin and its energy stay constant to the integration error (rtol 1e-8
+    over three turns: 1e-5 allowed)."""
+    J = np.diag([1.0, 2.0, 2.5])
+    body = RigidBody(2.0, J, com=(0.1, 0.2, 0.0))
+    mech = Mechanism([body])
+    z0 = mech.reference()
+    v0 = mech.rigid_velocity(velocity=(0.3, 0.0, 0.0), omega=(0.2, 3.0, 0.4))
+    sensors = {"L": AngularMomentum(), "E": Energy("kinetic")}
+    sol = simulate(mech, GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(1e-8, 1e-10), np.linspace(0, 6.0, 61),
+                   observe=lambda t, z, v: {k: s(mech, t, z, v) for k, s in sensors.items()}, y0=(z0, v0))
+    Lh, E = np.asarray(sol.ys["L"]), np.asarray(sol.ys["E"])
+    np.testing.assert_allclose(Lh, np.broadcast_to(Lh[0], Lh.shape), atol=1e-5 * np.linalg.norm(Lh[0]))
+    np.testing.assert_allclose(E, E[0], rtol=1e-5)
+
+
+@pytest.mark.slow
+def test_an_ancf_body_in_a_mechanism_is_the_multibody_systems():
+    """The same hinged beam as an ``InertialBody`` of a ``Mechanism`` and in a ``MultibodySystem``:
+    equal residual, constraints, their Jacobian and mass matrix at a perturbed state, to round-off."""
+    beam = beam_body(Material(2e11, 7800.0, 0.3), TubeSection(0.01), straight_reference(1.0, 2))
+    joints = [hinge(None, Marker(0, (0.0, 0.0, 0.0)), Z)]
+    a, b = Mechanism([beam], joints, gravity=(0, -9.81, 0)), MultibodySystem([beam], joints, gravity=(0, -9.81, 0))
+    rng = np.random.default_rng(1)
+    x = b.reference() + 1e-3 * rng.normal(size=b.n_dof)
+    v, acc = rng.normal(size=b.n_dof), rng.normal(size=b.n_dof)
+    for f in (lambda s: s.residual(0.0, x, v, acc), lambda s: s.constraints(x), lambda s: s.constraint_jacobian(x),
+              lambda s: s.mass_matrix(x)):
+        ya, yb = np.asarray(f(a)), np.asarray(f(b))
+        np.testing.assert_allclose(ya, yb, atol=RTOL_ROUNDOFF * max(1.0, np.abs(yb).max()))
+
+
+@pytest.mark.slow
+def test_point_mass_and_mechanism_bookkeeping():
+    """A point mass hung by a ball joint on a rigid rod's end: one system of a floating and a
+    point body; formulation 'rigid', a consistent initial acceleration of the pendulum under
+    gravity (the bob's acceleration at rest is g's component across the rod... here along it:
+    the rod hangs, so a = 0)."""
+    rod = slender_rod(1.0, 1.0, (0.0, 0.0, 0.0), (0.0, -1.0, 0.0))
+    mech = Mechanism([rod, PointMass(0.5, (0.0, -1.0, 0.0))],
+                     [hinge(None, Marker(0, (0.0, 0.0, 0.0)), Z), ball(Marker(0, (0.0, -1.0, 0.0)),
+                                                                     Marker(1, (0.0, -1.0, 0.0)))],
+                     gravity=(0.0, -9.81, 0.0))
+    assert mech.formulation == "rigid" and mech.n_dof == 7 + 3
+    z0 = mech.reference()
+    a, lam = mech.consistent_accelerations(0.0, z0, jnp.zeros_like(z0))
+    assert np.abs(np.asarray(a)).max() < 1e-10
+    # the hinge carries the whole weight: its first three multipliers are (0, −(1 + 0.5) g, 0) up to sign
+    np.testing.assert_allclose(np.abs(np.asarray(lam[:3])), [0.0, 1.5 * 9.81, 0.0], atol=1e-9)
+
+
+# --- errors -------------------------------------------------------------------------------------
+def test_bad_rigid_bodies_and_joints_are_refused():
+    with pytest.raises(ValueError, match="positive definite"):
+        RigidBody(1.0, np.diag([1.0, 1.0, -1.0]))
+    with pytest.raises(ValueError, match="triangle inequality"):
+        RigidBody(1.0, np.diag([1.0, 1.0, 3.0]))
+    with pytest.raises(ValueError, match="mass"):
+        RigidBody(0.0, np.eye(3))
+    crank = slender_rod(1.0, 1.0, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0))
+    # a prismatic joint on a point with no direction
+    with pytest.raises(ValueError, match="carries no direction"):
+        Mechanism([PointMass(1.0, (1.0, 0.0, 0.0))], [slider(None, Marker(0, (1.0, 0.0, 0.0)), (1.0, 0.0, 0.0))])
+    # a mechanism that locks: a rigid link hinged to the ground at both ends
+    with pytest.raises(ValueError, match="redundant"):
+        Mechanism([crank], [hinge(None, Marker(0, (0.0, 0.0, 0.0)), Z), hinge(None, Marker(0, (1.0, 0.0, 0.0)), Z)])
+    # a driver incompatible with the joints: a driven hinge on a clamped body
+    from nrrncf_jax.motion import SteadySpin
+    from nrrncf_jax.multibody import clamp
+    with pytest.raises(ValueError, match="redundant"):
+        Mechanism([crank], [clamp(None, Marker(0, (1.0, 0.0, 0.0))),
+                            hinge(None, Marker(0, (0.0, 0.0, 0.0)), Z, drive=SteadySpin(1.0))])
+    # an initial velocity the joints do not allow
+    mech = Mechanism([crank], [hinge(None, Marker(0, (0.0, 0.0, 0.0)), Z)])
+    with pytest.raises(ValueError, match="velocit"):
+        mech.check_velocity(mech.reference(), mech.rigid_velocity(velocity=(1.0, 0.0, 0.0)))
+    with pytest.raises(ValueError, match="drive must be a motion"):
+        hinge(None, Marker(0, (0.0, 0.0, 0.0)), Z, drive=3.0)
+
+
+def test_model_files_are_checked(tmp_path):
+    with pytest.raises(ValueError, match="no model file or bundled example"):
+        load_setup("no_such_example")
+    bad = tmp_path / "bad.py"
+    bad.write_text("x = 1\n")
+    with pytest.raises(ValueError, match="does not define mechanism"):
+        load_setup(str(bad))
+    wrong = tmp_path / "wrong.py"
+    wrong.write_text("def mechanism(a=1):\n    return 3\n")
+    with pytest.raises(ValueError, match="not a MechanismSetup"):
+        load_setup(str(wrong))
+    with pytest.raises(ValueError, match="unknown parameter"):
+        load_setup(str(wrong), {"b": 2})
+    with pytest.raises(ValueError, match="missing.py"):
+        load_setup(str(tmp_path / "missing.py"))
