@@ -9,6 +9,7 @@
     nrrncf truss dynamics --formulation nr-rncf --reference rncf --plot tip.png
     nrrncf membrane --case bending-torsion --formulation nr-rncf --reference rncf --plot rim.png
     nrrncf pendulum --elements 10 --out tips.csv --plot pendulum.png --animate pendulum.gif
+    nrrncf run slider_crank --param formulation=nr-rncf --t-end 0.1 --out F.csv --json
 
 Each subcommand lives in its own module of this package, with a ``register(subparsers)`` that
 sets ``func`` (the run) and ``check`` (the checks of its arguments). ``main`` parses, runs the
@@ -55,7 +56,7 @@ import sys
 
 from ._common import HelpFormatter
 
-SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "truss", "membrane", "pendulum")
+SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "truss", "membrane", "pendulum", "run")
 """Modules of this package, each with ``register(subparsers)``; their order is the help's."""
 
 

@@ -37,10 +37,12 @@ CRANK, ROD, SLIDER = 0, 1, 2
 
 def mechanism(formulation: str = "ancf", elements: int = 8, vms: int = 4, mds="all", omega: float = 150.0,
               E: float = 1.0e10, crank: float = 0.152, rod: float = 0.304, rho: float = 2770.0, nu: float = 0.3,
-              radius: float = 0.005, slider_mass: float = 0.033, t_end: float = 0.1, rtol: float = 1e-6
-              ) -> MechanismSetup:
+              radius: float = 0.005, slider_mass: float = 0.033, t_end: float = 0.1, rtol: float = 1e-4,
+              rho_inf: float = 0.5) -> MechanismSetup:
     """The slider-crank (module docstring); ``elements`` C1 elements along the rod (even, so that
-    a node sits at its midpoint)."""
+    a node sits at its midpoint). The defaults rtol = 1e-4 and ρ∞ = 0.5: the rod's axial
+    vibration (3.6 kHz in the reduced basis, through its modal derivatives) is damped rather
+    than resolved (``benchmarks/results/mechanisms.md``)."""
     if formulation not in ("ancf", "nr-rncf", "rncf", "rigid"):
         raise ValueError(f"formulation must be 'ancf', 'nr-rncf', 'rncf' or 'rigid', got {formulation!r}")
     elements = int(elements)
@@ -74,7 +76,8 @@ def mechanism(formulation: str = "ancf", elements: int = 8, vms: int = 4, mds="a
     sensors = {"x_B": Position(Marker(SLIDER, B), 0),
                "w_mid": ChordDeflection(Marker(ROD, A), Marker(ROD, B), Marker(ROD, mid)),
                "torque": DriverEffort(1)}
-    return MechanismSetup(system, sensors, y0=(z0, v0), t_end=t_end, rtol=rtol,
+    return MechanismSetup(system, sensors, y0=(z0, v0), t_end=t_end, rtol=rtol, rho_inf=rho_inf,
+                          compare=("x_B", "w_mid"),
                           info={"formulation": formulation, "elements": elements, "omega": omega, "E": E})
 
 

@@ -28,14 +28,17 @@ from ..multibody.sensors import observe
 class MechanismSetup:
     """``system`` (constrained), ``sensors`` ({name: sensor}), the initial state ``y0`` (None:
     the system's reference at rest), ``t_end`` [s] (the default end time), ``rtol`` (the default
-    step tolerance) and ``info`` (anything the example reports: its parameters, an offline
-    time)."""
+    step tolerance), ``rho_inf`` (the default generalized-α ρ∞), ``compare`` (the sensors whose
+    χ_rel a reference run reports: positions and deflections; None: all) and ``info`` (anything
+    the example reports: its parameters, an offline time)."""
 
     system: AbstractConstrainedModel
     sensors: dict
     y0: tuple | None = None
     t_end: float = 1.0
     rtol: float = 1e-6
+    rho_inf: float = 0.9
+    compare: tuple | None = None
     info: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
@@ -118,12 +121,13 @@ def examples() -> list[str]:
 
 
 def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | None = None, n_out: int = 201,
-              rho_inf: float = 0.9, progress: bool = False) -> MechanismRun:
+              rho_inf: float | None = None, progress: bool = False) -> MechanismRun:
     """Run ``setup`` to ``t_end`` (its default) at ``rtol`` (atol = rtol/10 of the nodal vectors'
     metres) with ``GeneralizedAlphaIndex3(rho_inf)``, the sensors at ``n_out`` equal output times;
-    compile and run timed apart (ahead-of-time compilation, then a blocked run)."""
+    compile and run timed apart (ahead-of-time compilation, then a blocked run). ``rho_inf``: the setup's by default."""
     t_end = setup.t_end if t_end is None else float(t_end)
     rtol = setup.rtol if rtol is None else float(rtol)
+    rho_inf = setup.rho_inf if rho_inf is None else float(rho_inf)
     if not t_end > 0 or not 0 < rtol < 1:
         raise ValueError(f"t_end must be > 0 and 0 < rtol < 1, got {t_end}, {rtol}")
     system = setup.system
@@ -142,7 +146,8 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     t2 = time.perf_counter()
     if not sol.succeeded:
         raise RuntimeError(f"the run stopped early: {sol.message}")
-    return MechanismRun(ts, {k: np.asarray(v) for k, v in sol.ys.items()}, system.n_dof, int(sol.num_steps),
+    series = {k: np.asarray(sol.ys[k]) for k in setup.sensors}  # in the setup's order (a dict pytree is sorted)
+    return MechanismRun(ts, series, system.n_dof, int(sol.num_steps),
                         int(sol.num_rejected), int(sol.num_newton), t1 - t0, t2 - t1, system.formulation)
 
 

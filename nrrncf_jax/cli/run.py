@@ -1,0 +1,98 @@
+"""``nrrncf run``: a mechanism of the user's own, from a model file or a bundled example
+(``scenarios.mechanism_file``).
+
+    nrrncf run MODEL [--param KEY=VALUE ...] [--t-end T] [--rtol R] [--rho-inf 0.9] [--n-out 201]
+                     [--out F.csv] [--json] [--reference full] [--no-progress]
+
+``MODEL``: a Python file defining ``mechanism(**params) -> MechanismSetup``, or the name of a
+bundled example (``nrrncf_jax/examples/``: ``slider_crank``). ``--param`` passes keyword
+parameters (numbers parsed as numbers). ``--out`` writes the sensors at the output times as CSV
+columns ``t`` and each sensor's name (a vector sensor as ``name_0, name_1, ...``). ``--json``
+prints one JSON object as the last line: ``formulation, dofs, steps, rejected, newton_iters,
+compile_s, run_s``; with ``--reference full`` (the model run again with ``formulation=ancf``,
+its full-order model) also ``reference_dofs, reference_run_s, speedup`` and ``chi_rel_percent``
+(Eq. 40, of each compared sensor's change from its initial value: the model's ``compare``, e.g.
+positions and deflections, not reactions, whose high-frequency content differs between the
+models; the largest, and per sensor as ``chi_rel_percent_<name>``).
+"""
+
+from . import _common
+
+
+def _parse_params(items) -> dict:
+    out = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"--param takes KEY=VALUE, got {item!r}")
+        for cast in (int, float):
+            try:
+                value = cast(value)
+                break
+            except ValueError:
+                continue
+        out[key.strip()] = value
+    return out
+
+
+def _run(args) -> int:
+    import numpy as np
+
+    from ..post.metrics import chi_rel
+    from ..scenarios.mechanism_file import load_setup, run_setup
+
+    params = _parse_params(args.param)
+    setup = load_setup(args.model, params)
+    _common.say(args, f"{args.model}: {setup.system.formulation}, {setup.system.n_dof} coordinates, "
+                      f"0-{args.t_end or setup.t_end:g} s ...")
+    kw = dict(t_end=args.t_end, rtol=args.rtol, n_out=args.n_out, rho_inf=args.rho_inf)
+    run = run_setup(setup, **kw)
+    out = run.summary() | {"model": args.model, "params": params}
+    if args.out:
+        names, table = run.table()
+        np.savetxt(args.out, table, delimiter=",", header=",".join(names), comments="", fmt="%.12g")
+    if args.reference == "full":
+        _common.say(args, "the full-order reference (formulation=ancf) ...")
+        ref = run_setup(load_setup(args.model, params | {"formulation": "ancf"}), **kw)
+        chis = {}
+        for name in setup.compare or tuple(run.series):
+            y, yr = run.series[name], ref.series[name]
+            dy, dyr = y - y[:1], yr - yr[:1]
+            if np.abs(dyr).max() > 0:
+                chis[name] = float(chi_rel(dyr, dy))
+        out |= {"reference_dofs": ref.dofs, "reference_run_s": ref.run_s, "speedup": ref.run_s / run.run_s,
+                "chi_rel_percent": max(chis.values()) if chis else 0.0}
+        out |= {f"chi_rel_percent_{k}": v for k, v in chis.items()}
+    return _common.emit(args, out)
+
+
+def _check(args) -> None:
+    _parse_params(args.param)
+    if args.t_end is not None and not args.t_end > 0:
+        raise ValueError(f"--t-end must be > 0, got {args.t_end:g}")
+    if args.rtol is not None and not 0 < args.rtol < 1:
+        raise ValueError(f"--rtol must lie in (0, 1), got {args.rtol:g}")
+    if args.rho_inf is not None and not 0.0 <= args.rho_inf <= 1.0:
+        raise ValueError(f"--rho-inf must lie in [0, 1], got {args.rho_inf:g}")
+    _common.at_least("--n-out", args.n_out, 2)
+    _common.output_path("--out", args.out)
+
+
+def register(sub) -> None:
+    t = sub.add_parser("run", help="a mechanism from a model file or a bundled example (slider_crank)",
+                       description="Run a mechanism defined in a Python file (mechanism(**params) returning a "
+                                   "scenarios.MechanismSetup) or a bundled example by name (slider_crank).",
+                       formatter_class=_common.HelpFormatter)
+    t.add_argument("model", help="a model file (.py) or a bundled example's name")
+    t.add_argument("--param", action="append", metavar="KEY=VALUE", help="a keyword parameter of mechanism()")
+    t.add_argument("--t-end", type=float, default=None, help="end time [s] (default: the model's)")
+    t.add_argument("--rtol", type=float, default=None, help="step tolerance (default: the model's; atol = rtol/10 m)")
+    t.add_argument("--rho-inf", type=float, default=None,
+                   help="generalized-alpha spectral radius at infinity (default: the model's)")
+    t.add_argument("--n-out", type=int, default=201, help="equally spaced output times")
+    t.add_argument("--out", help="write the sensors (t and one column each) to this CSV file")
+    t.add_argument("--reference", choices=("full",), default=None,
+                   help="also run the model with formulation=ancf and report chi_rel and the speed-up")
+    t.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    t.add_argument("--no-progress", action="store_true", help="no progress messages on stderr")
+    t.set_defaults(func=_run, check=_check)
