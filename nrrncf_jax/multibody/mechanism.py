@@ -113,8 +113,11 @@ class Mechanism(AbstractConstrainedModel):
     @property
     def formulation(self) -> str:
         """The deformable bodies' kind (``"ancf"``, ``"rncf"``, ``"nr-rncf"``) when they share
-        one, ``"rigid"`` without deformable bodies, else ``"mixed"``."""
+        one (floating frames with any reduced body count as ``"nr-rncf"``), ``"rigid"`` without
+        deformable bodies, else ``"mixed"``."""
         kinds = {b.kind for b in self.bodies} - {"rigid", "point"}
+        if kinds == {"rncf", "nr-rncf"}:
+            return "nr-rncf"
         return kinds.pop() if len(kinds) == 1 else ("rigid" if not kinds else "mixed")
 
     @property
