@@ -7,6 +7,9 @@
 - ``prismatic``: ``Prismatic``, a slider; ``drivers``: ``AngleDriver``, ``DistanceDriver``, a
   hinge's angle or a slider's travel prescribed in time (their multipliers the driving torque or
   force).
+- ``forces``: force elements, ``SpringDamper`` and ``Actuator`` on a measure (``Distance``,
+  ``HingeAngle``, ``Travel``), or on markers: ``spring``, ``torsion_spring``, ``motor``,
+  ``actuator``.
 - ``mechanism``: ``Mechanism``, bodies of any kind (``kinds``: ``FloatingBody``, a ``RigidBody``
   in its frame, an ANCF ``Body`` in the inertial frame as ``InertialBody``, ``PointMass``) in one
   system, run with ``integrate.GeneralizedAlphaIndex3``.
@@ -49,6 +52,12 @@ of the paper, all three ways: ``scenarios.pendulum``, ``notebooks/07_pendulum.ip
 from .drivers import AngleDriver as AngleDriver
 from .drivers import DistanceDriver as DistanceDriver
 from .floating import FloatingBody as FloatingBody
+from .forces import Actuator as Actuator
+from .forces import SpringDamper as SpringDamper
+from .forces import actuator as actuator
+from .forces import motor as motor
+from .forces import spring as spring
+from .forces import torsion_spring as torsion_spring
 from .full_order_frame import NodalElasticForce as NodalElasticForce
 from .full_order_frame import full_floating_body as full_floating_body
 from .joints import GROUND as GROUND

@@ -132,24 +132,16 @@ class JointSpec:
             axis_b = gb.along(nb, self.axis, "hinge axis")
             if self.a is None:
                 joint = Revolute(None, None, None, self.b.body, nb, axis_b, point=self.b.point, axis=self.axis)
-                if self.drive is None:
-                    return joint
-                u_b = gb.normal_to(nb, self.axis, "hinge axis")[0]
-                u = gb.vectors[u_b] / np.linalg.norm(gb.vectors[u_b])
-                return joint, AngleDriver(None, None, None, self.b.body, u_b, self.drive,
-                                          ground=(u, np.cross(self.axis, u)))
-            ga = geometry[self.a.body]
-            na = ga.node(self.a)
-            if np.linalg.norm(ga.vectors[na] - gb.vectors[nb]) > POINT_TOL * max(1.0, np.abs(gb.vectors).max()):
-                raise ValueError(f"hinge: the markers' points differ, {self.a.point} and {self.b.point}")
-            normals = ga.normal_to(na, self.axis, "hinge axis")
-            joint = Revolute(self.a.body, na, normals, self.b.body, nb, axis_b)
+            else:
+                ga = geometry[self.a.body]
+                na = ga.node(self.a)
+                if np.linalg.norm(ga.vectors[na] - gb.vectors[nb]) > POINT_TOL * max(1.0, np.abs(gb.vectors).max()):
+                    raise ValueError(f"hinge: the markers' points differ, {self.a.point} and {self.b.point}")
+                joint = Revolute(self.a.body, na, ga.normal_to(na, self.axis, "hinge axis"), self.b.body, nb, axis_b)
             if self.drive is None:
                 return joint
-            u_a, w_a = normals if np.cross(ga.vectors[normals[0]], ga.vectors[normals[1]]) @ self.axis > 0 \
-                else normals[::-1]
-            u_b = gb.along(nb, ga.vectors[u_a], "the driven hinge's reference direction")
-            return joint, AngleDriver(self.a.body, u_a, w_a, self.b.body, u_b, self.drive)
+            *bodies_and_vectors, ground = hinge_directions(geometry, self.a, self.b, self.axis)
+            return joint, AngleDriver(*bodies_and_vectors, self.drive, ground=ground)
         if self.kind == "slider":
             axis = np.asarray(self.axis)
             axis_b = gb.along(nb, axis, "slider axis")
@@ -184,6 +176,27 @@ class JointSpec:
                 raise ValueError("clamp: the two nodes' position and gradient vectors must coincide")
             return Fixed(self.a.body, va, self.b.body, vb)
         raise ValueError(f"unknown joint kind {self.kind!r}")
+
+
+def hinge_directions(geometry: tuple[BodyGeometry, ...], a: Marker | None, b: Marker, axis) -> tuple:
+    """The directions that measure b's angle about a hinge's ``axis`` relative to a:
+    ``(body_a, u_a, w_a, body_b, u_b, ground)``, u_a and w_a = axis × u_a a's two unit gradient
+    vectors normal to the axis (None with ``a=None``: then ``ground`` holds them as fixed
+    directions), u_b b's gradient vector along u_a in the reference (``drivers.AngleDriver``,
+    ``forces.HingeAngle``)."""
+    axis = _unit(axis)
+    gb = geometry[b.body]
+    nb = gb.node(b)
+    if a is None:
+        u_b = gb.normal_to(nb, axis, "hinge axis")[0]
+        u = gb.vectors[u_b] / np.linalg.norm(gb.vectors[u_b])
+        return None, None, None, b.body, u_b, np.stack([u, np.cross(axis, u)])
+    ga = geometry[a.body]
+    na = ga.node(a)
+    normals = ga.normal_to(na, axis, "hinge axis")
+    u_a, w_a = normals if np.cross(ga.vectors[normals[0]], ga.vectors[normals[1]]) @ axis > 0 else normals[::-1]
+    u_b = gb.along(nb, ga.vectors[u_a], "the hinge's reference direction")
+    return a.body, u_a, w_a, b.body, u_b, np.stack([np.eye(3)[0], np.eye(3)[1]])
 
 
 def _check_drive(drive):
@@ -235,4 +248,4 @@ def resolve_joints(joints, geometry: tuple[BodyGeometry, ...]) -> tuple:
 
 
 __all__ = ["ANGLE_TOL", "POINT_TOL", "BodyGeometry", "JointSpec", "Marker", "ball", "clamp", "hinge",
-           "resolve_joints", "slider"]
+           "hinge_directions", "resolve_joints", "slider"]

@@ -2,9 +2,10 @@
 bodies, ANCF bodies in the inertial frame, point masses) joined by joints and drivers under
 gravity, the index-3 DAE of ``models.constrained`` (THEORY §7):
 
-    Σ_b J_bᵀ(M_b ẍ_b − Q_b) + ∂U/∂z + C_zᵀ λ = 0,    C(z, t) = 0,
+    Σ_b J_bᵀ(M_b ẍ_b − Q_b) + ∂U/∂z − Σ_e f_e ∂g_e/∂z + C_zᵀ λ = 0,    C(z, t) = 0,
 
-with z the bodies' coordinates stacked, x_b = f_b(z_b) their nodal vectors in the inertial frame
+with z the bodies' coordinates stacked, f_e and g_e the force elements' forces and measures
+(``forces``: spring-dampers, actuators), x_b = f_b(z_b) their nodal vectors in the inertial frame
 (where the joints act) and C the joints' equations, then each body's own (a floating frame's
 |e|² = 1). Each body supplies its map, residual, iteration block and energies; the system
 assembles them and the joints. ``FloatingFrameSystem`` is the mechanism whose bodies are all
@@ -33,6 +34,7 @@ from ..linalg import AugmentedFactor, DenseLU, schur_factor
 from ..models.constrained import AbstractConstrainedModel
 from ..motion import unit_axis
 from .floating import FloatingBody, axis_angle, rotation
+from .forces import AbstractForceElement, resolve_forces
 from .inertial import InertialBody
 from .joints import AbstractJoint
 from .kinds import AbstractBodyKind
@@ -67,8 +69,10 @@ def _stack(bodies) -> AbstractBodyKind | None:
 
 class Mechanism(AbstractConstrainedModel):
     """``bodies`` (any of ``as_body_kind``'s), ``joints`` (joints on nodal vectors, or on markers:
-    ``hinge``, ``ball``, ``clamp``, ``slider``) and ``gravity`` (an acceleration, 3-vector). See the
-    module docstring. Runs with ``integrate.GeneralizedAlphaIndex3``.
+    ``hinge``, ``ball``, ``clamp``, ``slider``), ``gravity`` (an acceleration, 3-vector) and
+    ``forces`` (force elements, ``forces.SpringDamper``, ``forces.Actuator``, or on markers:
+    ``spring``, ``torsion_spring``, ``motor``, ``actuator``). See the module docstring. Runs with
+    ``integrate.GeneralizedAlphaIndex3``.
 
     Raises ``ValueError`` before anything is traced for a joint on a missing body or nodal vector,
     an initial state that violates the joints, and redundant joint equations (a mechanism that
@@ -77,12 +81,13 @@ class Mechanism(AbstractConstrainedModel):
     bodies: tuple[AbstractBodyKind, ...]
     joints: tuple[AbstractJoint, ...]
     gravity: Float[Array, " 3"]
+    forces: tuple[AbstractForceElement, ...]
     stacked: AbstractBodyKind | None  # the bodies' arrays stacked, when they have one structure (vmapped)
 
     preferred_newton = "modified"
     project_velocities = True  # GeneralizedAlphaIndex3 projects v onto C_z v = −C_t after each step (floating)
 
-    def __init__(self, bodies, joints=(), gravity=(0.0, 0.0, 0.0)):
+    def __init__(self, bodies, joints=(), gravity=(0.0, 0.0, 0.0), forces=()):
         bodies = tuple(bodies)
         if not bodies:
             raise ValueError("a mechanism needs at least one body")
@@ -95,6 +100,12 @@ class Mechanism(AbstractConstrainedModel):
             raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, Prismatic, drivers) or "
                              "joints on markers (hinge, ball, clamp, slider)")
         self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
+        self.forces = resolve_forces(tuple(forces), tuple(b.geometry() for b in self.bodies))
+        for k, element in enumerate(self.forces):
+            for b, v in element.measure.references():
+                if not (0 <= b < len(self.bodies) and 0 <= v < self.bodies[b].n_vectors):
+                    raise ValueError(f"force element {k} ({type(element).__name__}) refers to nodal vector {v} of "
+                                     f"body {b}, which does not exist")
         self.stacked = _stack(self.bodies)
         self.check_joints()
 
@@ -190,8 +201,9 @@ class Mechanism(AbstractConstrainedModel):
         angles is a ``vmap`` over it (``scenarios.pendulum.release_sweep``)."""
         e = axis_angle(unit_axis(axis), angle)
         A = rotation(e)
-        out = eqx.tree_at(lambda s: (s.bodies, s.joints), self,
-                          (tuple(b.turned(e, A) for b in self.bodies), tuple(j.turned(A) for j in self.joints)))
+        out = eqx.tree_at(lambda s: (s.bodies, s.joints, s.forces), self,
+                          (tuple(b.turned(e, A) for b in self.bodies), tuple(j.turned(A) for j in self.joints),
+                           tuple(f.turned(A) for f in self.forces)))
         return out if self.stacked is None else eqx.tree_at(lambda s: s.stacked, out, self.stacked.turned(e, A))
 
     def error_space(self, z, e):
@@ -251,7 +263,35 @@ class Mechanism(AbstractConstrainedModel):
         Through the nodal vectors, not the inertia invariants: written with the invariants it
         takes a dozen 3 × 3 × k × k contractions, more operations, and XLA's time here is per
         operation (figures: ``benchmarks/results/design_notes.md``)."""
-        return self._concat_map(lambda b, zb, vb, ab: b.residual(zb, vb, ab, self.gravity), z, v, a)
+        r = self._concat_map(lambda b, zb, vb, ab: b.residual(zb, vb, ab, self.gravity), z, v, a)
+        return r if not self.forces else r - self.applied_force(t, z, v)
+
+    # --- force elements ---------------------------------------------------------------------------
+    def measures(self, z) -> Float[Array, " e"]:
+        """The force elements' measures g_e(z) (distances, angles, travels)."""
+        xs = self.nodal_vectors(z)
+        return jnp.stack([f.measure(xs) for f in self.forces])
+
+    def element_state(self, t, z, v) -> tuple[Float[Array, " e"], Float[Array, " e"], Float[Array, " e"]]:
+        """``(g, ġ, f)``: the force elements' measures, their rates ∂g/∂z ż and forces."""
+        g, g_dot = jax.jvp(self.measures, (z,), (v,))
+        return g, g_dot, jnp.stack([e.force(t, gi, gd) for e, gi, gd in zip(self.forces, g, g_dot)])
+
+    def applied_force(self, t, z, v) -> Float[Array, " n"]:
+        """Σ_e f_e ∂g_e/∂z: the force elements' generalized forces (virtual work f δg)."""
+        g, linear = jax.linearize(self.measures, z)
+        f = jnp.stack([e.force(t, gi, gd) for e, gi, gd in zip(self.forces, g, linear(v))])
+        return jax.linear_transpose(linear, z)(f)[0]
+
+    def _force_blocks(self, t, z, v, c_K, c_C) -> list:
+        """The force elements' stiffness and damping on each body's diagonal block,
+        G_bᵀ diag(c_K k + c_C c) G_b with G = ∂g/∂z, k = −∂f/∂g, c = −∂f/∂ġ (``forces``)."""
+        g, g_dot, _ = self.element_state(t, z, v)
+        G = jax.jacfwd(self.measures)(z)
+        dfdg = jnp.stack([jnp.stack(jax.grad(e.force, argnums=(1, 2))(t, gi, gd))
+                          for e, gi, gd in zip(self.forces, g, g_dot)])
+        D = -(c_K * dfdg[:, 0] + c_C * dfdg[:, 1])
+        return [G[:, o:o + n].T @ (D[:, None] * G[:, o:o + n]) for o, n in zip(self.offsets, self.body_sizes())]
 
     def mass_matrix(self, z) -> Float[Array, "n n"]:
         """M_z = blockdiag(J_bᵀ M_b J_b)."""
@@ -263,7 +303,10 @@ class Mechanism(AbstractConstrainedModel):
         change of direction) are left out here: they are of order c_K ω² M and c_C ω M against
         M, and a modified Newton on this matrix converges linearly, at that rate, to the same
         solution. ``factor_augmented`` with the state's acceleration adds their p columns."""
-        return jax.scipy.linalg.block_diag(*self._blocks(z, c_M, c_K))
+        blocks = self._blocks(z, c_M, c_K)
+        if self.forces:
+            blocks = [S + F for S, F in zip(blocks, self._force_blocks(t, z, v, c_K, c_C))]
+        return jax.scipy.linalg.block_diag(*blocks)
 
     def _blocks(self, z, c_M, c_K, v=None, a=None, lam=None, c_C=0.0) -> list:
         """The ``iteration_matrix``'s diagonal blocks, one a body; with the state's velocity
@@ -295,7 +338,10 @@ class Mechanism(AbstractConstrainedModel):
         fraction of its arithmetic, and on a CPU one LU of the whole matrix can cost more than
         the rest of the step (figures: ``benchmarks/results/design_notes.md``)."""
         B = self.constraint_jacobian(z, t)
-        factors = tuple(DenseLU.factor(S_b) for S_b in self._blocks(z, 1.0, c_K, v, a, lam, c_C))
+        blocks = self._blocks(z, 1.0, c_K, v, a, lam, c_C)
+        if self.forces:
+            blocks = [S + F for S, F in zip(blocks, self._force_blocks(t, z, v, c_K, c_C))]
+        factors = tuple(DenseLU.factor(S_b) for S_b in blocks)
         return schur_factor(factors, self.offsets, self.body_sizes(), B)
 
     def kinetic_energy(self, z, v) -> Float[Array, ""]:
@@ -303,9 +349,12 @@ class Mechanism(AbstractConstrainedModel):
         return sum(self._map(lambda b, zb, vb: b.kinetic_energy(zb, vb), z, v))
 
     def potential_energy(self, z) -> Float[Array, ""]:
-        """Strain energy (the reduced cubic force's potential, or the elements' own) plus the
-        gravity potential −Σ ϱ_α x_α·g."""
-        return sum(b.potential_energy(zb, self.gravity) for b, zb in zip(self.bodies, self.split(z)))
+        """Strain energy (the reduced cubic force's potential, or the elements' own), the
+        gravity potential −Σ ϱ_α x_α·g and the springs' potentials."""
+        U = sum(b.potential_energy(zb, self.gravity) for b, zb in zip(self.bodies, self.split(z)))
+        if self.forces:
+            U = U + sum(e.potential(g) for e, g in zip(self.forces, self.measures(z)))
+        return U
 
 
 class FloatingFrameSystem(Mechanism):

@@ -11,6 +11,8 @@ A sensor is a function of the system and its state, ``sensor(system, t, z, v) ->
 - ``JointReaction(index)``: the multipliers λ of the system's joint ``index`` (``joints`` gives
   their sign; the consistent ones of the state, ``reactions``); ``DriverEffort(index)``: the
   torque or force a driver (``drivers``) applies to its body;
+- ``ElementForce(index, quantity)``: force element ``index``'s force (torque) f, its measure g
+  (a spring's length, a motor's angle), its rate ġ or its power f ġ (``forces``);
 - ``Energy(kind)``: kinetic, potential or total; ``AngularMomentum()`` about the origin.
 
 Markers resolve against the system's bodies in ``observe`` (``resolve``: static node indices,
@@ -111,6 +113,24 @@ class DriverEffort(eqx.Module):
         return joint.effort(lam[system.joint_slices()[self.index]])
 
 
+class ElementForce(eqx.Module):
+    """Force element ``index``'s ``"force"`` f (a torque for a hinge's elements), ``"measure"`` g,
+    ``"rate"`` ġ or ``"power"`` f ġ (the work it does on the system per second)."""
+
+    index: int = eqx.field(static=True)
+    quantity: str = eqx.field(static=True, default="force")
+
+    def __check_init__(self):
+        if self.quantity not in ("force", "measure", "rate", "power"):
+            raise ValueError(f"quantity must be 'force', 'measure', 'rate' or 'power', got {self.quantity!r}")
+
+    def __call__(self, system, t, z, v) -> Float[Array, ""]:
+        if not 0 <= self.index < len(system.forces):
+            raise ValueError(f"force element {self.index}: the system has {len(system.forces)}")
+        g, g_dot, f = (y[self.index] for y in system.element_state(t, z, v))
+        return {"force": f, "measure": g, "rate": g_dot, "power": f * g_dot}[self.quantity]
+
+
 class Energy(eqx.Module):
     """``"kinetic"``, ``"potential"`` (strain and gravity) or ``"total"``."""
 
@@ -153,10 +173,5 @@ def observe(system, sensors: dict):
     return fn
 
 
-def driver_index(system) -> list[int]:
-    """The indices of the system's drivers."""
-    return [i for i, j in enumerate(system.joints) if getattr(j, "rheonomic", False)]
-
-
-__all__ = ["AngularMomentum", "ChordDeflection", "DriverEffort", "Energy", "JointReaction", "Position", "Velocity",
-           "driver_index", "observe"]
+__all__ = ["AngularMomentum", "ChordDeflection", "DriverEffort", "ElementForce", "Energy", "JointReaction", "Position",
+           "Velocity", "observe"]

@@ -1,0 +1,324 @@
+"""Force elements: spring-dampers and actuators between points and at joints (MULTIBODY.md).
+
+A force element is a scalar measure g(x) of the bodies' nodal vectors, a distance between two
+points, a hinge's angle or a slider's travel, and a force f(t, g, ġ) along it. By virtual work,
+δW = f δg, its nodal forces are
+
+    F = f ∂g/∂x,      and on a body's coordinates Q_b = J_bᵀ F_b = f ∂g/∂z_b,
+
+so an element is one measure and one law, and the system takes ∂g/∂z by automatic
+differentiation through its bodies' maps (``Mechanism``). The measures:
+
+- ``Distance``: |r_b − r_a| between two position vectors (or a fixed point);
+- ``HingeAngle``: b's angle about a hinge's axis relative to a (or the ground), from the same
+  directions as ``drivers.AngleDriver``: u_a, w_a = axis × u_a two of a's unit gradient vectors
+  normal to the axis and u_b b's along u_a in the reference, φ = atan2(u_b·w_a, u_b·u_a). Its
+  gradient on u_b is the force (w_a cos φ − u_a sin φ)/|u_b⊥| normal to u_b, whose moment about
+  the axis is exactly 1 for any length of u_b: f is the torque about the axis. φ is taken in
+  (−π, π]: a spring's angle must stay within π of its rest angle (an actuator's torque that
+  depends on t only is unaffected);
+- ``Travel``: (r_b − r_a)·d_a along a's axis vector (or a fixed axis), f the force along it.
+
+The laws: ``SpringDamper`` (f = −k (g − g₀) − c ġ, potential ½ k (g − g₀)²) and ``Actuator``
+(f = law(t, g, ġ, params), any differentiable function: a motor's torque profile, a
+controller; ``params`` a pytree, so that ``jax.grad`` reaches it).
+
+The iteration matrix takes each element's stiffness and damping on the bodies' diagonal blocks,
+∂g/∂z_bᵀ (c_K k + c_C c) ∂g/∂z_b with k = −∂f/∂g, c = −∂f/∂ġ (the term f ∂²g/∂z², of the order
+of the force, and the coupling between bodies are left to modified Newton, as the joints' are).
+"""
+
+import abc
+import dataclasses
+from collections.abc import Callable
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from .._types import Array, Float, Scalar
+from .joints import _vector
+from .markers import BodyGeometry, Marker, hinge_directions
+
+
+class AbstractMeasure(eqx.Module):
+    """A scalar function g(xs) of the bodies' nodal vectors (see the module docstring)."""
+
+    @abc.abstractmethod
+    def references(self) -> list[tuple[int, int]]:
+        """The ``(body, nodal vector)`` pairs it reads (ground excluded)."""
+
+    @abc.abstractmethod
+    def __call__(self, xs) -> Float[Array, ""]:
+        """g for the bodies' nodal vectors ``xs``."""
+
+    def turned(self, A: Float[Array, "3 3"]) -> "AbstractMeasure":
+        """The measure with its fixed data in space rotated by A (a system turned as a whole)."""
+        return self
+
+
+class Distance(AbstractMeasure):
+    """|r_b − r_a|: body b's position vector ``vector_b`` from body a's ``vector_a``, or from the
+    fixed ``point`` when ``body_a`` is None."""
+
+    body_a: int | None = eqx.field(static=True)
+    vector_a: int | None = eqx.field(static=True)
+    body_b: int = eqx.field(static=True)
+    vector_b: int = eqx.field(static=True)
+    point: Float[Array, " 3"]
+
+    def __init__(self, body_a, vector_a, body_b: int, vector_b: int, point=(0.0, 0.0, 0.0)):
+        self.body_a, self.vector_a = (None, None) if body_a is None else (int(body_a), int(vector_a))
+        self.body_b, self.vector_b = int(body_b), int(vector_b)
+        self.point = jnp.asarray(point, dtype=float).reshape(3)
+
+    def references(self):
+        return [(self.body_b, self.vector_b)] + ([] if self.body_a is None else [(self.body_a, self.vector_a)])
+
+    def turned(self, A):
+        return eqx.tree_at(lambda m: m.point, self, A @ self.point)
+
+    def __call__(self, xs):
+        r_a = self.point if self.body_a is None else _vector(xs, self.body_a, self.vector_a)
+        d = _vector(xs, self.body_b, self.vector_b) - r_a
+        # sqrt with a safe zero: a spring of zero length has no direction (its force is then zero)
+        sq = d @ d
+        return jnp.where(sq > 0, jnp.sqrt(jnp.where(sq > 0, sq, 1.0)), 0.0)
+
+
+class HingeAngle(AbstractMeasure):
+    """b's angle about a hinge's axis relative to a (module docstring); ``body_a=None``: relative
+    to the fixed directions ``ground`` (2 × 3: u and w = axis × u)."""
+
+    body_a: int | None = eqx.field(static=True)
+    u_a: int | None = eqx.field(static=True)
+    w_a: int | None = eqx.field(static=True)
+    body_b: int = eqx.field(static=True)
+    u_b: int = eqx.field(static=True)
+    ground: Float[Array, "2 3"]
+
+    def __init__(self, body_a, u_a, w_a, body_b: int, u_b: int, ground=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))):
+        self.body_a, self.u_a, self.w_a = (None, None, None) if body_a is None else (int(body_a), int(u_a), int(w_a))
+        self.body_b, self.u_b = int(body_b), int(u_b)
+        self.ground = jnp.asarray(ground, dtype=float).reshape(2, 3)
+
+    def references(self):
+        refs = [(self.body_b, self.u_b)]
+        return refs + ([] if self.body_a is None else [(self.body_a, self.u_a), (self.body_a, self.w_a)])
+
+    def turned(self, A):
+        return eqx.tree_at(lambda m: m.ground, self, self.ground @ A.T)
+
+    def __call__(self, xs):
+        if self.body_a is None:
+            u_a, w_a = self.ground[0], self.ground[1]
+        else:
+            u_a, w_a = _vector(xs, self.body_a, self.u_a), _vector(xs, self.body_a, self.w_a)
+        u_b = _vector(xs, self.body_b, self.u_b)
+        return jnp.arctan2(u_b @ w_a, u_b @ u_a)
+
+
+class Travel(AbstractMeasure):
+    """(r_b − r_a)·d_a: b's position vector ``vector_b`` along a's axis vector ``axis_a`` from a's
+    ``vector_a``, or along the fixed ``axis`` from the fixed ``point`` (``body_a=None``)."""
+
+    body_a: int | None = eqx.field(static=True)
+    vector_a: int | None = eqx.field(static=True)
+    axis_a: int | None = eqx.field(static=True)
+    body_b: int = eqx.field(static=True)
+    vector_b: int = eqx.field(static=True)
+    point: Float[Array, " 3"]
+    axis: Float[Array, " 3"]
+
+    def __init__(self, body_a, vector_a, axis_a, body_b: int, vector_b: int, point=(0.0, 0.0, 0.0),
+                 axis=(1.0, 0.0, 0.0)):
+        if body_a is None:
+            self.body_a, self.vector_a, self.axis_a = None, None, None
+        else:
+            self.body_a, self.vector_a, self.axis_a = int(body_a), int(vector_a), int(axis_a)
+        self.body_b, self.vector_b = int(body_b), int(vector_b)
+        self.point = jnp.asarray(point, dtype=float).reshape(3)
+        self.axis = jnp.asarray(axis, dtype=float).reshape(3)
+
+    def references(self):
+        refs = [(self.body_b, self.vector_b)]
+        return refs + ([] if self.body_a is None else [(self.body_a, self.vector_a), (self.body_a, self.axis_a)])
+
+    def turned(self, A):
+        return eqx.tree_at(lambda m: (m.point, m.axis), self, (A @ self.point, A @ self.axis))
+
+    def __call__(self, xs):
+        if self.body_a is None:
+            r_a, d = self.point, self.axis
+        else:
+            r_a, d = _vector(xs, self.body_a, self.vector_a), _vector(xs, self.body_a, self.axis_a)
+        return (_vector(xs, self.body_b, self.vector_b) - r_a) @ d
+
+
+class AbstractForceElement(eqx.Module):
+    """A force f(t, g, ġ) along a measure g (module docstring)."""
+
+    measure: AbstractMeasure
+
+    @abc.abstractmethod
+    def force(self, t: Scalar, g, g_dot) -> Float[Array, ""]:
+        """f: positive f does positive work when g grows."""
+
+    def potential(self, g) -> Float[Array, ""]:
+        """The element's potential energy (a spring's), zero for non-conservative elements."""
+        return jnp.zeros_like(g)
+
+    def turned(self, A) -> "AbstractForceElement":
+        return eqx.tree_at(lambda e: e.measure, self, self.measure.turned(A))
+
+
+class SpringDamper(AbstractForceElement):
+    """f = −k (g − g₀) − c ġ: a linear spring of stiffness ``k`` and rest value ``rest`` (a free
+    length, a rest angle) in parallel with a damper ``c``."""
+
+    k: Float[Array, ""]
+    c: Float[Array, ""]
+    rest: Float[Array, ""]
+
+    def __init__(self, measure: AbstractMeasure, k, c=0.0, rest=0.0):
+        self.measure = measure
+        self.k, self.c, self.rest = (jnp.asarray(x, dtype=float) for x in (k, c, rest))
+
+    def force(self, t, g, g_dot):
+        return -self.k * (g - self.rest) - self.c * g_dot
+
+    def potential(self, g):
+        return 0.5 * self.k * (g - self.rest) ** 2
+
+
+class Actuator(AbstractForceElement):
+    """f = law(t, g, ġ, params): a torque at a hinge (``HingeAngle``) or a force along a slider
+    (``Travel``) or between points (``Distance``) given by any differentiable ``law``, e.g. a
+    motor's torque profile or a feedback law; ``params`` (a pytree of arrays) is its argument,
+    so that gradients reach it."""
+
+    law: Callable = eqx.field(static=True)
+    params: object
+
+    def __init__(self, measure: AbstractMeasure, law, params=()):
+        if not callable(law):
+            raise ValueError("an actuator's law must be callable: law(t, g, g_dot, params) -> force or torque")
+        self.measure, self.law, self.params = measure, law, params
+
+    def force(self, t, g, g_dot):
+        return jnp.asarray(self.law(t, g, g_dot, self.params), dtype=jnp.result_type(g))
+
+
+@dataclasses.dataclass(frozen=True)
+class ForceSpec:
+    """A force element on markers (``spring``, ``torsion_spring``, ``motor``, ``actuator``),
+    resolved by the system into an ``AbstractForceElement`` on nodal vectors (``resolve``).
+    ``a``: a marker, a fixed point in space (a 3-vector, for ``"distance"``) or None for the
+    ground; ``make`` builds the element from its measure."""
+
+    measure: str  # "distance", "angle" or "travel"
+    a: object
+    b: Marker
+    axis: tuple[float, float, float] | None
+    make: Callable[[AbstractMeasure], AbstractForceElement]
+
+    def resolve(self, geometry: tuple[BodyGeometry, ...]) -> AbstractForceElement:
+        markers = [m for m in (self.a, self.b) if isinstance(m, Marker)]
+        for m in markers:
+            if not 0 <= m.body < len(geometry):
+                raise ValueError(f"force element on body {m.body}; the system has bodies 0..{len(geometry) - 1}")
+        gb = geometry[self.b.body]
+        nb = gb.node(self.b)
+        a_marker = self.a if isinstance(self.a, Marker) else None
+        if self.measure == "distance":
+            if a_marker is None:
+                return self.make(Distance(None, None, self.b.body, nb, point=self.a))
+            return self.make(Distance(a_marker.body, geometry[a_marker.body].node(a_marker), self.b.body, nb))
+        if self.measure == "angle":
+            body_a, u_a, w_a, body_b, u_b, ground = hinge_directions(geometry, a_marker, self.b, self.axis)
+            return self.make(HingeAngle(body_a, u_a, w_a, body_b, u_b, ground=ground))
+        axis = np.asarray(self.axis)
+        if a_marker is None:
+            return self.make(Travel(None, None, None, self.b.body, nb, point=self.b.point, axis=axis))
+        ga = geometry[a_marker.body]
+        na = ga.node(a_marker)
+        return self.make(Travel(a_marker.body, na, ga.along(na, axis, "actuator axis"), self.b.body, nb))
+
+
+def _end(a, what: str):
+    """A force element's first end: a marker, None (the ground) or a fixed point."""
+    if a is None or isinstance(a, Marker):
+        return a
+    p = np.asarray(a, dtype=float).reshape(-1)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise ValueError(f"{what}: the first end must be a Marker, None or a fixed point (a finite 3-vector), got "
+                         f"{a!r}")
+    return tuple(float(x) for x in p)
+
+
+def _axis(axis) -> tuple[float, float, float]:
+    e = np.asarray(axis, dtype=float).reshape(-1)
+    if e.shape != (3,) or not np.all(np.isfinite(e)) or np.linalg.norm(e) == 0:
+        raise ValueError(f"an axis must be a finite nonzero 3-vector, got {axis!r}")
+    return tuple(float(x) for x in e / np.linalg.norm(e))
+
+
+def _non_negative(name, value):
+    if isinstance(value, (int, float, np.floating, np.integer)) and not (np.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
+    return value
+
+
+def spring(a, b: Marker, k, c=0.0, free_length=None) -> ForceSpec:
+    """A translational spring-damper between the points of ``a`` (a marker, or a fixed point in
+    space) and ``b``: stiffness ``k`` [N/m], damping ``c`` [N s/m], ``free_length`` [m] (default
+    the reference distance, a spring without preload)."""
+    a = _end(a, "spring")
+    if a is None:
+        raise ValueError("spring: the first end must be a Marker or a fixed point, not None")
+    _non_negative("k", k), _non_negative("c", c)
+    if free_length is None:
+        pa = np.asarray(a.point if isinstance(a, Marker) else a)
+        free_length = float(np.linalg.norm(np.asarray(b.point) - pa))
+    return ForceSpec("distance", a, b, None, lambda m: SpringDamper(m, k, c, free_length))
+
+
+def torsion_spring(a: Marker | None, b: Marker, axis, k, c=0.0, rest_angle=0.0) -> ForceSpec:
+    """A rotational spring-damper at a hinge about ``axis`` between ``a`` (None: the ground) and
+    ``b`` (the markers of the ``hinge``): stiffness ``k`` [N m/rad], damping ``c`` [N m s/rad],
+    the torque zero at b's angle ``rest_angle`` from its reference orientation."""
+    _non_negative("k", k), _non_negative("c", c)
+    return ForceSpec("angle", _end(a, "torsion_spring"), b, _axis(axis),
+                     lambda m: SpringDamper(m, k, c, rest_angle))
+
+
+def motor(a: Marker | None, b: Marker, axis, law, params=()) -> ForceSpec:
+    """A torque on b about a hinge's ``axis`` (reacting on a, or the ground):
+    ``law(t, angle, angular_velocity, params)`` [N m], positive about the axis (``Actuator``)."""
+    return ForceSpec("angle", _end(a, "motor"), b, _axis(axis), lambda m: Actuator(m, law, params))
+
+
+def actuator(a, b: Marker, law, params=(), axis=None) -> ForceSpec:
+    """A force ``law(t, s, ṡ, params)`` [N] on b: with ``axis``, along a slider's axis (s the
+    travel from a's point, or from b's reference point with ``a=None``); without, along the
+    line between the two points (s their distance; ``a`` a marker or a fixed point)."""
+    a = _end(a, "actuator")
+    if axis is None:
+        if a is None:
+            raise ValueError("actuator: without an axis the first end must be a Marker or a fixed point")
+        return ForceSpec("distance", a, b, None, lambda m: Actuator(m, law, params))
+    return ForceSpec("travel", a, b, _axis(axis), lambda m: Actuator(m, law, params))
+
+
+def resolve_forces(forces, geometry: tuple[BodyGeometry, ...]) -> tuple[AbstractForceElement, ...]:
+    """The system's force elements with every ``ForceSpec`` resolved."""
+    out = tuple(f.resolve(geometry) if isinstance(f, ForceSpec) else f for f in forces)
+    for f in out:
+        if not isinstance(f, AbstractForceElement):
+            raise ValueError("forces must be force elements (SpringDamper, Actuator) or specs on markers (spring, "
+                             f"torsion_spring, motor, actuator), got {type(f).__name__}")
+    return out
+
+
+__all__ = ["AbstractForceElement", "AbstractMeasure", "Actuator", "Distance", "ForceSpec", "HingeAngle",
+           "SpringDamper", "Travel", "actuator", "motor", "resolve_forces", "spring", "torsion_spring"]
