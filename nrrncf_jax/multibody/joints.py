@@ -153,16 +153,19 @@ class Revolute(AbstractJoint):
 
 class Fixed(AbstractJoint):
     """A rigid joint: body a's nodal vectors ``vectors_a`` (a position and the gradient vectors
-    at it) equal body b's ``vectors_b``, or their reference values ``values`` in space when body b
-    is the ground (a clamp). Three equations per vector."""
+    at it) equal body b's ``vectors_b`` (with ``mixing``, k × k: ``mixing`` times them, for nodes
+    whose gradient vectors point different ways in the reference), or their reference values
+    ``values`` in space when body b is the ground (a clamp). Three equations per vector."""
 
     body_a: int = eqx.field(static=True)
     vectors_a: tuple[int, ...] = eqx.field(static=True)
     body_b: int | None = eqx.field(static=True)
     vectors_b: tuple[int, ...] | None = eqx.field(static=True)
     values: Float[Array, "k 3"] | None
+    mixing: Float[Array, "k k"] | None
 
-    def __init__(self, body_a: int, vectors_a, body_b: int | None = GROUND, vectors_b=None, values=None):
+    def __init__(self, body_a: int, vectors_a, body_b: int | None = GROUND, vectors_b=None, values=None,
+                 mixing=None):
         self.body_a, self.vectors_a = int(body_a), tuple(int(v) for v in vectors_a)
         if not self.vectors_a:
             raise ValueError("a fixed joint needs at least one nodal vector")
@@ -176,6 +179,8 @@ class Fixed(AbstractJoint):
             if len(self.vectors_b) != len(self.vectors_a):
                 raise ValueError("vectors_a and vectors_b must pair up one to one")
             self.values = None
+        k = len(self.vectors_a)
+        self.mixing = None if mixing is None else jnp.asarray(mixing, dtype=float).reshape(k, k)
 
     @property
     def n_equations(self) -> int:  # type: ignore[override]
@@ -192,6 +197,8 @@ class Fixed(AbstractJoint):
     def __call__(self, xs, t=0.0):
         a = jnp.stack([_vector(xs, self.body_a, v) for v in self.vectors_a])
         b = self.values if self.body_b is None else jnp.stack([_vector(xs, self.body_b, v) for v in self.vectors_b])
+        if self.mixing is not None:
+            b = self.mixing @ b
         return (a - b).reshape(-1)
 
 

@@ -26,6 +26,7 @@ import numpy as np
 from .drivers import AngleDriver, DistanceDriver
 from .joints import Fixed, Revolute, Spherical
 from .prismatic import Prismatic
+from .weld import Weld
 
 POINT_TOL = 1e-9
 """A marker's point matches a node when closer than this times the body's size."""
@@ -53,11 +54,13 @@ class Marker:
 @dataclasses.dataclass(frozen=True)
 class BodyGeometry:
     """What marker resolution reads of a body: its reference nodal vectors (n × 3, in the system's
-    frame), which are positions, and how many vectors a node carries."""
+    frame), which are positions, how many vectors a node carries, and which vectors only turn
+    with a frame (a rigid body's, a floating frame's held ones: a clamp there is a ``Weld``)."""
 
     vectors: np.ndarray
     is_position: np.ndarray
     vectors_per_node: int
+    rigid: frozenset = frozenset()  # vectors that only turn with the body's frame (no deformation)
 
     def node(self, marker: Marker) -> int:
         """The position vector at the marker's point."""
@@ -167,15 +170,42 @@ class JointSpec:
                     s_ref=float(gap @ axis))
             return joint if driver is None else (joint, driver)
         if self.kind == "clamp":
-            vb = [nb] + gb.unit_gradients(nb)
-            if self.a is None:
-                return Fixed(self.b.body, vb, values=gb.vectors[vb])
-            ga = geometry[self.a.body]
-            va = [ga.node(self.a)] + ga.unit_gradients(ga.node(self.a))
-            if len(va) != len(vb) or not np.allclose(ga.vectors[va], gb.vectors[vb], atol=1e-9):
-                raise ValueError("clamp: the two nodes' position and gradient vectors must coincide")
-            return Fixed(self.a.body, va, self.b.body, vb)
+            return self._clamp(geometry, gb, nb)
         raise ValueError(f"unknown joint kind {self.kind!r}")
+
+    def _clamp(self, geometry, gb: BodyGeometry, nb: int):
+        """A clamp: a ``Weld`` (six equations) where both nodes' directions only turn with their
+        frames (rigid bodies, floating frames' held nodes), else ``Fixed`` on the position and
+        the unit gradient vectors (twelve, mixed where the two nodes' vectors differ)."""
+        vb = [nb] + gb.unit_gradients(nb)
+        rigid_b = [v for v in gb.unit_gradients(nb) if v in gb.rigid]
+        if self.a is None:
+            if len(rigid_b) >= 2:
+                d = gb.vectors[rigid_b[:2]]
+                return Weld(None, None, None, self.b.body, nb, rigid_b[:2], Weld.reference_relation(d, d),
+                            point=gb.vectors[nb], ground=d)
+            return Fixed(self.b.body, vb, values=gb.vectors[vb])
+        ga = geometry[self.a.body]
+        na = ga.node(self.a)
+        if np.linalg.norm(ga.vectors[na] - gb.vectors[nb]) > POINT_TOL * max(1.0, np.abs(gb.vectors).max()):
+            raise ValueError(f"clamp: the markers' points differ, {self.a.point} and {self.b.point}")
+        rigid_a = [v for v in ga.unit_gradients(na) if v in ga.rigid]
+        if len(rigid_a) >= 2 and len(rigid_b) >= 2:
+            return Weld(self.a.body, na, rigid_a[:2], self.b.body, nb, rigid_b[:2],
+                        Weld.reference_relation(ga.vectors[rigid_a[:2]], gb.vectors[rigid_b[:2]]))
+        va = [na] + ga.unit_gradients(na)
+        if len(va) != len(vb) or len(va) != 4:
+            raise ValueError(f"clamp: each node needs three unit gradient vectors (a frame), got {len(va) - 1} and "
+                             f"{len(vb) - 1}")
+        Ga, Gb = ga.vectors[va[1:]], gb.vectors[vb[1:]]
+        if abs(np.linalg.det(Gb)) < 1e-9:
+            raise ValueError("clamp: the node's unit gradient vectors do not span space")
+        T = Ga @ np.linalg.inv(Gb)
+        if np.allclose(T, np.eye(3), atol=1e-12):
+            return Fixed(self.a.body, va, self.b.body, vb)
+        mixing = np.eye(4)
+        mixing[1:, 1:] = T
+        return Fixed(self.a.body, va, self.b.body, vb, mixing=mixing)
 
 
 def hinge_directions(geometry: tuple[BodyGeometry, ...], a: Marker | None, b: Marker, axis) -> tuple:

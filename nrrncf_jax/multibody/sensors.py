@@ -151,12 +151,15 @@ class Energy(eqx.Module):
 class AngularMomentum(eqx.Module):
     """The system's angular momentum about the origin, Σ_b Σ_vw M_b,vw x_v × ẋ_w: for the nodal
     vectors x(ξ) = Σ_v N_v(ξ) x_v of any body, ∫ρ x × ẋ dV is this sum (on a rigid body's
-    axes, Σ Θ'_kl g_k × ġ_l is its spin J ω)."""
+    axes, Σ Θ'_kl g_k × ġ_l is its spin J ω). All three components, or one (``component``)."""
 
-    def __call__(self, system, t, z, v) -> Float[Array, " 3"]:
+    component: int | None = eqx.field(static=True, default=None)
+
+    def __call__(self, system, t, z, v) -> Float[Array, "..."]:
         xs, vs = system.nodal_vectors(z), system.nodal_velocities(z, v)
-        return sum(jnp.sum(jnp.cross(x[:, None, :], xv[None, :, :]) * M[:, :, None], axis=(0, 1))
-                   for M, x, xv in zip(system.masses, xs, vs))
+        H = sum(jnp.sum(jnp.cross(x[:, None, :], xv[None, :, :]) * M[:, :, None], axis=(0, 1))
+                for M, x, xv in zip(system.masses, xs, vs))
+        return _component(H, self.component)
 
 
 def observe(system, sensors: dict):
