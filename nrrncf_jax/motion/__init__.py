@@ -25,3 +25,4 @@ from .prescribed import skew as skew
 from .prescribed import spin_up_angle as spin_up_angle
 from .prescribed import unit_axis as unit_axis
 from .profiles import FourierSpinUp as FourierSpinUp
+from .profiles import RestToRest as RestToRest

@@ -1,4 +1,5 @@
-"""Parameterised spin-up profiles for control design: Eq. 43 plus a smooth, trainable correction.
+"""Parameterised profiles for control design: the spin-up of Eq. 43 plus a smooth, trainable
+correction (``FourierSpinUp``), and a rest-to-rest move with one (``RestToRest``).
 
 The correction lives in the space of trigonometric polynomials on [0, Ts] that vanish at both
 ends and have zero mean, so every coefficient vector gives a continuous θ̈ that reaches the
@@ -93,6 +94,54 @@ class FourierSpinUp(AbstractAxisMotion):
         Smooth in the coefficients (its square root, the RMS, has no derivative at zero).
         """
         return 0.5 * (jnp.sum(self.sine_coeffs**2) + jnp.sum(self.cosine_coeffs**2))
+
+
+class RestToRest(AbstractAxisMotion):
+    """A rest-to-rest move about a fixed ``axis`` by ``delta`` [rad] in ``T`` [s], with a
+    trainable correction: with τ = t/T ∈ [0, 1],
+
+        θ(t) = Δ (τ − sin 2πτ / 2π) + Σ_{k=1..n} c_k sin²(πτ) sin kπτ,
+
+    and θ = Δ after T. The cycloid starts and ends with zero speed and acceleration, and each
+    correction term is O(τ³) at both ends, so for any coefficients θ is C² (the acceleration
+    continuous: a driver's torque has no jump) and the move ends at rest at Δ. ``coeffs``
+    (n,) [rad] are the control variables of a trajectory optimisation
+    (``examples.two_link_arm``); (θ, θ̇, θ̈) in closed form."""
+
+    delta: Float[Array, ""]
+    T: Float[Array, ""]
+    coeffs: Float[Array, " n"]
+    axis: Float[Array, " 3"]
+
+    def __init__(self, delta: ScalarLike, T: ScalarLike, coeffs=None, n_terms: int = 0, axis=(0.0, 0.0, 1.0)):
+        _validate.positive("T (move time)", T)
+        if coeffs is None:
+            coeffs = jnp.zeros((int(n_terms),))
+        elif _validate.is_concrete(coeffs) and (np.ndim(coeffs) != 1 or not np.all(np.isfinite(coeffs))):
+            raise ValueError(f"coeffs must be a finite vector (n,), got {np.shape(coeffs)}")
+        self.delta = jnp.asarray(delta, dtype=float)
+        self.T = jnp.asarray(T, dtype=float)
+        self.coeffs = jnp.asarray(coeffs, dtype=float)
+        self.axis = unit_axis(axis)
+
+    def __call__(self, t: ScalarLike) -> tuple[Float[Array, "..."], Float[Array, "..."], Float[Array, "..."]]:
+        """``(θ, θ̇, θ̈)`` at time t (any shape)."""
+        t = jnp.asarray(t, dtype=float)
+        moving = t < self.T
+        tau = jnp.clip(t / self.T, 0.0, 1.0)
+        w = 2.0 * jnp.pi
+        th = self.delta * (tau - jnp.sin(w * tau) / w)
+        dth = self.delta * (1.0 - jnp.cos(w * tau))
+        ddth = self.delta * w * jnp.sin(w * tau)
+        # c_k sin²(πτ) sin(kπτ) = c_k (1 − cos 2πτ)/2 · sin kπτ, and its τ-derivatives
+        k = jnp.pi * jnp.arange(1, self.coeffs.shape[0] + 1, dtype=float)
+        x = tau[..., None]
+        b, db, ddb = 0.5 * (1.0 - jnp.cos(w * x)), 0.5 * w * jnp.sin(w * x), 0.5 * w**2 * jnp.cos(w * x)
+        s, ds, dds = jnp.sin(k * x), k * jnp.cos(k * x), -(k**2) * jnp.sin(k * x)
+        th = th + (b * s) @ self.coeffs
+        dth = dth + (db * s + b * ds) @ self.coeffs
+        ddth = ddth + (ddb * s + 2.0 * db * ds + b * dds) @ self.coeffs
+        return th, jnp.where(moving, dth / self.T, 0.0), jnp.where(moving, ddth / self.T**2, 0.0)
 
 
 def _check_coeffs(coeffs) -> None:
