@@ -244,3 +244,32 @@ def test_the_reduced_rotor_follows_the_full_one(rotor_runs):
     full, reduced = rotor_runs["ancf"][1], rotor_runs["nr-rncf"][1]
     for name in ("omega", "tip"):
         assert float(chi_rel(full.series[name], reduced.series[name])) < 1.0, name
+
+
+def test_welded_rigid_bodies_hang_still_and_carry_their_weight():
+    """A rigid body welded to the ground, and a second one welded to it at a point whose axes are
+    turned 30° about Z (clamps between rigid directions resolve to six-equation welds, with the
+    reference relation of the two triads): under gravity nothing moves, to the Newton tolerance,
+    and the ground weld's reaction force is the two bodies' weight (consistent multipliers, to
+    round-off of that solve)."""
+    from nrrncf_jax.multibody import clamp
+    from nrrncf_jax.multibody.sensors import JointReaction
+    from nrrncf_jax.multibody.weld import Weld
+
+    c, s = np.cos(np.pi / 6), np.sin(np.pi / 6)
+    turned = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    a = RigidBody(2.0, [0.1, 0.2, 0.25], com=(0.5, 0.0, 0.0), points=[(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)])
+    b = RigidBody(1.5, [0.05, 0.1, 0.12], com=(1.0 + 0.4 * c, 0.4 * s, 0.0), points=[(1.0, 0.0, 0.0)], axes=turned)
+    g = np.array([0.0, -9.81, 0.0])
+    mech = Mechanism([a, b], [clamp(None, Marker(0, (0.0, 0.0, 0.0))),
+                              clamp(Marker(0, (1.0, 0.0, 0.0)), Marker(1, (1.0, 0.0, 0.0)))], gravity=g)
+    assert all(isinstance(j, Weld) for j in mech.joints) and mech.n_joint_equations == 12
+    ts = np.linspace(0.0, 0.5, 6)
+    tip = Position(Marker(1, (1.0, 0.0, 0.0))).resolve(mech)
+    sensors = {"tip": lambda t, z, v: tip(mech, t, z, v), "lam": lambda t, z, v: JointReaction(0)(mech, t, z, v)}
+    sol = simulate(mech, GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(1e-6, 1e-8), ts,
+                   observe=lambda t, z, v: {k: f(t, z, v) for k, f in sensors.items()})
+    np.testing.assert_allclose(sol.ys["tip"], np.broadcast_to([1.0, 0.0, 0.0], (6, 3)), atol=1e-9)
+    weight = (2.0 + 1.5) * g
+    np.testing.assert_allclose(np.asarray(sol.ys["lam"])[:, :3], np.broadcast_to(-weight, (6, 3)),
+                               atol=1e-9 * np.linalg.norm(weight))

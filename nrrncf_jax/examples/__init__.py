@@ -4,4 +4,8 @@ with ``nrrncf run <name>`` (``scenarios.mechanism_file``).
 - ``slider_crank``: the flexible slider-crank of Escalona, Hussien & Shabana (1998), a rigid
   crank driven at constant speed, a flexible connecting rod (full ANCF, NR-RNCF or rigid) and a
   slider on a prismatic joint.
+- ``rotor``: a rigid hub on a hinge with three of the paper's beams clamped to it, spun up by a
+  motor torque (full ANCF or NR-RNCF beams).
+- ``two_link_arm``: a flexible two-link arm on driven hinges with a payload, and the trajectory
+  optimisation that removes its residual vibration (Adam on forward-mode gradients).
 """

@@ -46,9 +46,11 @@ def _rotation_z(a):
 def mechanism(formulation: str = "nr-rncf", elements: int = 4, vms: int = 3, mds="all", n_terms: int = 3,
               coeffs=None, move_time: float = 1.0, angle_1: float = np.pi / 2, angle_2: float = np.pi / 3,
               length: float = 1.0, radius: float = 0.01, E: float = 70e9, rho: float = 2700.0, nu: float = 0.3,
-              payload: float = 0.1, t_end: float = 1.6, rtol: float = 1e-5, rho_inf: float = 0.5) -> MechanismSetup:
+              payload: float = 0.1, t_end: float = 1.6, rtol: float = 1e-5, rho_inf: float = 0.5,
+              basis: str = "free") -> MechanismSetup:
     """The arm (module docstring); ``coeffs`` (2, n_terms): the hinges' correction coefficients
-    [rad] (zero: the plain cycloids)."""
+    [rad] (zero: the plain cycloids); ``basis``: the reduced links' (``reduce``: ``"free"``
+    cantilever modes, or ``"craig-bampton"`` with the tip's boundary coordinates)."""
     if formulation not in ("ancf", "nr-rncf"):
         raise ValueError(f"formulation must be 'ancf' or 'nr-rncf', got {formulation!r}")
     c = np.zeros((2, int(n_terms))) if coeffs is None else np.asarray(coeffs, dtype=float)
@@ -61,7 +63,7 @@ def mechanism(formulation: str = "nr-rncf", elements: int = 4, vms: int = 3, mds
         body = placed(beam_body(Material(E, rho, nu), TubeSection(radius), straight_reference(L, int(elements))),
                       translation=root)
         links.append(body if formulation == "ancf" else reduce(body, [root, end], vms=int(vms), mds=mds,
-                                                               plane_normal=Z))
+                                                               basis=basis, plane_normal=Z))
     joints = [hinge(None, Marker(0, root_1), Z, drive=RestToRest(angle_1, move_time, c[0])),
               hinge(Marker(0, root_2), Marker(1, root_2), Z, drive=RestToRest(angle_2, move_time, c[1])),
               ball(Marker(1, tip), Marker(2, tip))]

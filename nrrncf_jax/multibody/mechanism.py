@@ -361,11 +361,11 @@ class FloatingFrameSystem(Mechanism):
     """A mechanism of floating-frame bodies only (``FloatingBody``: NR-RNCF or full-order RNCF;
     ``floating``'s docstring gives the equations): the paper's jointed NR-RNCF systems."""
 
-    def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0)):
+    def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0), forces=()):
         bodies = tuple(bodies)
         if not bodies or not all(isinstance(b, FloatingBody) for b in bodies):
             raise ValueError("bodies must be a non-empty sequence of FloatingBody")
-        super().__init__(bodies, joints, gravity)
+        super().__init__(bodies, joints, gravity, forces)
 
 
 __all__ = ["FloatingFrameSystem", "Mechanism", "as_body_kind"]
