@@ -33,6 +33,19 @@ CASES = [  # (formulation, elements, rtol)
 ]
 
 
+def _write(out: str, text: str, notes_from: str) -> None:
+    """Write ``text`` to ``out``, keeping the notes that follow the tables in the old file (from
+    the first line starting with ``notes_from``): they are written by hand from the figures."""
+    notes = ""
+    if os.path.exists(out):
+        with open(out) as f:
+            old = f.read()
+        at = old.find("\n" + notes_from)
+        notes = old[at:] if at >= 0 else ""
+    with open(out, "w") as f:
+        f.write(text + notes)
+
+
 def _machine() -> str:
     return (f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores visible, JAX "
             f"{jax.__version__} on CPU, Python {sys.version.split()[0]}.")
@@ -73,8 +86,7 @@ def rotor(out: str) -> None:
         "| beams | rtol | DOFs | steps (rejected) | Newton it. | compile [s] | run [s] | speed-up | ω(4 s) [rad/s] | "
         "peak abs tip [m] | ΔH | ΔE | χ_rel ω [%] | χ_rel tip [%] |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|", *rows, ""])
-    with open(out, "w") as f:
-        f.write(text)
+    _write(out, text, "Reading:")
 
 
 def arm(out: str, steps: int = 40, refine_steps: int = 25) -> None:
@@ -117,8 +129,7 @@ def arm(out: str, steps: int = 40, refine_steps: int = 25) -> None:
         "trajectories were optimised on the reduced model only):", "",
         "| trajectory | links | DOFs | steps (rejected) | run [s] | residual amplitude [mm] | peak abs τ₁ [N m] | "
         "peak abs τ₂ [N m] |", "|---|---|---:|---:|---:|---:|---:|---:|", *rows, ""])
-    with open(out, "w") as f:
-        f.write(text)
+    _write(out, text, "Reading:")
 
 
 def main(argv=None):
@@ -157,11 +168,7 @@ def slider_crank(out: str) -> None:
         "| rod | elements | rtol | DOFs | steps (rejected) | Newton it. | compile [s] | run [s] | "
         "peak abs w_mid [mm] | vs ref [%] | x_B(0.1 s) [m] | χ_rel w_mid [%] |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|", *rows, ""])
-    with open(out) as f:  # keep the notes written below the table
-        old = f.read()
-    notes = old[old.index("**Timings"):] if "**Timings" in old else ""
-    with open(out, "w") as f:
-        f.write(text + notes)
+    _write(out, text, "**Timings")
 
 
 if __name__ == "__main__":
