@@ -30,7 +30,9 @@ def test_run_a_model_file(tmp_path, capsys):
     path = tmp_path / "pendulum.py"
     path.write_text(MODEL)
     out = tmp_path / "run.csv"
-    assert main(["run", str(path), "--param", "length=0.5", "--out", str(out), "--json", "--n-out", "11"]) == 0
+    vtk, gif = tmp_path / "vtk", tmp_path / "run.gif"
+    assert main(["run", str(path), "--param", "length=0.5", "--out", str(out), "--json", "--n-out", "11",
+                 "--vtk", str(vtk), "--animate", str(gif)]) == 0
     record = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert record["dofs"] == 7 and record["steps"] > 0 and record["formulation"] == "rigid"
     assert {"compile_s", "run_s", "newton_iters"} <= set(record)
@@ -40,6 +42,13 @@ def test_run_a_model_file(tmp_path, capsys):
     assert table.shape == (11, 5)
     np.testing.assert_allclose(np.linalg.norm(table[:, 1:4], axis=1), 0.5, rtol=1e-8)  # on its circle
     np.testing.assert_allclose(table[:, 4], table[0, 4], atol=1e-4 * abs(table[0, 4]))
+    # the VTK series: the rod as a star from its centre of mass to its two points, at every output
+    import meshio
+
+    assert len(list(vtk.glob("*.vtu"))) == 11 and (vtk / "series.pvd").exists() and gif.stat().st_size > 0
+    last = meshio.read(vtk / "t_00010.vtu")
+    assert last.points.shape == (3, 3) and last.cells[0].data.shape == (2, 2)
+    np.testing.assert_allclose(np.linalg.norm(last.points, axis=1)[1:], [0.0, 0.5], atol=1e-8)
 
 
 def test_run_refuses_bad_arguments(tmp_path, capsys):

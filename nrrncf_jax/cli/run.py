@@ -2,12 +2,15 @@
 (``scenarios.mechanism_file``).
 
     nrrncf run MODEL [--param KEY=VALUE ...] [--t-end T] [--rtol R] [--rho-inf 0.9] [--n-out 201]
-                     [--out F.csv] [--json] [--reference full] [--no-progress]
+                     [--out F.csv] [--vtk DIR] [--animate F.gif] [--json] [--reference full]
+                     [--no-progress]
 
 ``MODEL``: a Python file defining ``mechanism(**params) -> MechanismSetup``, or the name of a
-bundled example (``nrrncf_jax/examples/``: ``slider_crank``). ``--param`` passes keyword
+bundled example (``nrrncf_jax/examples/``: ``slider_crank``, ``rotor``, ``two_link_arm``). ``--param`` passes keyword
 parameters (numbers parsed as numbers). ``--out`` writes the sensors at the output times as CSV
-columns ``t`` and each sensor's name (a vector sensor as ``name_0, name_1, ...``). ``--json``
+columns ``t`` and each sensor's name (a vector sensor as ``name_0, name_1, ...``); ``--vtk`` the
+bodies' nodes and edges (``post.outline``) over time as a ParaView series (.vtu files and a .pvd),
+``--animate`` an animated GIF of them in the XY plane. ``--json``
 prints one JSON object as the last line: ``formulation, dofs, steps, rejected, newton_iters,
 compile_s, run_s``; with ``--reference full`` (the model run again with ``formulation=ancf``,
 its full-order model) also ``reference_dofs, reference_run_s, speedup`` and ``chi_rel_percent``
@@ -46,11 +49,19 @@ def _run(args) -> int:
     _common.say(args, f"{args.model}: {setup.system.formulation}, {setup.system.n_dof} coordinates, "
                       f"0-{args.t_end or setup.t_end:g} s ...")
     kw = dict(t_end=args.t_end, rtol=args.rtol, n_out=args.n_out, rho_inf=args.rho_inf)
-    run = run_setup(setup, **kw)
+    run = run_setup(setup, **kw, positions=bool(args.vtk or args.animate))
     out = run.summary() | {"model": args.model, "params": params}
     if args.out:
         names, table = run.table()
         np.savetxt(args.out, table, delimiter=",", header=",".join(names), comments="", fmt="%.12g")
+    if args.vtk:
+        from ..post.vtk import write_polyline_series
+
+        write_polyline_series(args.vtk, run.points, run.lines, run.ts)
+    if args.animate:
+        from ..post.plotting import animate_lines
+
+        animate_lines(args.animate, run.ts, run.points, run.lines, f"{args.model}, " + "t = {t:.4f} s")
     if args.reference == "full":
         _common.say(args, "the full-order reference (formulation=ancf) ...")
         ref = run_setup(load_setup(args.model, params | {"formulation": "ancf"}), **kw)
@@ -76,12 +87,16 @@ def _check(args) -> None:
         raise ValueError(f"--rho-inf must lie in [0, 1], got {args.rho_inf:g}")
     _common.at_least("--n-out", args.n_out, 2)
     _common.output_path("--out", args.out)
+    _common.output_path("--animate", args.animate)
+    if args.vtk is not None and not str(args.vtk).strip():
+        raise ValueError("--vtk needs a folder name")
 
 
 def register(sub) -> None:
-    t = sub.add_parser("run", help="a mechanism from a model file or a bundled example (slider_crank)",
+    t = sub.add_parser("run", help="a mechanism from a model file or a bundled example (slider_crank, rotor, ...)",
                        description="Run a mechanism defined in a Python file (mechanism(**params) returning a "
-                                   "scenarios.MechanismSetup) or a bundled example by name (slider_crank).",
+                                   "scenarios.MechanismSetup) or a bundled example by name (slider_crank, rotor, "
+                                   "two_link_arm).",
                        formatter_class=_common.HelpFormatter)
     t.add_argument("model", help="a model file (.py) or a bundled example's name")
     t.add_argument("--param", action="append", metavar="KEY=VALUE", help="a keyword parameter of mechanism()")
@@ -91,6 +106,8 @@ def register(sub) -> None:
                    help="generalized-alpha spectral radius at infinity (default: the model's)")
     t.add_argument("--n-out", type=int, default=201, help="equally spaced output times")
     t.add_argument("--out", help="write the sensors (t and one column each) to this CSV file")
+    t.add_argument("--vtk", help="write the bodies over time into this folder (.vtu files and a .pvd series)")
+    t.add_argument("--animate", help="write an animated GIF of the motion (XY plane) here")
     t.add_argument("--reference", choices=("full",), default=None,
                    help="also run the model with formulation=ancf and report chi_rel and the speed-up")
     t.add_argument("--json", action="store_true", help="print one JSON object as the last line")

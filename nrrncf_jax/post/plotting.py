@@ -276,30 +276,51 @@ def plot_pendulum(path: str | None, runs, times=(0.0, 0.5, 1.0, 1.5, 2.0), dpi: 
 
 
 def animate_pendulum(path: str, run, fps: int = 25, dpi: int = 80) -> int:
-    """An animated GIF of a chain of beams (``PendulumRun``) in its plane, in real time at
-    ``fps`` frames a second (output times picked to match; Pillow, which matplotlib ships with).
+    """An animated GIF of a chain of beams (``PendulumRun``) in its plane (``animate_lines``).
     Returns the number of frames."""
+    nt, beams, nodes, _ = run.nodes.shape
+    lines = np.asarray([(b * nodes + i, b * nodes + i + 1) for b in range(beams) for i in range(nodes - 1)])
+    return animate_lines(path, run.ts, run.nodes.reshape(nt, beams * nodes, 3), lines,
+                         f"{run.formulation.upper()}, " + "t = {t:.2f} s", fps=fps, dpi=dpi, origin=True)
+
+
+def animate_lines(path: str, ts, points, lines, title: str = "t = {t:.3f} s", fps: int = 25, dpi: int = 80,
+                  plane: tuple[int, int] = (0, 1), origin: bool = False) -> int:
+    """An animated GIF of moving points (nt × p × 3) joined by ``lines`` (l × 2), projected on
+    the ``plane`` of two axes (x, y by default), at ``fps`` frames a second, in real time or, for
+    a run too short to make 50 frames so, in slow motion (output times picked to match; Pillow,
+    which matplotlib ships with). ``title`` is formatted with
+    ``t``; ``origin`` marks the origin. Returns the number of frames."""
     plt = _pyplot()
     from matplotlib.animation import FuncAnimation, PillowWriter
+    from matplotlib.collections import LineCollection
 
-    dt = float(np.mean(np.diff(run.ts))) if len(run.ts) > 1 else 1.0
-    every = max(1, int(round(1.0 / (fps * dt))))
-    frames = list(range(0, len(run.ts), every))
-    xy = run.nodes[..., :2]
-    reach = float(np.abs(xy).max()) * 1.05
+    ts, points, lines = np.asarray(ts), np.asarray(points), np.asarray(lines, dtype=int).reshape(-1, 2)
+    if points.ndim != 3 or points.shape[0] != len(ts) or points.shape[2] != 3:
+        raise ValueError(f"points must be (nt, p, 3) with one time per frame, got {points.shape} and {len(ts)} times")
+    # real time, or slow motion for a short run: at least 50 frames where the outputs have them
+    real = (ts[-1] - ts[0]) * fps if len(ts) > 1 else 1.0
+    every = max(1, int(len(ts) // max(real, min(len(ts), 50))))
+    frames = list(range(0, len(ts), every))
+    xy = points[..., list(plane)]
+    lo, hi = xy.min(axis=(0, 1)), xy.max(axis=(0, 1))
+    pad = 0.05 * float(max(hi - lo)) + 1e-12
     fig, ax = plt.subplots(figsize=(5, 5))
-    ax.set_xlim(-reach, reach)
-    ax.set_ylim(-reach, reach)
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
     ax.set_aspect("equal")
-    ax.plot([0.0], [0.0], "k^")
-    lines = [ax.plot([], [], "-", lw=2)[0] for _ in range(xy.shape[1])]
+    if origin:
+        ax.plot([0.0], [0.0], "k^")
+    segments = LineCollection([], lw=2)
+    ax.add_collection(segments)
+    dots = ax.plot([], [], "k.", ms=3)[0]
     label = ax.set_title("")
 
     def draw(i):
-        for b, line in enumerate(lines):
-            line.set_data(xy[i, b, :, 0], xy[i, b, :, 1])
-        label.set_text(f"{run.formulation.upper()}, t = {run.ts[i]:.2f} s")
-        return (*lines, label)
+        segments.set_segments(xy[i][lines])
+        dots.set_data(xy[i, :, 0], xy[i, :, 1])
+        label.set_text(title.format(t=ts[i]))
+        return segments, dots, label
 
     FuncAnimation(fig, draw, frames=frames, blit=False).save(path, writer=PillowWriter(fps=fps), dpi=dpi)
     plt.close(fig)

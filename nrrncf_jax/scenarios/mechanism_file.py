@@ -17,11 +17,15 @@ import pathlib
 import time
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, simulate
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody.sensors import observe
+from ..post.outline import mechanism_outline
+
+_POINTS = "__points__"  # the recorded nodes' key among the observed outputs
 
 
 @dataclasses.dataclass
@@ -63,6 +67,8 @@ class MechanismRun:
     compile_s: float
     run_s: float
     formulation: str
+    points: np.ndarray | None = None  # the bodies' nodes at ts (nt × p × 3), with ``positions=True``
+    lines: np.ndarray | None = None  # their edges (l × 2, ``post.outline``)
 
     def table(self) -> tuple[list[str], np.ndarray]:
         """CSV columns ``t`` and each sensor (a vector sensor as ``name_0, name_1, ...``)."""
@@ -121,10 +127,12 @@ def examples() -> list[str]:
 
 
 def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | None = None, n_out: int = 201,
-              rho_inf: float | None = None, progress: bool = False) -> MechanismRun:
+              rho_inf: float | None = None, progress: bool = False, positions: bool = False) -> MechanismRun:
     """Run ``setup`` to ``t_end`` (its default) at ``rtol`` (atol = rtol/10 of the nodal vectors'
     metres) with ``GeneralizedAlphaIndex3(rho_inf)``, the sensors at ``n_out`` equal output times;
-    compile and run timed apart (ahead-of-time compilation, then a blocked run). ``rho_inf``: the setup's by default."""
+    compile and run timed apart (ahead-of-time compilation, then a blocked run). ``rho_inf``: the
+    setup's by default. ``positions``: also record every body's nodes and their edges
+    (``post.outline``: ``points``, ``lines``), for a VTK series or an animation."""
     t_end = setup.t_end if t_end is None else float(t_end)
     rtol = setup.rtol if rtol is None else float(rtol)
     rho_inf = setup.rho_inf if rho_inf is None else float(rho_inf)
@@ -133,6 +141,14 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     system = setup.system
     ts = np.linspace(0.0, t_end, int(n_out))
     fn = observe(system, setup.sensors)
+    lines = None
+    if positions:
+        nodes, lines = mechanism_outline(system)
+        sensors_fn = fn
+
+        def fn(t, z, v):
+            xs = system.nodal_vectors(z)
+            return sensors_fn(t, z, v) | {_POINTS: jnp.stack([xs[b][i] for b, i in nodes])}
     y0 = setup.y0 if setup.y0 is not None else (system.reference(), 0.0 * system.reference())
 
     def run(y0):
@@ -147,8 +163,9 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     if not sol.succeeded:
         raise RuntimeError(f"the run stopped early: {sol.message}")
     series = {k: np.asarray(sol.ys[k]) for k in setup.sensors}  # in the setup's order (a dict pytree is sorted)
-    return MechanismRun(ts, series, system.n_dof, int(sol.num_steps),
-                        int(sol.num_rejected), int(sol.num_newton), t1 - t0, t2 - t1, system.formulation)
+    return MechanismRun(ts, series, system.n_dof, int(sol.num_steps), int(sol.num_rejected), int(sol.num_newton),
+                        t1 - t0, t2 - t1, system.formulation,
+                        np.asarray(sol.ys[_POINTS]) if positions else None, lines)
 
 
 __all__ = ["MechanismRun", "MechanismSetup", "examples", "load_setup", "run_setup"]
