@@ -122,12 +122,17 @@ def value_and_grad_forward(fn):
 
 @dataclasses.dataclass
 class ArmOptimisation:
-    """``initial``/``final`` coefficients, the objective's history, the residual amplitude
+    """``initial``/``final`` coefficients, the objective's and its gradient's history, the tip's
+    history ``tips_initial``/``tips_final`` at the output times ``ts``, the residual amplitude
     max_{t ≥ T} |x_tip − x*| before and after, and the optimisation's wall time."""
 
     initial: np.ndarray
     final: np.ndarray
     history: list
+    gradients: list
+    ts: np.ndarray
+    tips_initial: np.ndarray
+    tips_final: np.ndarray
     amplitude_initial: float
     amplitude_final: float
     seconds: float
@@ -150,12 +155,13 @@ def optimise_trajectory(setup: MechanismSetup, steps: int = 40, learning_rate: f
     opt = optax.adam(learning_rate)
     state = opt.init(x)
     t0 = time.perf_counter()
-    history, best = [], (np.inf, x, None)
+    history, gradients, best = [], [], (np.inf, x, None)
     x_initial = np.asarray(x)
     for _ in range(int(steps) + 1):
         value, grad, tips = step(x)
         value = float(value)
         history.append(value)
+        gradients.append(np.asarray(grad))
         if value < best[0]:
             best = (value, x, tips)
         if len(history) == 1:
@@ -166,8 +172,8 @@ def optimise_trajectory(setup: MechanismSetup, steps: int = 40, learning_rate: f
     def amplitude(tips):
         return float(np.sqrt(np.sum((np.asarray(tips) - x_star) ** 2, axis=1))[after].max())
 
-    return ArmOptimisation(x_initial, np.asarray(best[1]), history, amplitude(first_tips), amplitude(best[2]),
-                           time.perf_counter() - t0)
+    return ArmOptimisation(x_initial, np.asarray(best[1]), history, gradients, ts, np.asarray(first_tips),
+                           np.asarray(best[2]), amplitude(first_tips), amplitude(best[2]), time.perf_counter() - t0)
 
 
 __all__ = ["ArmOptimisation", "mechanism", "optimise_trajectory", "target", "trajectory_objective",

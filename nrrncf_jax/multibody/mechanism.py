@@ -34,7 +34,7 @@ from ..linalg import AugmentedFactor, DenseLU, schur_factor
 from ..models.constrained import AbstractConstrainedModel
 from ..motion import unit_axis
 from .floating import FloatingBody, axis_angle, rotation
-from .forces import AbstractForceElement, resolve_forces
+from .forces import AbstractForceElement, ForceSpec, resolve_forces
 from .inertial import InertialBody
 from .joints import AbstractJoint
 from .kinds import AbstractBodyKind
@@ -100,7 +100,10 @@ class Mechanism(AbstractConstrainedModel):
             raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, Prismatic, drivers) or "
                              "joints on markers (hinge, ball, clamp, slider)")
         self.gravity = jnp.asarray(gravity, dtype=float).reshape(3)
-        self.forces = resolve_forces(tuple(forces), tuple(b.geometry() for b in self.bodies))
+        forces = tuple(forces)
+        # markers need the bodies' concrete reference geometry; resolved force elements do not
+        geometry = tuple(b.geometry() for b in self.bodies) if any(isinstance(f, ForceSpec) for f in forces) else ()
+        self.forces = resolve_forces(forces, geometry)
         for k, element in enumerate(self.forces):
             for b, v in element.measure.references():
                 if not (0 <= b < len(self.bodies) and 0 <= v < self.bodies[b].n_vectors):
