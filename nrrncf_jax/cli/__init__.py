@@ -56,8 +56,9 @@ import sys
 
 from ._common import HelpFormatter
 
-SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "truss", "membrane", "pendulum", "run")
-"""Modules of this package, each with ``register(subparsers)``; their order is the help's."""
+SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "sweep-merge", "truss", "membrane", "pendulum", "run")
+"""The subcommands, each a module of this package (its name with ``_`` for ``-``) with
+``register(subparsers)``; their order is the help's."""
 
 
 class UsageError(Exception):
@@ -75,7 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="nrrncf", description="NR-RNCF flexible multibody simulation (JAX)", formatter_class=HelpFormatter)
     sub = p.add_subparsers(dest="command", required=True, metavar="{" + ",".join(SUBCOMMANDS) + "}")
     for name in SUBCOMMANDS:
-        importlib.import_module(f"{__name__}.{name}").register(sub)
+        importlib.import_module(f"{__name__}.{name.replace('-', '_')}").register(sub)
     return p
 
 

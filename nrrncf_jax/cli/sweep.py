@@ -1,4 +1,12 @@
-"""``nrrncf sweep``: one batched, jit-compiled run of the spin-up over a grid of (ωs, Ts, E)."""
+"""``nrrncf sweep``: one batched, jit-compiled run of the spin-up over a grid of (ωs, Ts, E).
+
+Beyond one process (``studies.distributed``): ``--processes N`` runs the sweep as N local
+processes of one multi-process runtime (the cases split over all of them, the results gathered;
+process 0 prints and writes); ``--distributed`` joins a runtime that a cluster's launcher
+started (``srun nrrncf sweep ... --distributed``, or ``mpirun``); ``--shard K/N`` runs only shard
+K's cases (no collectives; the basis is the whole grid's) and writes its part, which
+``nrrncf sweep-merge`` joins.
+"""
 
 import os
 import subprocess
@@ -43,8 +51,41 @@ def _grid_values(args):
     return tuple(values)
 
 
+def _shard(spec) -> tuple[int, int] | None:
+    """``--shard K/N`` as (K, N), checked (0 <= K < N)."""
+    if spec is None:
+        return None
+    k, sep, n = str(spec).partition("/")
+    try:
+        k, n = int(k), int(n)
+    except ValueError:
+        raise ValueError(f"--shard takes K/N (shard K of N, 0 <= K < N), got {spec!r}") from None
+    if not sep or not 0 <= k < n:
+        raise ValueError(f"--shard takes K/N with 0 <= K < N, got {spec!r}")
+    return k, n
+
+
+def _without_processes(argv) -> list:
+    """The command's arguments without ``--processes N``: what each worker runs."""
+    out, skip = [], False
+    for a in argv:
+        if skip:
+            skip = False
+        elif a == "--processes":
+            skip = True
+        elif not a.startswith("--processes="):
+            out.append(a)
+    return out
+
+
 def _check(args) -> None:
     """Every argument, before anything runs (no JAX)."""
+    _shard(args.shard)
+    _common.at_least("--processes", args.processes, 1)
+    if args.timeout is not None and not args.timeout > 0:
+        raise ValueError(f"--timeout must be > 0, got {args.timeout:g}")
+    if args.shard and args.processes and args.processes > 1:
+        raise ValueError("--shard and --processes exclude each other: a shard runs as one process")
     _grid_values(args)
     _common.output_times(args.t_end, args.dt_out)
     _common.at_least("--elements", args.elements, 1)
@@ -62,20 +103,36 @@ def _range_text(v) -> str:
 
 
 def _sweep(args) -> int:
-    rc = _rerun_with_host_devices(args)
-    if rc is not None:
-        return rc
+    from ..studies import distributed
+
+    if args.processes and args.processes > 1 and not distributed.launched():
+        try:
+            distributed.launch_local(_without_processes(args.argv), args.processes, timeout_s=args.timeout or 3600.0)
+        except distributed.LaunchError as e:
+            print(f"nrrncf: error: {e}", file=sys.stderr)
+            return 1
+        return 0
+    if distributed.launched() or args.distributed:
+        distributed.initialize()
+    else:
+        rc = _rerun_with_host_devices(args)
+        if rc is not None:
+            return rc
+    import jax
+
+    primary = jax.process_index() == 0  # the process that prints and writes
 
     from .._progress import note
     from ..scenarios import beam_preset
     from ..scenarios.spinup import sweep_reduction
     from ..studies.sweep import spinup_sweep, sweep_grid
 
-    progress = not args.no_progress
+    progress = not args.no_progress and primary
     preset = beam_preset(args.beam)
     omega, ts, E = _grid_values(args)
     grid = sweep_grid(omega, ts, 1.0 if E is None else E / preset.E)
-    if not args.json:
+    shard = _shard(args.shard)
+    if not args.json and primary:
         print(f"nrrncf sweep: {args.beam} beam, {grid.cases} cases (omega_s {_range_text(omega)} rad/s "
               f"x T_s {_range_text(ts)} s" + (f" x E {_range_text(E)} Pa" if E is not None else "")
               + f"), t = 0..{args.t_end:g} s", flush=True)
@@ -83,11 +140,21 @@ def _sweep(args) -> int:
                    "MMI simulation, modal derivatives, tensors ...")
     red = sweep_reduction(preset, grid, t_end=args.t_end, elements=args.elements, dt_out=args.dt_out,
                           n_modes=args.modes, max_dofs=args.max_dofs)
-    if not args.json:
+    if not args.json and primary:
         print(f"  basis at omega_s = {grid.omega_s.max():g} rad/s, T_s = {grid.T_s.min():g} s: {red.describe()}, "
               f"offline {red.offline_s['total']:.1f} s", flush=True)
-    res = spinup_sweep(red, grid, t_end=args.t_end, dt_out=args.dt_out, rtol=args.rtol, devices=args.devices,
-                       time_single=True, progress=progress)
+    cases = None
+    if shard is not None:  # the basis is the whole grid's; only this shard's cases run
+        from ..studies.distributed import shard_indices
+
+        cases = shard_indices(grid.expected_cost(), *shard)
+        note(progress, f"shard {shard[0]}/{shard[1]}: cases {cases.tolist()}")
+    res = spinup_sweep(red, grid if cases is None else grid.subset(cases), t_end=args.t_end, dt_out=args.dt_out,
+                       rtol=args.rtol, devices=args.devices, time_single=True, progress=progress)
+    if cases is not None:
+        res.case_index, res.cases_total = cases, grid.cases
+    if not primary:
+        return 0
     if args.out:
         res.to_csv(args.out)
     if args.plot:
@@ -95,8 +162,10 @@ def _sweep(args) -> int:
     if args.json:
         d = res.summary()
         d.update(beam=args.beam, vms=red.n_vms, mds=red.n_mds, spin_vectors=red.n_spin,
-                 offline_s=round(red.offline_s["total"], 3),
-                 E=None if E is None else (grid.E_scale * preset.E).tolist())
+                 offline_s=round(red.offline_s["total"], 3), processes=jax.process_count(),
+                 E=None if E is None else (res.grid.E_scale * preset.E).tolist())
+        if cases is not None:
+            d.update(shard=args.shard, case_index=cases.tolist(), cases_total=grid.cases)
         import json
 
         print(json.dumps(d))
@@ -134,6 +203,16 @@ def register(sub) -> None:
                         "are requested)")
     s.add_argument("--out", help="write the per-case CSV (omega_s, T_s, E_scale, peaks, residual, steps) here")
     s.add_argument("--plot", help="write a PNG of peak deflection against omega_s here")
+    s.add_argument("--processes", type=int, default=None,
+                   help="run as this many local processes of one multi-process runtime (cases split, results "
+                        "gathered; process 0 prints and writes)")
+    s.add_argument("--distributed", action="store_true",
+                   help="join a multi-process runtime started by a cluster launcher (srun, mpirun)")
+    s.add_argument("--shard", default=None, metavar="K/N",
+                   help="run only shard K of N of the cases (no collectives); --out writes its part, which "
+                        "'nrrncf sweep-merge' joins")
+    s.add_argument("--timeout", type=float, default=None,
+                   help="with --processes: stop the workers after this many seconds (default 3600)")
     s.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     s.add_argument("--no-progress", action="store_true", help="no progress lines (stages) on stderr")
     s.set_defaults(func=_sweep, check=_check)

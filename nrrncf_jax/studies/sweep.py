@@ -29,8 +29,9 @@ devices holding the cheap cases finish early (on a CPU whose cores the devices s
 goes to the others). ``balance='interleave'`` deals the sorted cases round-robin instead (every
 device the same mix, which balances devices whose cases queue). Within a device the queue starts
 with its costliest cases, so that the cheap ones fill the lanes at the end. The same call runs
-on a multi-GPU host, or on every device of a cluster after ``jax.distributed.initialize()``
-(inputs are placed as global arrays, results gathered from every process).
+on a multi-GPU host, or on every device of several processes and hosts after
+``distributed.initialize()`` (the model broadcast from process 0, inputs placed as global arrays,
+results gathered to every process; ``nrrncf sweep --processes N`` on one machine).
 """
 
 import csv
@@ -117,6 +118,13 @@ class SweepGrid:
         that rise with the spin rate (centrifugal stiffening) and with √E, and a shorter spin-up
         excites more. Any order gives the same results; this one only balances the work."""
         return self.omega_s * np.sqrt(self.E_scale) * (1.0 + 1.0 / self.T_s)
+
+    def subset(self, indices) -> "SweepGrid":
+        """The cases ``indices`` of this grid, as a list of cases (a shard: ``distributed``)."""
+        i = np.asarray(indices, dtype=int).reshape(-1)
+        if i.size == 0 or i.min() < 0 or i.max() >= self.cases:
+            raise ValueError(f"indices must select cases 0..{self.cases - 1}, got {i.tolist()[:10]}")
+        return SweepGrid(self.omega_s[i], self.T_s[i], self.E_scale[i])
 
 
 def sweep_grid(omega_s, T_s=15.0, E_scale=1.0) -> SweepGrid:
@@ -297,6 +305,8 @@ class SweepResult:
     single_s: float | None = None
     single_compile_s: float | None = None
     single_steps: int | None = None
+    case_index: np.ndarray | None = None  # a shard's cases' indices in the whole grid (None: all)
+    cases_total: int | None = None  # the whole grid's size, for a shard
 
     @property
     def cases(self) -> int:
@@ -356,12 +366,18 @@ class SweepResult:
         return "\n".join(lines)
 
     def to_csv(self, path: str) -> None:
+        """One row a case: its index in the whole grid and the grid's size (``case``, ``cases``:
+        a shard's parts merge by them, ``distributed.merge_parts``), its parameters and results."""
+        index = np.arange(self.cases) if self.case_index is None else self.case_index
+        total = self.cases if self.cases_total is None else self.cases_total
         with open(path, "w", newline="") as f:
             wr = csv.writer(f)
-            wr.writerow(["omega_s", "T_s", "E_scale", "peak_uy", "peak_ux", "residual_uy", "steps", "rejected"])
+            wr.writerow(["case", "cases", "omega_s", "T_s", "E_scale", "peak_uy", "peak_ux", "residual_uy", "steps",
+                         "rejected"])
             g = self.grid
             for i in range(self.cases):
-                wr.writerow([f"{g.omega_s[i]:.10g}", f"{g.T_s[i]:.10g}", f"{g.E_scale[i]:.10g}",
+                wr.writerow([int(index[i]), int(total), f"{g.omega_s[i]:.10g}", f"{g.T_s[i]:.10g}",
+                             f"{g.E_scale[i]:.10g}",
                              f"{self.peak_uy[i]:.10g}", f"{self.peak_ux[i]:.10g}", f"{self.residual_uy[i]:.10g}",
                              int(self.steps[i]), int(self.rejected[i])])
 
@@ -490,6 +506,13 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     from jax.sharding import Mesh, NamedSharding
     from jax.sharding import PartitionSpec as P
 
+    if jax.process_count() > 1:
+        # every process holds the same model: process 0's (bases built apart on different hosts
+        # may differ by round-off, and the replicated arrays must be one)
+        from jax.experimental import multihost_utils
+
+        arrays, static = eqx.partition(model, eqx.is_array)
+        model = eqx.combine(multihost_utils.broadcast_one_to_all(arrays), static)
     mesh = Mesh(np.array(devs), (_AXIS,))
     rep, split = NamedSharding(mesh, P()), NamedSharding(mesh, P(_AXIS))
     model_r = jax.tree_util.tree_map(lambda x: _put(x, rep) if eqx.is_array(x) else x, model)
