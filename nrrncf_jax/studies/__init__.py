@@ -6,6 +6,8 @@ reduction, integrator), which never imports this package.
 - ``identification``: measurements, the misfit, ``identify`` (Adam, then L-BFGS).
 - ``control``: the spin-up profile with the least residual vibration (``optimal_spinup``).
 - ``sweep``: batched, vmapped and device-sharded sweeps over (ωs, Ts, E).
+- ``distributed``: the sweeps on several processes and hosts (``jax.distributed``, a local
+  launcher, shards and their merge).
 - ``optimize``: the one L-BFGS / line-search driver shared by identification and control.
 
 The public names are exported here and by the package (``nrrncf_jax.identify``, ``nrrncf_jax.spinup_sweep``,
