@@ -109,14 +109,17 @@ def _wait(workers, logs, timeout_s: float) -> None:
         codes = [w.poll() for w in workers]
         failed = [i for i, c in enumerate(codes) if c not in (None, 0)]
         if failed:
-            i = failed[0]
+            # name every process that has failed by now; show the output of the first one with a log
+            # (process 0's output is the terminal's)
+            names = ", ".join(f"{i} (exit status {codes[i]})" for i in failed)
+            i = next((j for j in failed if logs[j] is not None), None)
             tail = ""
-            if logs[i] is not None:
+            if i is not None:
                 logs[i].flush()
                 logs[i].seek(0)
                 tail = "".join(logs[i].read().splitlines(keepends=True)[-20:])
-            raise LaunchError(f"worker process {i} of {len(workers)} failed (exit status {codes[i]}); the others were "
-                              f"stopped" + (f". Its last output:\n{tail}" if tail else ""))
+            raise LaunchError(f"worker process {names} of {len(workers)} failed; the others were stopped"
+                              + (f". The last output of process {i}:\n{tail}" if tail else ""))
         if all(c == 0 for c in codes):
             return
         if time.monotonic() - start > timeout_s:
