@@ -273,3 +273,21 @@ def test_welded_rigid_bodies_hang_still_and_carry_their_weight():
     weight = (2.0 + 1.5) * g
     np.testing.assert_allclose(np.asarray(sol.ys["lam"])[:, :3], np.broadcast_to(-weight, (6, 3)),
                                atol=1e-9 * np.linalg.norm(weight))
+
+
+def test_stiffened_bodies_scale_their_elastic_force():
+    """``Mechanism.stiffened(s)``: at rest, without gravity, a body's residual is its elastic force
+    alone, and it scales by s, for an ANCF body (κ scaled) and a reduced one (its tensors scaled),
+    to round-off; a rigid body is unchanged."""
+    from nrrncf_jax.multibody.reduce import reduce
+
+    beam = beam_body(Material(1e9, 2700.0, 0.3), TubeSection(0.01), straight_reference(1.0, 2))
+    reduced = reduce(beam, [(0.0, 0.0, 0.0)], vms=2, mds=[(0, 0)], plane_normal=Z)
+    mech = Mechanism([beam, reduced, RigidBody(1.0, [0.1, 0.1, 0.1], com=(3.0, 0.0, 0.0))])
+    z = mech.reference() + 1e-3 * jnp.asarray(np.random.default_rng(2).normal(size=mech.n_dof))
+    zero = jnp.zeros_like(z)
+    r1 = mech.residual(0.0, z, zero, zero)
+    r2 = mech.stiffened(2.5).residual(0.0, z, zero, zero)
+    scale = float(jnp.abs(r1).max())
+    for part1, part2, kind in zip(mech.split(r1), mech.split(r2), ("ancf", "nr-rncf", "rigid")):
+        np.testing.assert_allclose(part2, 2.5 * part1, atol=1e-12 * scale, err_msg=kind)

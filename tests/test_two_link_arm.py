@@ -40,8 +40,9 @@ def test_a_rest_to_rest_move_ends_at_rest_and_is_c2():
 @pytest.mark.slow
 def test_the_reduced_arm_s_gradient_matches_finite_differences_and_adam_cuts_its_vibration():
     """NR-RNCF links (3 in-plane modes and their derivatives each): the gradient at the initial
-    coefficients along a random direction against central differences of J, and three Adam steps
-    on it lower J tenfold (the benchmark's forty cut the residual amplitude more than tenfold:
+    coefficients along a random direction, and the derivative with respect to the links' Young's
+    modulus, against central differences of J; and three Adam steps on it lower J tenfold (the
+    benchmark's forty cut the residual amplitude more than tenfold:
     ``benchmarks/results/mechanisms_arm.md``)."""
     setup = mechanism("nr-rncf", elements=2)
     c0 = jnp.asarray([[0.01, -0.02, 0.0], [0.03, 0.0, -0.01]])
@@ -49,13 +50,19 @@ def test_the_reduced_arm_s_gradient_matches_finite_differences_and_adam_cuts_its
     assert min(run.history) < 0.1 * run.history[0]
     assert run.amplitude_final < run.amplitude_initial
     objective, _ = trajectory_objective(setup, dt=4e-3, n_out=41)
-    f = jax.jit(lambda c: objective(c)[0])
+    f = jax.jit(lambda c, s: objective(c, s)[0])
     d = jnp.asarray(np.random.default_rng(1).normal(size=(2, 3)))
     slope = float(np.sum(run.gradients[0] * np.asarray(d)))
-    fd = float((f(c0 + EPS * d) - f(c0 - EPS * d)) / (2 * EPS))
+    fd = float((f(c0 + EPS * d, 1.0) - f(c0 - EPS * d, 1.0)) / (2 * EPS))
     assert abs(slope) > 1e-4
     np.testing.assert_allclose(slope, fd, rtol=1e-4)
-    np.testing.assert_allclose(float(f(c0)), run.history[0], rtol=1e-12)  # the same objective
+    np.testing.assert_allclose(float(f(c0, 1.0)), run.history[0], rtol=1e-12)  # the same objective
+    # a material parameter: the links' Young's modulus times s (the reduced tensors scaled, exact
+    # for a basis of modes and modal derivatives, which a uniform E leaves unchanged)
+    _, dJ_ds = jax.jvp(lambda s: f(c0, s), (1.0,), (1.0,))
+    fd_s = float((f(c0, 1.0 + EPS) - f(c0, 1.0 - EPS)) / (2 * EPS))
+    assert abs(float(dJ_ds)) > 1e-6
+    np.testing.assert_allclose(float(dJ_ds), fd_s, rtol=1e-4)
 
 
 @pytest.mark.slow

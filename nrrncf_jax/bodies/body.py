@@ -290,6 +290,12 @@ class Body(eqx.Module):
         return v
 
 
+def stiffened(body: Body, s) -> Body:
+    """``body`` with its elastic tensors κ times ``s`` (every group): Young's modulus scaled by s
+    at a fixed Poisson ratio, κ being linear in E; differentiable in ``s``."""
+    return eqx.tree_at(lambda b: [g.kappa for g in b.groups], body, [s * g.kappa for g in body.groups])
+
+
 def beam_body(material: Material, section: TubeSection, reference: BeamReference, n_axial: int = 5) -> Body:
     """The C1 ANCF beam body on a reference centreline: one chain group of ``C1Beam`` elements."""
     element = C1Beam(material, section, n_axial)

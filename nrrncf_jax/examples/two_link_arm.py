@@ -89,17 +89,18 @@ def with_coeffs(system: Mechanism, coeffs) -> Mechanism:
 
 
 def trajectory_objective(setup: MechanismSetup, dt: float = 2e-3, n_out: int = 121):
-    """``objective(coeffs) -> (J, tips)``: the mean square distance of the tip from its target
-    over the output times t ≥ T (module docstring) and the tip's history, a run with constant
-    steps ``dt`` and ρ∞ of the setup. Differentiable in forward mode."""
+    """``objective(coeffs, stiffness=1.0) -> (J, tips)``: the mean square distance of the tip
+    from its target over the output times t ≥ T (module docstring) and the tip's history, a run
+    with constant steps ``dt`` and ρ∞ of the setup, the links' Young's modulus times
+    ``stiffness`` (``Mechanism.stiffened``). Differentiable in forward mode in both."""
     system = setup.system
     ts = np.linspace(0.0, setup.t_end, int(n_out))
     after = jnp.asarray(ts >= float(system.joints[DRIVERS[0]].motion.T) - 1e-12)
     x_star = jnp.asarray(setup.info["target"])
     tip = setup.sensors["tip"]
 
-    def objective(coeffs):
-        s = with_coeffs(system, coeffs)
+    def objective(coeffs, stiffness=1.0):
+        s = with_coeffs(system, coeffs).stiffened(stiffness)
         sol = simulate(s, GeneralizedAlphaIndex3(setup.rho_inf), ConstantStepSize(dt, rtol=1e-8, atol=1e-10), ts,
                        observe=observe(s, {"tip": tip}))
         tips = sol.ys["tip"]

@@ -57,7 +57,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._types import Array, Float
-from ..bodies.body import Body
+from ..bodies.body import Body, stiffened
 from ..reduction.tensors import ElasticTensors
 from .kinds import AbstractBodyKind
 from .markers import BodyGeometry
@@ -304,6 +304,16 @@ class FloatingBody(AbstractBodyKind):
     @property
     def n_vectors(self) -> int:
         return self.body.n_vectors
+
+    def stiffened(self, s) -> "FloatingBody":
+        """The elastic force times s: the reduced tensors scaled (exact: the vibration modes and
+        their derivatives do not change when E is scaled uniformly), or, full-order, the elements'
+        κ (``bodies.body.stiffened``)."""
+        if hasattr(self.tensors, "scaled"):
+            return eqx.tree_at(lambda b: b.tensors, self, self.tensors.scaled(s))
+        if hasattr(self.tensors, "body"):
+            return eqx.tree_at(lambda b: b.tensors.body, self, stiffened(self.tensors.body, s))
+        return self
 
     def geometry(self) -> BodyGeometry:
         Psi = np.asarray(self.basis).reshape(self.body.n_vectors, 3 * self.basis.shape[1])

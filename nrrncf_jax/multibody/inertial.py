@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._types import Array, Float
-from ..bodies.body import Body
+from ..bodies.body import Body, stiffened
 from .kinds import AbstractBodyKind
 from .markers import BodyGeometry
 
@@ -30,6 +30,10 @@ class InertialBody(AbstractBodyKind):
         self.body = body
         self.mass = jnp.asarray(body.mass_matrix())
         self.weights = jnp.asarray(body.varrho())
+
+    def stiffened(self, s) -> "InertialBody":
+        """κ times s (``bodies.body.stiffened``): the elastic force is linear in it."""
+        return eqx.tree_at(lambda b: b.body, self, stiffened(self.body, s))
 
     @property
     def n_z(self) -> int:

@@ -103,6 +103,11 @@ class AbstractBodyKind(eqx.Module):
         frame; velocity is that of the point at the origin): an initial velocity in physical
         terms."""
 
+    def stiffened(self, s) -> "AbstractBodyKind":
+        """The body with its stiffness times ``s`` (Young's modulus scaled at a fixed Poisson
+        ratio: a material parameter that gradients reach); a body without deformation is itself."""
+        return self
+
     def own_equations(self, z) -> Float[Array, " e"]:
         """The body's own constraints (none by default)."""
         return z[:0]

@@ -209,6 +209,15 @@ class Mechanism(AbstractConstrainedModel):
                            tuple(f.turned(A) for f in self.forces)))
         return out if self.stacked is None else eqx.tree_at(lambda s: s.stacked, out, self.stacked.turned(e, A))
 
+    def stiffened(self, s, bodies=None) -> "Mechanism":
+        """The system with the stiffness of ``bodies`` (indices; all by default) times ``s``
+        (``AbstractBodyKind.stiffened``): Young's modulus as a parameter, traceable, for
+        ``jax.grad``/``jvp`` through a jointed run."""
+        chosen = set(range(len(self.bodies))) if bodies is None else {int(b) for b in bodies}
+        out = eqx.tree_at(lambda m: m.bodies, self,
+                          tuple(b.stiffened(s) if i in chosen else b for i, b in enumerate(self.bodies)))
+        return out if out.stacked is None else eqx.tree_at(lambda m: m.stacked, out, _stack(out.bodies))
+
     def error_space(self, z, e):
         """The step error in the inertial nodal vectors (J e), so that a tolerance means what it
         means for the full system."""
