@@ -71,6 +71,12 @@ def output_path(flag: str, path: str | None) -> None:
 
 
 
+def output_folder(flag: str, path: str | None) -> None:
+    """A folder to be written after the run (made if missing): it needs a name."""
+    if path is not None and not str(path).strip():
+        raise ValueError(f"{flag} needs a folder name")
+
+
 def output_times(t_end: float, dt_out: float) -> None:
     """``--t-end`` and ``--dt-out``: positive, and at least one output interval in the run."""
     _validate.positive("--t-end (end time)", t_end)

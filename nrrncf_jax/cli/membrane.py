@@ -63,8 +63,7 @@ def _check(args) -> None:
     _validate.positive("--ts (spin-up time)", args.ts)
     if args.omega is not None:
         _validate.positive("--omega (steady spin rate)", args.omega)
-    if args.vtk is not None and not str(args.vtk).strip():
-        raise ValueError("--vtk needs a folder name")
+    _common.output_folder("--vtk", args.vtk)
     _common.output_path("--plot", args.plot)
     _common.output_times(args.t_end, args.dt_out)
     _validate.tolerances(args.rtol, args.atol)

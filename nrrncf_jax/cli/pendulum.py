@@ -94,8 +94,7 @@ def _check(args) -> None:
         raise ValueError(f"--rho-inf must lie in [0, 1], got {args.rho_inf:g}")
     for flag, path in (("--out", args.out), ("--plot", args.plot), ("--animate", args.animate)):
         _common.output_path(flag, path)
-    if args.vtk is not None and not str(args.vtk).strip():
-        raise ValueError("--vtk needs a folder name")
+    _common.output_folder("--vtk", args.vtk)
 
 
 def register(sub) -> None:

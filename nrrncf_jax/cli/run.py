@@ -88,8 +88,7 @@ def _check(args) -> None:
     _common.at_least("--n-out", args.n_out, 2)
     _common.output_path("--out", args.out)
     _common.output_path("--animate", args.animate)
-    if args.vtk is not None and not str(args.vtk).strip():
-        raise ValueError("--vtk needs a folder name")
+    _common.output_folder("--vtk", args.vtk)
 
 
 def register(sub) -> None:

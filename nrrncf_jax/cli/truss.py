@@ -95,8 +95,7 @@ def _check(args) -> None:
     _common.at_least("--bays", args.bays, 1)
     _common.at_least("--longeron-elements", args.longeron_elements, 1)
     _common.at_least("--batten-elements", args.batten_elements, 1)
-    if args.vtk is not None and not str(args.vtk).strip():
-        raise ValueError("--vtk needs a folder name")
+    _common.output_folder("--vtk", args.vtk)
     _common.output_path("--plot", args.plot)
     if args.what == "modes":
         _common.at_least("--count", args.count, 1)

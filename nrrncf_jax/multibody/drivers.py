@@ -29,7 +29,8 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from .._types import Array, Float
-from .joints import AbstractJoint, _vector
+from .joints import AbstractJoint
+from .measures import HingeAngle, Travel
 
 
 def _motion_value(motion, t):
@@ -38,16 +39,12 @@ def _motion_value(motion, t):
 
 
 class AngleDriver(AbstractJoint):
-    """b's rotation about a hinge's axis prescribed (see the module docstring). ``body_a=None``:
-    relative to the fixed directions ``ground`` (2 × 3: u and w = axis × u)."""
+    """b's rotation about a hinge's axis prescribed (see the module docstring), on the directions
+    of a ``measures.HingeAngle``. ``body_a=None``: relative to the fixed directions ``ground``
+    (2 × 3: u and w = axis × u)."""
 
-    body_a: int | None = eqx.field(static=True)
-    u_a: int | None = eqx.field(static=True)
-    w_a: int | None = eqx.field(static=True)
-    body_b: int = eqx.field(static=True)
-    u_b: int = eqx.field(static=True)
+    hinge: HingeAngle
     motion: eqx.Module
-    ground: Float[Array, "2 3"]
 
     n_equations = 1
     rheonomic = True
@@ -55,20 +52,14 @@ class AngleDriver(AbstractJoint):
     def __init__(self, body_a, u_a, w_a, body_b: int, u_b: int, motion, ground=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))):
         if not callable(motion):
             raise ValueError("a driver's motion must be callable: motion(t)[0] is the prescribed angle")
-        if body_a is None:
-            self.body_a, self.u_a, self.w_a = None, None, None
-        else:
-            self.body_a, self.u_a, self.w_a = int(body_a), int(u_a), int(w_a)
-        self.body_b, self.u_b = int(body_b), int(u_b)
+        self.hinge = HingeAngle(body_a, u_a, w_a, body_b, u_b, ground=ground)
         self.motion = motion
-        self.ground = jnp.asarray(ground, dtype=float).reshape(2, 3)
 
     def references(self):
-        refs = [(self.body_b, self.u_b)]
-        return refs + ([] if self.body_a is None else [(self.body_a, self.u_a), (self.body_a, self.w_a)])
+        return self.hinge.references()
 
     def turned(self, A):
-        return eqx.tree_at(lambda j: j.ground, self, self.ground @ A.T)
+        return eqx.tree_at(lambda j: j.hinge, self, self.hinge.turned(A))
 
     def angle(self, t):
         """φ(t) = θ(t) − θ(0), the prescribed angle from the reference configuration."""
@@ -79,27 +70,19 @@ class AngleDriver(AbstractJoint):
         return -lam[0]
 
     def __call__(self, xs, t=0.0):
-        if self.body_a is None:
-            u_a, w_a = self.ground[0], self.ground[1]
-        else:
-            u_a, w_a = _vector(xs, self.body_a, self.u_a), _vector(xs, self.body_a, self.w_a)
+        u_a, w_a, u_b = self.hinge.directions(xs)
         phi = self.angle(t)
-        return (_vector(xs, self.body_b, self.u_b) @ (jnp.cos(phi) * w_a - jnp.sin(phi) * u_a))[None]
+        return (u_b @ (jnp.cos(phi) * w_a - jnp.sin(phi) * u_a))[None]
 
 
 class DistanceDriver(AbstractJoint):
-    """b's point's distance along a's axis prescribed (see the module docstring). ``body_a=None``:
+    """b's point's distance along a's axis vector prescribed (see the module docstring), a
+    ``measures.Travel`` held to its reference value ``s_ref`` plus the motion. ``body_a=None``:
     along the fixed ``axis`` from the fixed ``point``."""
 
-    body_a: int | None = eqx.field(static=True)
-    position_a: int | None = eqx.field(static=True)
-    axis_a: int | None = eqx.field(static=True)
-    body_b: int = eqx.field(static=True)
-    position_b: int = eqx.field(static=True)
+    travel: Travel
     motion: eqx.Module
     s_ref: Float[Array, ""]
-    point: Float[Array, " 3"]
-    axis: Float[Array, " 3"]
 
     n_equations = 1
     rheonomic = True
@@ -108,34 +91,22 @@ class DistanceDriver(AbstractJoint):
                  point=(0.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0)):
         if not callable(motion):
             raise ValueError("a driver's motion must be callable: motion(t)[0] is the prescribed distance")
-        if body_a is None:
-            self.body_a, self.position_a, self.axis_a = None, None, None
-        else:
-            self.body_a, self.position_a, self.axis_a = int(body_a), int(position_a), int(axis_a)
-        self.body_b, self.position_b = int(body_b), int(position_b)
+        self.travel = Travel(body_a, position_a, axis_a, body_b, position_b, point=point, axis=axis)
         self.motion = motion
         self.s_ref = jnp.asarray(s_ref, dtype=float)
-        self.point = jnp.asarray(point, dtype=float).reshape(3)
-        self.axis = jnp.asarray(axis, dtype=float).reshape(3)
 
     def references(self):
-        refs = [(self.body_b, self.position_b)]
-        return refs + ([] if self.body_a is None else [(self.body_a, self.position_a), (self.body_a, self.axis_a)])
+        return self.travel.references()
 
     def turned(self, A):
-        return eqx.tree_at(lambda j: (j.point, j.axis), self, (A @ self.point, A @ self.axis))
+        return eqx.tree_at(lambda j: j.travel, self, self.travel.turned(A))
 
     def effort(self, lam: Float[Array, " 1"]) -> Float[Array, ""]:
         """The driving force on body b along the axis from the driver's multiplier: −λ."""
         return -lam[0]
 
     def __call__(self, xs, t=0.0):
-        if self.body_a is None:
-            r_a, d = self.point, self.axis
-        else:
-            r_a, d = _vector(xs, self.body_a, self.position_a), _vector(xs, self.body_a, self.axis_a)
-        s = (_vector(xs, self.body_b, self.position_b) - r_a) @ d
-        return (s - self.s_ref - _motion_value(self.motion, t))[None]
+        return (self.travel(xs) - self.s_ref - _motion_value(self.motion, t))[None]
 
 
 __all__ = ["AngleDriver", "DistanceDriver"]

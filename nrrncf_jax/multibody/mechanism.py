@@ -298,8 +298,8 @@ class Mechanism(AbstractConstrainedModel):
     def _force_blocks(self, t, z, v, c_K, c_C) -> list:
         """The force elements' stiffness and damping on each body's diagonal block,
         G_bᵀ diag(c_K k + c_C c) G_b with G = ∂g/∂z, k = −∂f/∂g, c = −∂f/∂ġ (``forces``)."""
-        g, g_dot, _ = self.element_state(t, z, v)
-        G = jax.jacfwd(self.measures)(z)
+        g, G = self.measures(z), jax.jacfwd(self.measures)(z)
+        g_dot = G @ v
         dfdg = jnp.stack([jnp.stack(jax.grad(e.force, argnums=(1, 2))(t, gi, gd))
                           for e, gi, gd in zip(self.forces, g, g_dot)])
         D = -(c_K * dfdg[:, 0] + c_C * dfdg[:, 1])
