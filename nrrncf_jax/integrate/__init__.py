@@ -4,7 +4,8 @@
   models with prescribed coordinates, ``GeneralizedAlphaIndex3`` for constrained systems (joints,
   Lagrange multipliers in the state);
 - step-size controllers (``step_size``): ``AdaptiveStepSize`` (error control), ``ConstantStepSize``;
-- ``Newton``: each step's implicit solve (modified or full Newton, ``newton``);
+- ``Newton``: each step's implicit solve (modified or full Newton, ``newton``; ``reuse=True`` keeps
+  the iteration matrix across steps, ``base.IterationMatrix``);
 - ``simulate``, ``simulate_batch`` (a batch of models in one loop, each with its own steps),
   ``simulate_timed`` (compile and run timed apart); ``Solution`` and ``SimulationResult``;
 - ``static_equilibrium``: load-stepped static solutions; ``compilation_cache``: JAX's persistent
@@ -25,6 +26,7 @@ error.
 
 from .base import AbstractSolver as AbstractSolver
 from .base import GeneralizedAlphaState as GeneralizedAlphaState
+from .base import IterationMatrix as IterationMatrix
 from .base import Newton as Newton
 from .base import NewtonOptions as NewtonOptions
 from .cache import compilation_cache as compilation_cache

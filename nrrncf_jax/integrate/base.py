@@ -10,14 +10,14 @@ and its local error estimate.
 
 import abc
 from collections.abc import Callable
-from typing import Literal
+from typing import Any, Literal
 
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from .._types import Array, Float, Scalar
+from .._types import Array, Bool, Float, Scalar
 from .newton import NewtonSolution
 
 
@@ -49,30 +49,61 @@ class Newton(eqx.Module):
     corrections a step (default 10 with adaptive steps, where a Newton that wanders is better
     split, 50 with constant steps); ``kind``: ``"modified"`` (iteration matrix factored once a
     step), ``"full"`` (once a correction) or ``"auto"``, the model's ``preferred_newton``.
+
+    ``reuse=True``: modified Newton whose iteration matrix is kept from step to step
+    (``IterationMatrix``) and factored again only when the step size has moved by more than
+    ``reuse_band`` (a fraction) from the one it was factored for, or when the last solve with it
+    contracted worse than ``reuse_rate`` an iteration or failed; a step whose solve fails with a
+    kept matrix is retried at the same size with a fresh one. Adaptive steps then keep their
+    size where the controller would grow it by less than ``1 + reuse_band`` (Hairer & Wanner,
+    *Solving ODEs II*, §IV.8: a step change too small to pay for a new factorisation). With
+    ``ConstantStepSize`` this is the fixed-step mode: one matrix held while Newton contracts.
+    Forward mode only. Which step refactors depends on the observed contraction, so a run is
+    piecewise smooth in its parameters (the kept and the fresh matrix reach the same solution
+    to Newton's tolerance), not smooth: for gradients keep the default ``reuse=False``.
     """
 
     tol: Scalar
     max_iter: int | None = eqx.field(static=True)
     kind: Literal["auto", "modified", "full"] = eqx.field(static=True)
+    reuse: bool = eqx.field(static=True)
+    reuse_band: float = eqx.field(static=True)
+    reuse_rate: float = eqx.field(static=True)
 
-    def __init__(self, tol=1e-3, max_iter: int | None = None, kind: Literal["auto", "modified", "full"] = "auto"):
+    def __init__(self, tol=1e-3, max_iter: int | None = None, kind: Literal["auto", "modified", "full"] = "auto",
+                 *, reuse: bool = False, reuse_band: float = 0.2, reuse_rate: float = 0.1):
         if isinstance(tol, (int, float, np.floating)) and not tol > 0.0:
             raise ValueError(f"Newton tol must be > 0, got tol={tol!r}")
         if max_iter is not None:
             max_iter = _validate.positive_int("Newton max_iter", max_iter)
         if kind not in ("auto", "modified", "full"):
             raise ValueError(f"Newton kind must be 'auto', 'modified' or 'full', got {kind!r}")
+        if not isinstance(reuse, bool):
+            raise ValueError(f"Newton reuse must be True or False, got {reuse!r}")
+        if reuse and kind == "full":
+            raise ValueError("Newton(reuse=True) keeps one iteration matrix over several steps, which is "
+                             "modified Newton: use kind='modified' or 'auto' with it, not 'full'")
+        if not 0.0 < float(reuse_band) < 1.0:
+            raise ValueError(f"Newton reuse_band must lie in (0, 1), got {reuse_band!r}")
+        if not 0.0 < float(reuse_rate) < 1.0:
+            raise ValueError(f"Newton reuse_rate must lie in (0, 1), got {reuse_rate!r}")
         self.tol = jnp.asarray(tol, dtype=float)
         self.max_iter = max_iter
         self.kind = kind
+        self.reuse, self.reuse_band, self.reuse_rate = reuse, float(reuse_band), float(reuse_rate)
 
     def options(self, model, adaptive: bool, implicit: bool) -> "NewtonOptions":
         """The options a step receives: ``kind`` and ``max_iter`` resolved for this model and
-        controller, the divergence test on with adaptive steps, and ``implicit`` in reverse mode."""
+        controller (``reuse`` makes it modified), the divergence test on with adaptive steps, and
+        ``implicit`` in reverse mode."""
+        if self.reuse and implicit:
+            raise ValueError("Newton(reuse=True) runs in forward mode: use adjoint='forward', or reuse=False "
+                             "to differentiate in reverse mode")
         max_iter = self.max_iter if self.max_iter is not None else (10 if adaptive else 50)
-        variant = model.preferred_newton if self.kind == "auto" else self.kind
+        variant = "modified" if self.reuse else (model.preferred_newton if self.kind == "auto" else self.kind)
         return NewtonOptions(tol=self.tol, max_iter=max_iter, variant=variant, divergence_test=adaptive,
-                             implicit=implicit)
+                             implicit=implicit, reuse=self.reuse, reuse_band=self.reuse_band,
+                             reuse_rate=self.reuse_rate)
 
 
 class NewtonOptions(eqx.Module):
@@ -83,7 +114,8 @@ class NewtonOptions(eqx.Module):
     factored once per step) or ``"full"`` (once per correction, with the contraction test);
     ``divergence_test``: fail a solve whose corrections grow from the third on; ``implicit``:
     the loop runs in reverse mode, so the step returns the solve's value with the tangent of
-    the implicit function theorem (the solve itself is not differentiated).
+    the implicit function theorem (the solve itself is not differentiated); ``reuse``,
+    ``reuse_band``, ``reuse_rate``: the iteration matrix kept across steps (``Newton``).
     """
 
     tol: Scalar
@@ -91,6 +123,26 @@ class NewtonOptions(eqx.Module):
     variant: Literal["modified", "full"] = eqx.field(static=True)
     divergence_test: bool = eqx.field(static=True)
     implicit: bool = eqx.field(static=True)
+    reuse: bool = eqx.field(static=True, default=False)
+    reuse_band: float = eqx.field(static=True, default=0.2)
+    reuse_rate: float = eqx.field(static=True, default=0.1)
+
+    def keep(self, matrix: "IterationMatrix | None", h):
+        """Whether a step of size ``h`` may solve with ``matrix`` instead of factoring its own."""
+        if matrix is None:
+            return jnp.asarray(False)
+        return matrix.valid & (jnp.abs(h / matrix.h - 1.0) <= self.reuse_band)
+
+
+class IterationMatrix(eqx.Module):
+    """A factored iteration matrix kept from one step to the next (``Newton(reuse=True)``): the
+    factor (whatever the model's factorisation returns: a ``linalg`` factor, or an
+    ``AugmentedFactor`` for a constrained system), the step size ``h`` it was factored for, and
+    whether the last solve with it contracted well enough to use it again (``valid``)."""
+
+    factor: Any
+    h: Float[Array, ""]
+    valid: Bool[Array, ""]
 
 
 class AbstractSolver(eqx.Module):
@@ -119,6 +171,10 @@ class AbstractSolver(eqx.Module):
       Under ``newton.implicit`` the loop builds ``norm`` from stop-gradient inputs and the
       method must not differentiate through its Newton iteration: it solves with
       stop-gradient inputs and adds the implicit-function tangent of the solution.
+      ``matrix`` (``Newton(reuse=True)``): the ``IterationMatrix`` the last step left, which the
+      step may solve with (``NewtonOptions.keep``) instead of factoring its own; the step
+      returns the one it used, valid or not for the next step, as ``solution.matrix``, and how
+      many factorisations it made as ``solution.factorizations``.
 
     The step is a pure function of its inputs (``jit``, ``vmap`` and forward-mode
     differentiation pass through); step-size control, rejection and dense output are the loop's.
@@ -130,8 +186,8 @@ class AbstractSolver(eqx.Module):
 
     @abc.abstractmethod
     def step(self, model, t0: Scalar, t1: Scalar, state, newton: NewtonOptions,
-             norm: Callable[[Float[Array, " n"]], Scalar], *, h: Scalar | None = None
-             ) -> tuple[eqx.Module, Float[Array, " n"], NewtonSolution]:
+             norm: Callable[[Float[Array, " n"]], Scalar], *, h: Scalar | None = None,
+             matrix: "IterationMatrix | None" = None) -> tuple[eqx.Module, Float[Array, " n"], NewtonSolution]:
         """``(state1, error, solution)`` of one step (see the class docstring)."""
 
     @abc.abstractmethod
@@ -139,4 +195,4 @@ class AbstractSolver(eqx.Module):
         """Raise ``ValueError`` before tracing if this solver cannot run ``model``."""
 
 
-__all__ = ["AbstractSolver", "GeneralizedAlphaState", "Newton", "NewtonOptions"]
+__all__ = ["AbstractSolver", "GeneralizedAlphaState", "IterationMatrix", "Newton", "NewtonOptions"]

@@ -25,8 +25,8 @@ from jax import lax
 
 from .._types import Array, Float, Scalar
 from ..models.constrained import AbstractConstrainedModel
-from .base import AbstractSolver, GeneralizedAlphaState, NewtonOptions
-from .newton import NewtonSolution
+from .base import AbstractSolver, GeneralizedAlphaState, IterationMatrix, NewtonOptions
+from .newton import NewtonResult, NewtonSolution
 from .newton import newton as newton_iteration
 
 
@@ -34,6 +34,19 @@ def _rho_inf(rho_inf) -> Float[Array, ""]:
     if not isinstance(rho_inf, jax.core.Tracer) and not (0.0 <= float(rho_inf) <= 1.0):
         raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={float(rho_inf)!r}")
     return jnp.asarray(rho_inf, dtype=float)
+
+
+KEPT_MAX_RATE = 0.5
+"""A solve with a kept iteration matrix (``Newton(reuse=True)``) gives up when a correction is
+more than this fraction of the one before: the matrix is factored afresh instead of iterating on.
+(Fixed-step runs allow 50 corrections: without the limit a kept matrix that no longer fits could
+spend them all before the step is solved afresh.)"""
+
+
+def _not_run(shapes) -> NewtonSolution:
+    """A ``NewtonSolution`` of the given structure that did not converge (a solve not tried)."""
+    sol = jax.tree_util.tree_map(lambda x: jnp.zeros(x.shape, x.dtype), shapes)
+    return eqx.tree_at(lambda s: s.result, sol, NewtonResult.max_iterations)
 
 
 class AbstractGeneralizedAlpha(AbstractSolver):
@@ -81,6 +94,55 @@ class AbstractGeneralizedAlpha(AbstractSolver):
         """Local error of q, Zienkiewicz-Xie: ``h²(β − 1/6)(a_{n+1} − a_n)``."""
         return h**2 * (self.beta - 1.0 / 6.0) * (a1 - a)
 
+    @staticmethod
+    def _modified(newton: NewtonOptions, matrix: IterationMatrix | None, h, build: Callable, solve: Callable):
+        """Modified Newton's solve: ``(solution, factor, fresh)``. ``build()`` factors the step's
+        iteration matrix; ``solve(factor, max_rate)`` runs Newton with it (``newton.newton``).
+
+        Without reuse: one factorisation, one solve. With ``Newton(reuse=True)``, where
+        ``newton.keep`` allows: first the solve with the kept factor, which gives up as soon as
+        a correction contracts by less than ``KEPT_MAX_RATE``; if it does not converge, the
+        matrix is factored at the predictor and the step solved again from the start, so that
+        the step's result does not depend on whether a kept matrix was tried. ``lax.cond``: a
+        kept factor skips the assembly and factorisation (under ``vmap`` both branches run, so
+        a batch gains nothing from reuse)."""
+        if not newton.reuse or matrix is None:
+            fac = build()
+            return solve(fac, None), fac, jnp.asarray(True)
+        keep = newton.keep(matrix, h)
+        tried = lax.cond(keep, lambda: solve(matrix.factor, KEPT_MAX_RATE),
+                         lambda: _not_run(jax.eval_shape(lambda: solve(matrix.factor, KEPT_MAX_RATE))))
+        fresh = ~tried.converged
+        fac = lax.cond(fresh, build, lambda: matrix.factor)
+        sol = lax.cond(fresh, lambda: solve(fac, None), lambda: tried)
+        sol = eqx.tree_at(lambda s: s.iterations, sol, sol.iterations + jnp.where(fresh, tried.iterations, 0))
+        return sol, fac, fresh
+
+    @staticmethod
+    def _account(sol: NewtonSolution, newton: NewtonOptions, matrix: IterationMatrix | None, factor, fresh, h
+                 ) -> NewtonSolution:
+        """The solve's factorisations, and with reuse the ``IterationMatrix`` for the next step:
+        ``factor`` (which may be the kept one updated, e.g. with the step's new constraints),
+        valid while its solve converged at a contraction no worse than ``newton.reuse_rate``."""
+        if newton.variant == "full":
+            return eqx.tree_at(lambda s: s.factorizations, sol, sol.iterations)
+        nfac = fresh.astype(int)
+        if not newton.reuse:
+            return eqx.tree_at(lambda s: s.factorizations, sol, nfac)
+        h_fac = h if matrix is None else jnp.where(fresh, h, matrix.h)
+        valid = sol.converged & (sol.rate <= newton.reuse_rate)
+        kept = IterationMatrix(factor, jnp.asarray(h_fac, float), valid)
+        return eqx.tree_at(lambda s: (s.factorizations, s.matrix), sol, (nfac, kept),
+                           is_leaf=lambda x: x is None)
+
+    def matrix_shape(self, model, t, state: GeneralizedAlphaState):
+        """The structure (``jax.ShapeDtypeStruct`` leaves) of the factored iteration matrix a
+        step builds, for the loop's first carry with ``Newton(reuse=True)``."""
+        return jax.eval_shape(lambda: self._build(model, t, state, 1.0, 1.0))
+
+    def _build(self, model, t, state, c_C, c_K):
+        return model.factor_iteration_matrix(t, state.q, state.v, 1.0, c_C, c_K)
+
     def _stage(self, model, t1, h, state: GeneralizedAlphaState) -> Callable:
         """(q1, v1, a1, ā1) of the step as functions of the new acceleration a1."""
         q, v, a, abar = state.q, state.v, state.a, state.abar
@@ -118,12 +180,12 @@ class GeneralizedAlpha(AbstractGeneralizedAlpha):
         return GeneralizedAlphaState(q0, v0, a0, a0)
 
     def step(self, model, t0: Scalar, t1: Scalar, state: GeneralizedAlphaState, newton: NewtonOptions,
-             norm: Callable[[Float[Array, " n"]], Scalar], *, h: Scalar | None = None
-             ) -> tuple[GeneralizedAlphaState, Float[Array, " n"], NewtonSolution]:
+             norm: Callable[[Float[Array, " n"]], Scalar], *, h: Scalar | None = None,
+             matrix: IterationMatrix | None = None) -> tuple[GeneralizedAlphaState, Float[Array, " n"], NewtonSolution]:
         """One step to ``t1`` of size ``h`` (default ``t1 − t0``): Newton on r(a_{n+1}) = 0 with
         the equations at ``t1``, from the predictor a_{n+1} = a_n. Returns ``(state1, error,
         solution)``: the state at ``t1``, the local error estimate of q (``error_estimate``) and
-        the Newton solution (see ``state.AbstractStepper`` for the contract).
+        the Newton solution (see ``base.AbstractSolver`` for the contract and ``matrix``).
 
         Under ``newton.implicit`` (reverse mode) the solve runs on stop-gradient inputs and the
         solution gets the implicit derivative: the tangent of one Newton update at the solution,
@@ -134,7 +196,7 @@ class GeneralizedAlpha(AbstractGeneralizedAlpha):
         h = t1 - t0 if h is None else h
         if newton.implicit:
             sg = lax.stop_gradient
-            sol, _, c_C, c_K = self._solve(sg(model), t1, h, sg(state), newton, norm)
+            sol, _, c_C, c_K = self._solve(sg(model), t1, h, sg(state), newton, norm, None)
             a1 = sg(sol.x)
             stage = self._stage(model, t1, h, state)
             q1s, v1s, _, _ = stage(a1)
@@ -142,17 +204,19 @@ class GeneralizedAlpha(AbstractGeneralizedAlpha):
             delta = fac_star.solve(model.residual(t1, q1s, v1s, a1))
             a1 = a1 + (sg(delta) - delta)
         else:
-            sol, stage, _, _ = self._solve(model, t1, h, state, newton, norm)
+            sol, stage, _, _ = self._solve(model, t1, h, state, newton, norm, matrix)
             a1 = sol.x
         q1, v1, a1, abar1 = stage(a1)
         state1 = GeneralizedAlphaState(q1, v1, a1, abar1, state.lam)
         return state1, self.error_estimate(h, state.a, a1), sol
 
-    def _solve(self, model, t1, h, state: GeneralizedAlphaState, newton: NewtonOptions, norm: Callable):
+    def _solve(self, model, t1, h, state: GeneralizedAlphaState, newton: NewtonOptions, norm: Callable,
+               matrix: IterationMatrix | None):
         """Solve r(a1) = 0 for the step's true acceleration by damped Newton (``newton.py``),
         modified or full, from the predictor a1 = a; returns ``(solution, stage, c_C, c_K)``.
 
-        Modified: the iteration matrix is factored once, at the predictor. Full: each
+        Modified: the iteration matrix is factored once, at the predictor (or kept from the
+        last step, ``Newton(reuse=True)``). Full: each
         correction comes from one ``model.newton_update`` call (residual and factor at the
         iterate), and the solve also stops on the error its last correction leaves, estimated
         from the observed contraction (23-DOF reduced spin-up at 40 rad/s: fewer iterations,
@@ -162,19 +226,30 @@ class GeneralizedAlpha(AbstractGeneralizedAlpha):
         """
         c_C, c_K = self.derivatives(h)
         stage = self._stage(model, t1, h, state)
-        if newton.variant == "modified":
-            q1, v1, _, _ = stage(state.a)
-            fac = model.factor_iteration_matrix(t1, q1, v1, 1.0, c_C, c_K)
 
-        def update(a1):
-            q1, v1, a1, _ = stage(a1)
-            if newton.variant == "full":
+        def solve(update, max_rate=None):
+            return newton_iteration(update, lambda da: norm(c_K * da), state.a, newton.tol, newton.max_iter,
+                                    contraction_test=newton.variant == "full",
+                                    divergence_test=newton.divergence_test, max_rate=max_rate)
+
+        if newton.variant == "full":
+            def update(a1):
+                q1, v1, a1, _ = stage(a1)
                 return model.newton_update(t1, q1, v1, a1, 1.0, c_C, c_K)
-            return fac.solve(model.residual(t1, q1, v1, a1))
 
-        sol = newton_iteration(update, lambda da: norm(c_K * da), state.a, newton.tol, newton.max_iter,
-                               contraction_test=newton.variant == "full", divergence_test=newton.divergence_test)
-        return sol, stage, c_C, c_K
+            return self._account(solve(update), newton, matrix, None, None, h), stage, c_C, c_K
+
+        def modified_update(fac):
+            def update(a1):
+                q1, v1, a1, _ = stage(a1)
+                return fac.solve(model.residual(t1, q1, v1, a1))
+            return update
+
+        q1p, v1p, _, _ = stage(state.a)
+        sol, fac, fresh = self._modified(newton, matrix, h,
+                                         lambda: model.factor_iteration_matrix(t1, q1p, v1p, 1.0, c_C, c_K),
+                                         lambda fac, max_rate: solve(modified_update(fac), max_rate))
+        return self._account(sol, newton, matrix, fac, fresh, h), stage, c_C, c_K
 
 
 def hermite_interpolate(s, h, q0, v0, q1, v1):

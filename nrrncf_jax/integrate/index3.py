@@ -42,6 +42,11 @@ so its second correction usually leaves far less than the tolerance even when it
 it: the test saves iterations, and changes a run by less than its own time-integration error
 (figures: ``benchmarks/results/design_notes.md``).
 
+With ``Newton(reuse=True)`` the matrix a step solved with is kept for the next one
+(``AbstractGeneralizedAlpha._modified``): the bodies' factors with the Schur complement of
+C_q(q_{n+1}) that the velocity projection formed, so that a kept matrix meets the joints where the
+last step left them.
+
 The step error estimate and the Newton stopping test measure q alone: the multipliers carry a
 damped O(h) transient after every change of step size (which ρ∞ < 1 damps; index-3 constraints
 with ρ∞ = 1 leave it undamped), and are out of the error norm, as MULTIBODY.md says. Exact
@@ -54,7 +59,7 @@ import jax.numpy as jnp
 
 from .._types import Array, Float, Scalar
 from ..models.constrained import AbstractConstrainedModel
-from .base import GeneralizedAlphaState, NewtonOptions
+from .base import GeneralizedAlphaState, IterationMatrix, NewtonOptions
 from .generalized_alpha import AbstractGeneralizedAlpha, _rho_inf
 from .newton import NewtonSolution
 from .newton import newton as newton_iteration
@@ -82,10 +87,13 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
         a0, lam0 = model.consistent_accelerations(t0, q0, v0)
         return GeneralizedAlphaState(q0, v0, a0, a0, lam0)
 
+    def _build(self, model, t, state, c_C, c_K):
+        return model.factor_augmented(t, state.q, state.v, state.lam, c_C, c_K, a=state.a)
+
     def step(self, model, t0: Scalar, t1: Scalar, state: GeneralizedAlphaState, newton: NewtonOptions,
-             norm: Callable[[Float[Array, " n"]], Scalar], *, h: Scalar | None = None
-             ) -> tuple[GeneralizedAlphaState, Float[Array, " n"], NewtonSolution]:
-        """One step to ``t1`` (see the module docstring and ``state.AbstractStepper``)."""
+             norm: Callable[[Float[Array, " n"]], Scalar], *, h: Scalar | None = None,
+             matrix: IterationMatrix | None = None) -> tuple[GeneralizedAlphaState, Float[Array, " n"], NewtonSolution]:
+        """One step to ``t1`` (see the module docstring and ``base.AbstractSolver``)."""
         if newton.implicit:
             raise ValueError("constrained runs are differentiated in forward mode (adjoint='forward')")
         h = t1 - t0 if h is None else h
@@ -100,40 +108,51 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
             return jnp.concatenate([r, model.constraints(q1, t1) / c_K]), q1, v1, a1
 
         z0 = jnp.concatenate([state.a, state.lam])
-        if newton.variant == "modified":
-            _, q1p, v1p, a1p = equations(z0)
-            fac = model.factor_augmented(t1, q1p, v1p, state.lam, c_C, c_K, a=a1p)
-
-        def update(z):
-            F, q1, v1, a1 = equations(z)
-            if newton.variant == "full":
-                return model.factor_augmented(t1, q1, v1, z[n:], c_C, c_K, a=a1).solve(F)
-            return fac.solve(F)
 
         # The contraction test in both variants (module docstring): modified Newton converges
         # linearly, and the error its last correction leaves is known from the observed rate.
-        sol = newton_iteration(update, lambda dz: norm(c_K * dz[:n]), z0, newton.tol, newton.max_iter,
-                               contraction_test=True, divergence_test=newton.divergence_test)
+        def solve(update, max_rate=None):
+            return newton_iteration(update, lambda dz: norm(c_K * dz[:n]), z0, newton.tol, newton.max_iter,
+                                    contraction_test=True, divergence_test=newton.divergence_test,
+                                    max_rate=max_rate)
+
+        fac = fresh = None
+        if newton.variant == "full":
+            def update(z):
+                F, q1, v1, a1 = equations(z)
+                return model.factor_augmented(t1, q1, v1, z[n:], c_C, c_K, a=a1).solve(F)
+
+            sol = solve(update)
+        else:
+            _, q1p, v1p, a1p = equations(z0)
+            sol, fac, fresh = self._modified(
+                newton, matrix, h, lambda: model.factor_augmented(t1, q1p, v1p, state.lam, c_C, c_K, a=a1p),
+                lambda fac, max_rate: solve(lambda z: fac.solve(equations(z)[0]), max_rate))
         a1, lam1 = sol.x[:n], sol.x[n:]
         q1, v1, a1, abar1 = stage(a1)
         if model.project_velocities:
-            reuse = fac if newton.variant == "modified" else None
-            v1 = v1 - self._velocity_correction(model, t1, q1, v1, lam1, c_C, c_K, reuse)
+            dv, projected = self._velocity_correction(model, t1, q1, v1, lam1, c_C, c_K, fac)
+            v1 = v1 - dv
+            # The bodies' factors with the constraints at q_{n+1}: a kept matrix's next use
+            # starts from the joints where this step left them.
+            fac = fac if projected is None else projected
+        sol = self._account(sol, newton, matrix, fac, fresh, h)
         return GeneralizedAlphaState(q1, v1, a1, abar1, lam1), self.error_estimate(h, state.a, a1), sol
 
     @staticmethod
-    def _velocity_correction(model, t1, q1, v1, lam1, c_C, c_K, reuse=None) -> Float[Array, " n"]:
-        """Δv with C_q (v1 − Δv) + C_t = 0, in the iteration matrix's metric (module docstring;
-        C_t, the drivers' rate, is zero without drivers)."""
+    def _velocity_correction(model, t1, q1, v1, lam1, c_C, c_K, reuse=None):
+        """``(Δv, factor)``: Δv with C_q (v1 − Δv) + C_t = 0, in the iteration matrix's metric
+        (module docstring; C_t, the drivers' rate, is zero without drivers), and the
+        factorisation it solved with when that is ``reuse``'s bodies with C_q(q1) (else None)."""
         if reuse is not None and reuse.bodies is not None:
             B = model.constraint_jacobian(q1, t1)
-            fac = reuse.with_constraints(B)
+            fac = kept = reuse.with_constraints(B)
         else:
-            fac = model.factor_augmented(t1, q1, v1, lam1, c_C, c_K)
+            fac, kept = model.factor_augmented(t1, q1, v1, lam1, c_C, c_K), None
             B = getattr(fac, "B", None)
             B = model.constraint_jacobian(q1, t1) if B is None else B
         violation = B @ v1 + model.constraint_rate(q1, t1) if model.rheonomic else B @ v1
-        return fac.solve(jnp.concatenate([jnp.zeros_like(v1), violation]))[:v1.shape[0]]
+        return fac.solve(jnp.concatenate([jnp.zeros_like(v1), violation]))[:v1.shape[0]], kept
 
 
 __all__ = ["GeneralizedAlphaIndex3"]

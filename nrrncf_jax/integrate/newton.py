@@ -25,6 +25,7 @@ run that showed this: ``benchmarks/results/design_notes.md`` (``integrate/newton
 """
 
 from collections.abc import Callable
+from typing import Any
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -43,9 +44,17 @@ class NewtonResult(eqx.Enumeration):
 
 
 class NewtonSolution(eqx.Module):
+    """A solve's result: the solution ``x``, the corrections computed, how it ended, and the
+    last observed contraction ``rate`` = ‖Δ_k‖/‖Δ_{k−1}‖ (0 after a single correction). A
+    stepping method adds how many iteration matrices it factored for the solve and, when it
+    keeps one for the next step (``Newton(reuse=True)``), the ``IterationMatrix``."""
+
     x: Float[Array, " n"]
     iterations: Int[Array, ""]  # corrections computed (calls of ``update``)
     result: NewtonResult
+    rate: Float[Array, ""]
+    factorizations: Int[Array, ""] | int = 0
+    matrix: Any = None
 
     @property
     def converged(self):
@@ -56,15 +65,16 @@ _CODES = (NewtonResult.converged, NewtonResult.max_iterations, NewtonResult.dive
 
 
 def newton(update: Callable, norm: Callable, x0, tol, max_iter: int, *, contraction_test: bool = False,
-           divergence_test: bool = False) -> NewtonSolution:
+           divergence_test: bool = False, max_rate: float | None = None) -> NewtonSolution:
     """Solve r(x) = 0 from ``x0`` (see the module docstring). Works under ``jit``, ``vmap`` and
-    forward-mode differentiation."""
+    forward-mode differentiation. ``max_rate``: also fail (as diverged) when a correction is more
+    than this fraction of the one before (a kept iteration matrix that no longer fits)."""
 
     def cond(s):
         return s[3] == 0
 
     def body(s):
-        x, prev, i, _ = s
+        x, prev, i, _, _ = s
         d = update(x)
         x = x - d
         n = norm(d)
@@ -75,17 +85,20 @@ def newton(update: Callable, norm: Callable, x0, tol, max_iter: int, *, contract
             done = done | ((i >= 1) & (theta < 1.0) & (left < tol))
         i = i + 1
         diverged = ((i >= 3) & (theta > 1.0)) if divergence_test else False
+        if max_rate is not None:
+            diverged = diverged | ((i >= 2) & (theta > max_rate) & ~done)
         # status: 0 iterating, then 1 + the index of the ending in _CODES
         status = jnp.where(done, 1, jnp.where(~jnp.isfinite(n), 4, jnp.where(diverged, 3,
                                                                              jnp.where(i >= max_iter, 2, 0))))
-        return x, n, i, status
+        return x, n, i, status, theta
 
-    s0 = (x0, jnp.asarray(jnp.inf, x0.dtype), jnp.array(0), jnp.array(0))
-    x, _, iters, status = lax.while_loop(cond, body, s0)
+    inf = jnp.asarray(jnp.inf, x0.dtype)
+    s0 = (x0, inf, jnp.array(0), jnp.array(0), jnp.zeros((), x0.dtype))
+    x, _, iters, status, rate = lax.while_loop(cond, body, s0)
     result = NewtonResult.converged
     for k, code in enumerate(_CODES):
         result = NewtonResult.where(status == k + 1, code, result)
-    return NewtonSolution(x=x, iterations=iters, result=result)
+    return NewtonSolution(x=x, iterations=iters, result=result, rate=jnp.where(jnp.isfinite(rate), rate, 0.0))
 
 
 __all__ = ["NewtonResult", "NewtonSolution", "newton"]

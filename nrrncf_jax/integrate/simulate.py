@@ -32,7 +32,7 @@ from jax import lax
 
 from .. import _validate
 from .._types import Array, Float, Int
-from .base import AbstractSolver, Newton, NewtonOptions
+from .base import AbstractSolver, IterationMatrix, Newton, NewtonOptions
 from .generalized_alpha import hermite_interpolate
 from .results import ENDINGS, SimulationError, SimulationResult, result_code, result_message
 from .step_size import AbstractStepSizeController
@@ -53,6 +53,7 @@ class Solution(eqx.Module):
     num_steps: Int[Array, ""]
     num_rejected: Int[Array, ""]
     num_newton: Int[Array, ""]
+    num_factorizations: Int[Array, ""]  # iteration matrices factored (per step; fewer with ``Newton(reuse=True)``)
 
     @property
     def message(self) -> str:
@@ -264,9 +265,10 @@ class _LoopState(eqx.Module):
     h: Float[Array, ""]  # the next step's size
     state: _Stacked  # the solver's (``GeneralizedAlphaState``), stacked
     k: Int[Array, ""]  # the first output slot that no accepted step has covered
-    counts: Int[Array, "3"]  # accepted steps, rejected steps, Newton iterations
+    counts: Int[Array, "4"]  # accepted steps, rejected steps, Newton iterations, factorisations
     result: Int[Array, ""]  # 0 while running, else the code of the ending (results.ENDINGS)
     ys: Any = None  # output buffer (n_out + K slots per leaf); None in batched runs (see step)
+    matrix: Any = None  # the kept iteration matrix (``Newton(reuse=True)``), else None
 
 
 class _AdaptiveLoop(eqx.Module):
@@ -319,7 +321,13 @@ class _AdaptiveLoop(eqx.Module):
         state = self.solver.init(self.model, t0, q0, v0)
         k0 = jnp.sum(self.ts_pad <= t0).astype(int)
         h0 = self.limit_step(t0, jnp.minimum(self.dt0, self.controller.dt_max), k0)
-        c = _LoopState(t=t0, h=h0, state=_Stacked.of(state), k=k0, counts=jnp.zeros(3, int), result=jnp.array(0))
+        matrix = None
+        if self.newton.reuse:  # a matrix of the factor's structure, invalid: the first step factors
+            shapes = self.solver.matrix_shape(self.model, t0, state)
+            matrix = IterationMatrix(jtu.tree_map(lambda x: jnp.zeros(x.shape, x.dtype), shapes), h0,
+                                     jnp.asarray(False))
+        c = _LoopState(t=t0, h=h0, state=_Stacked.of(state), k=k0, counts=jnp.zeros(4, int), result=jnp.array(0),
+                       matrix=matrix)
         return dataclasses.replace(c, ys=self.outputs(c)) if outputs else c
 
     def outputs(self, c: _LoopState):
@@ -359,7 +367,7 @@ class _AdaptiveLoop(eqx.Module):
         def norm(dq):
             return self.rms(m_n.error_space(q_n, dq)[1], newton_scale, mask)
 
-        st1, error, newton_sol = solver.step(model, t, t1, st, self.newton, norm, h=h)
+        st1, error, newton_sol = solver.step(model, t, t1, st, self.newton, norm, h=h, matrix=c.matrix)
         iters, done = newton_sol.iterations, newton_sol.converged
         q1, v1 = st1.q, st1.v
 
@@ -368,6 +376,12 @@ class _AdaptiveLoop(eqx.Module):
         finite = jnp.isfinite(err) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(v1))
         ok = done & finite
         accept, h_new = controller.adapt(h, err, ok)
+        matrix = None
+        if c.matrix is not None:
+            # A growth too small to pay for a new factorisation is not taken (``Newton``).
+            h_new = jnp.where(accept & (h_new > h) & (h_new <= (1.0 + self.newton.reuse_band) * h), h, h_new)
+            matrix = newton_sol.matrix
+            matrix = dataclasses.replace(matrix, valid=matrix.valid & finite)
         h_new = jnp.minimum(h_new, controller.dt_max)
 
         # Dense output at the requested times inside (t, t1]: the whole window of K output
@@ -417,7 +431,8 @@ class _AdaptiveLoop(eqx.Module):
             )
         new = _LoopState(
             t=t_new, h=h_new, state=jtu.tree_map(pick, _Stacked.of(st1), c.state), k=k_new,
-            counts=c.counts + jnp.stack([accept, ~accept, iters]).astype(int), result=result,
+            counts=c.counts + jnp.stack([accept, ~accept, iters, newton_sol.factorizations]).astype(int),
+            result=result, matrix=matrix,
         )
         if active is not None:
             new = jtu.tree_map(lambda val, old: jnp.where(active, val, old), new, c)
@@ -443,6 +458,7 @@ class _AdaptiveLoop(eqx.Module):
         return Solution(
             ts=self.ts, ys=jtu.tree_map(lambda y: y[:n_out], ys), t_final=final.t, result=result,
             num_steps=final.counts[0], num_rejected=final.counts[1], num_newton=final.counts[2],
+            num_factorizations=final.counts[3],
         )
 
 
