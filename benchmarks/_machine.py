@@ -34,8 +34,15 @@ def pin_to_one_core() -> None:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 
 
-def report(text: str, path: str) -> None:
-    """Print a benchmark's Markdown report and write it to ``path`` (folders made as needed)."""
+def report(text: str, path: str, keep_notes: str | None = None) -> None:
+    """Print a benchmark's Markdown report and write it to ``path`` (folders made as needed).
+    ``keep_notes``: a heading (e.g. ``"## Notes"``) of the old report from which its hand-written
+    notes, read from the figures, are kept after the new text."""
+    if keep_notes is not None and os.path.exists(path):
+        with open(path) as f:
+            old = f.read()
+        at = old.find("\n" + keep_notes)
+        text = text + (old[at:] if at >= 0 else "")
     print(text)
     os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
     with open(path, "w") as f:

@@ -129,12 +129,7 @@ def main():
     for r in rows:
         lines.append(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]} ({r[5]}) | {r[6]} | {r[7]} | {r[8]:.1f} "
                      f"| {r[9]:.3f} | {r[10]:.1e} | {r[11]:.1e} |")
-    notes = ""  # a hand-written "## Notes" section of an earlier report is kept
-    if os.path.exists(args.out):
-        old = open(args.out).read()
-        if "\n## Notes" in old:
-            notes = old[old.index("\n## Notes"):]
-    report("\n".join(lines) + "\n" + notes, args.out)
+    report("\n".join(lines) + "\n", args.out, keep_notes="## Notes")
 
 
 if __name__ == "__main__":

@@ -77,8 +77,10 @@ def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):
                "--t-end", "3", "--modes", "8", "--reference", "rncf", "--plot", str(png), "--json", "--no-progress"])
     assert rc == 0
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    for key in ("vms", "mds", "dofs", "offline_s", "chi_rel_percent", "speedup", "steps", "run_s"):
+    for key in ("vms", "mds", "dofs", "offline_s", "chi_rel_percent", "speedup", "steps", "run_s",
+                "chi_rel_estimate_percent", "effectivity", "estimate_run_s"):
         assert key in d
+    assert d["effectivity"] == pytest.approx(d["chi_rel_estimate_percent"] / d["chi_rel_percent"])
     assert d["formulation"] == "nr-rncf"
     assert 0 < d["dofs"] <= d["vms"] + d["mds"] and d["vms"] >= 1
     assert len(d["selected_vms"]) == d["vms"] and len(d["selected_mds"]) == d["mds"]

@@ -14,6 +14,7 @@ from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..integrate.simulate import simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
+from ..reduction.error_estimate import estimate_error
 from ..reduction.pipeline import nr_rncf
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
@@ -74,6 +75,7 @@ class SpinupResult(RunRecord):
     reference: "SpinupResult | None" = None  # the full RNCF run compared against
     spin: object = None  # the ``SpinCheck`` of the spinning-state enrichment (None: not checked)
     reduction: object = dataclasses.field(default=None, repr=False)  # the ``Reduction`` (W, omega, model)
+    estimate: object = None  # the ``reduction.error_estimate.ErrorEstimate`` of the run (None: not made)
 
     REFERENCE: ClassVar[str] = ("a full RNCF SpinupResult of the same beam mesh and output times, run with "
                                 "save_displacements=True")
@@ -115,10 +117,23 @@ class SpinupResult(RunRecord):
                     "omega_ritz": self.spin.omega_ritz, "rel_err": self.spin.rel_err, "enriched": self.spin.enriched,
                     "spin_vms": list(self.spin.vms), "spin_mds": [list(p) for p in self.spin.pairs]},
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup,
+                **self._estimate_summary(),
                 "reference": None if ref is None else {"formulation": ref.formulation, "dofs": ref.dofs,
                                                        **ref.statistics()},
             })
         return s
+
+    def _estimate_summary(self) -> dict:
+        """The error estimate's fields (empty without one): the estimated χ_rel, whether it is in
+        its reliable range, its run time, and with a reference the effectivity (estimate /
+        measured)."""
+        e = self.estimate
+        if e is None:
+            return {}
+        eff = None if not self.chi_rel_percent else e.chi_rel_percent / self.chi_rel_percent
+        return {"chi_rel_estimate_percent": e.chi_rel_percent, "estimate_reliable": e.reliable,
+                "estimate_samples": int(len(e.ts)), "estimate_compile_s": e.compile_s, "estimate_run_s": e.run_s,
+                "effectivity": eff}
 
     def table(self) -> str:
         s = self.summary()
@@ -138,6 +153,10 @@ class SpinupResult(RunRecord):
                 rows.append(("spinning-state check", f"ω = {c['omega']:g} rad/s: mode {c['mode']} at "
                              f"{c['omega_spin']:.4f} rad/s, rest basis {c['omega_ritz']:.4f} "
                              f"({100 * c['rel_err']:+.3f} %); {added}"))
+        if self.estimate is not None:
+            note = "" if s["estimate_reliable"] else "  (above its reliable range: the basis misses much of the motion)"
+            rows.append(("chi_rel estimate [%] (no full run)", f"{s['chi_rel_estimate_percent']:.4f}  "
+                         f"({s['estimate_samples']} samples, {s['estimate_run_s']:.3f} s){note}"))
         rows += [("steps accepted / rejected", f"{s['steps']} / {s['rejected']}"),
                  ("Newton iterations", f"{s['newton_iters']}"), ("compile [s]", f"{s['compile_s']:.2f}"),
                  ("run [s]", f"{s['run_s']:.3f}"),
@@ -148,7 +167,8 @@ class SpinupResult(RunRecord):
             name = f"reference {r.formulation.upper()}"
             rows += [(f"{name}: DOFs / steps", f"{r.dofs} / {r.steps} ({r.rejected} rejected)"),
                      (f"{name}: compile / run [s]", f"{r.compile_s:.2f} / {r.run_s:.3f}"),
-                     ("chi_rel (Eq. 40, all q - q^) [%]", f"{self.chi_rel_percent:.4f}"),
+                     ("chi_rel (Eq. 40, all q - q^) [%]", f"{self.chi_rel_percent:.4f}"
+                      + ("" if s.get("effectivity") is None else f"  (estimate / measured {s['effectivity']:.2f})")),
                      ("speed-up (run time full / reduced)", f"{self.speedup:.2f}x")]
         w = max(len(r[0]) for r in rows)
         return "\n".join(f"  {a:<{w}}  {b}" for a, b in rows)
@@ -205,8 +225,8 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
     )
 
 
-def _observe_p(t, p, v):
-    return p
+def _observe_pv(t, p, v):
+    return p, v
 
 
 def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T_s: float = 15.0,
@@ -214,7 +234,8 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
                        mds: int | str | list = "auto", n_modes: int = 24, max_dofs: int | None = 25,
                        spin_state: bool | str = "auto", rho_inf: float = 0.9, rtol: float = 1e-4,
                        atol: float = 1e-6, dt_out: float = 0.01, reference: "bool | SpinupResult" = False,
-                       progress: bool = False, max_steps: int = 500_000) -> SpinupResult:
+                       progress: bool = False, max_steps: int = 500_000, estimate: bool = True,
+                       estimate_samples: int = 16) -> SpinupResult:
     """The spin-up of Eq. 43 with the NR-RNCF reduced model (paper Section 4.1).
 
     The basis is built by ``nr_rncf`` from ``n_modes`` candidate vibration modes, with the MMI
@@ -226,6 +247,10 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     ``run_spinup(..., save_displacements=True)`` on the same output times to reuse it), and
     χ_rel (Eq. 40, over all nodal displacements q − q̂ and all output times) and the run-time
     ratio full/reduced are filled in.
+
+    ``estimate``: the run's a-posteriori error estimate from the run alone, at
+    ``estimate_samples`` output times (``reduction.error_estimate``: χ_rel estimated without the
+    full run; with a reference also the effectivity, estimate / measured).
     """
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
@@ -233,9 +258,10 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs, spin_state=spin_state)
     model = red.model
     sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
-                                           jnp.asarray(ts), observe=_observe_p, progress=progress, max_steps=max_steps)
-    # Observing p alone keeps the loop's carry small; displacements are rebuilt afterwards.
-    w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(sol.ys))
+                                           jnp.asarray(ts), observe=_observe_pv, progress=progress, max_steps=max_steps)
+    # Observing (p, ṗ) alone keeps the loop's carry small; displacements are rebuilt afterwards.
+    P, V = sol.ys
+    w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(P))
     theta = np.asarray(jax.vmap(lambda t: full.motion(t)[0])(jnp.asarray(ts)))
     body = full.body
     name = beam if isinstance(beam, str) else beam.name
@@ -245,6 +271,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
         compile_s=compile_s, run_s=run_s, displacements=w, vms=red.selection.vms, mds=red.selection.pairs,
         offline_s=dict(red.offline_s), reduction=red, spin=red.spin,
+        estimate=estimate_error(full, model, ts, P, V, samples=estimate_samples) if estimate else None,
     )
     if reference is False or reference is None:
         return res

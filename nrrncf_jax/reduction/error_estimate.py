@@ -1,0 +1,136 @@
+"""A-posteriori error estimate of an NR-RNCF run, from the run alone (ERROR_CONTROL.md): the
+static-correction estimate of χ_rel (Eq. 40).
+
+At sampled output times the reduced state is lifted to the full RNCF coordinates,
+
+    q = q° + Ψ p,    q̇ = Ψ ṗ,    q̈ = Ψ p̈    (p̈ from the reduced equations at (p, ṗ)),
+
+and the full model's residual r = M q̈ + g(t, q, q̇) is evaluated there (its free rows). The full
+solution makes r vanish; the Galerkin reduced one makes Ψᵀ r vanish, so r is what the basis
+cannot represent. The displacement error e that would cancel it, to first order and with the
+inertia of the correction left out (the missing coordinates are the stiff ones, whose response
+to a slowly varying residual is quasi-static), is
+
+    K_T(t, q) e = −r,      K_T = ∂r/∂q (the full tangent with the rotation's terms),
+
+one factorisation and solve of the full model's iteration matrix with c_M = c_C = 0 per sampled
+time. The estimate of χ_rel is 100 √(Σ_t |e(t)|²) / √(Σ_t |w(t)|²) over the sampled times, w = q − q̂
+the reduced run's displacements: the same norm as the measured χ_rel, whose reference is the
+full run.
+
+Why this estimator: it needs nothing but the full model's residual and tangent, which the
+offline stage has; it costs a few sparse factorisations, not a full run; and where the basis
+captures the motion (χ_rel below a few per cent) it is first-order accurate, so its effectivity
+(estimate / measured) is near 1 (``benchmarks/results/error_estimate.md``). Where it stops
+working: when the basis misses a large part of the motion (χ_rel of tens of per cent, e.g. a
+basis of vibration modes only under large deflection) the correction is no longer small, the
+linearisation about the reduced state fails, and the estimate says only that the error is large
+(``reliable`` is False above ``RELIABLE_PERCENT``). The dynamic part of the error (a missing low
+mode that responds with its own inertia) is outside this model too.
+"""
+
+import dataclasses
+import time
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from .._types import Array, Float
+
+RELIABLE_PERCENT = 20.0
+"""Above this estimate (χ_rel in per cent) the linearised correction is not small next to the
+displacement and the estimate is an order of magnitude, not a figure
+(``benchmarks/results/error_estimate.md``)."""
+
+
+@dataclasses.dataclass
+class ErrorEstimate:
+    """The static-correction estimate of a reduced run (module docstring): the sampled output
+    times ``ts``, the estimated error |e(t)| and the displacement |w(t)| there (2-norms over all
+    nodal coordinates), ``chi_rel_percent`` (the estimate of χ_rel), and the estimate's compile
+    and run times [s]."""
+
+    ts: np.ndarray
+    error_norm: np.ndarray
+    displacement_norm: np.ndarray
+    chi_rel_percent: float
+    compile_s: float
+    run_s: float
+
+    @property
+    def reliable(self) -> bool:
+        """Whether the estimate is in the range where it is first-order accurate."""
+        return self.chi_rel_percent <= RELIABLE_PERCENT
+
+
+def lift(reduced, t, p: Float[Array, " k"], v: Float[Array, " k"]):
+    """``(q, q̇, q̈)`` in the full RNCF coordinates of the reduced state (p, ṗ), with p̈ solved
+    from the reduced equations (linear in p̈: Ī p̈ = −r(t, p, ṗ, 0))."""
+    zero = jnp.zeros_like(p)
+    r0 = reduced.residual(t, p, v, zero)
+    inertia = jax.jacfwd(lambda a: reduced.residual(t, p, v, a))(zero)
+    a = -jnp.linalg.solve(inertia, r0)
+    return reduced.q_eq.reshape(-1) + reduced.Psi @ p, reduced.Psi @ v, reduced.Psi @ a
+
+
+def static_correction(full, reduced, t, p: Float[Array, " k"], v: Float[Array, " k"]):
+    """The displacement correction e = −K_T⁻¹ r of the lifted state (free coordinates; zero on
+    the prescribed ones)."""
+    q, qd, qdd = lift(reduced, t, p, v)
+    r = full.residual(t, q, qd, qdd)
+    e = -full.factor_iteration_matrix(t, q, qd, 0.0, 0.0, 1.0).solve(r)
+    return jnp.where(full.free_mask(), e, 0.0)
+
+
+def _estimate(full, reduced, ts, ps, vs):
+    def one(args):
+        t, p, v = args
+        e = static_correction(full, reduced, t, p, v)
+        w = reduced.coordinates(p).reshape(-1) - reduced.q_hat.reshape(-1)
+        return jnp.linalg.norm(e), jnp.linalg.norm(w)
+    # One sample after another (``lax.map``): a vmapped factorisation would be one batched
+    # LAPACK call, which the library avoids on the CPU (``linalg.dense.solve_once``).
+    return lax.map(one, (ts, ps, vs))
+
+
+_estimate_jit = eqx.filter_jit(_estimate)
+
+
+def sample_indices(n_out: int, samples: int) -> np.ndarray:
+    """``samples`` output indices spread evenly over ``n_out`` outputs, the first and last
+    included (all of them when there are fewer)."""
+    if samples < 2:
+        raise ValueError(f"samples must be at least 2, got {samples}")
+    return np.unique(np.round(np.linspace(0, n_out - 1, min(samples, n_out))).astype(int))
+
+
+def estimate_error(full, reduced, ts, ps, vs, samples: int = 16) -> ErrorEstimate:
+    """The static-correction estimate (module docstring) of the reduced run whose coordinates
+    ``ps`` and velocities ``vs`` (each (n_out, k)) were recorded at the output times ``ts``,
+    against the full RNCF model ``full`` it was reduced from, at ``samples`` of the output times.
+    Compiled once per model structure; compile and run timed apart."""
+    ts, ps, vs = np.asarray(ts, float), np.asarray(ps, float), np.asarray(vs, float)
+    if ps.ndim != 2 or ps.shape != vs.shape or ps.shape[0] != ts.shape[0] or ps.shape[1] != reduced.n_dof:
+        raise ValueError(f"ps and vs must be (len(ts), {reduced.n_dof}) = ({ts.shape[0]}, {reduced.n_dof}), got "
+                         f"{ps.shape} and {vs.shape}")
+    if reduced.Psi.shape[0] != full.n_dof:
+        raise ValueError(f"the reduced model's basis has {reduced.Psi.shape[0]} rows; the full model has "
+                         f"{full.n_dof} coordinates: pass the full model it was reduced from")
+    idx = sample_indices(ts.shape[0], int(samples))
+    args = (full, reduced, jnp.asarray(ts[idx]), jnp.asarray(ps[idx]), jnp.asarray(vs[idx]))
+    t0 = time.perf_counter()
+    compiled = _estimate_jit.lower(*args).compile()
+    t1 = time.perf_counter()
+    e, w = jax.block_until_ready(compiled(*args))
+    t2 = time.perf_counter()
+    e, w = np.asarray(e), np.asarray(w)
+    den = float(np.sqrt(np.sum(w**2)))
+    chi = 100.0 * float(np.sqrt(np.sum(e**2))) / den if den > 0 else 0.0
+    return ErrorEstimate(ts=ts[idx], error_norm=e, displacement_norm=w, chi_rel_percent=chi,
+                         compile_s=t1 - t0, run_s=t2 - t1)
+
+
+__all__ = ["RELIABLE_PERCENT", "ErrorEstimate", "estimate_error", "lift", "sample_indices", "static_correction"]
