@@ -25,8 +25,11 @@ captures the motion (χ_rel below a few per cent) it is first-order accurate, so
 working: when the basis misses a large part of the motion (χ_rel of tens of per cent, e.g. a
 basis of vibration modes only under large deflection) the correction is no longer small, the
 linearisation about the reduced state fails, and the estimate says only that the error is large
-(``reliable`` is False above ``RELIABLE_PERCENT``). The dynamic part of the error (a missing low
-mode that responds with its own inertia) is outside this model too.
+(``reliable`` is False above ``RELIABLE_PERCENT``). The dynamic part of the error is outside
+this model too: in a violent transient (a fast spin-up's large-deflection phase) the part of the
+residual the basis misses is not answered quasi-statically, and the estimate can exceed the true
+error by orders of magnitude (a false alarm, measured in the benchmark's notes); the error
+equation with the correction's inertia is the remedy ERROR_CONTROL.md names, not built here.
 """
 
 import dataclasses
