@@ -54,14 +54,17 @@ def test_estimate_tracks_the_measured_error_and_grows_without_mds(spin):
     full, w_ref = spin
     red = nr_rncf(full, jnp.asarray(TS), n_modes=12)
     vm_only = nr_rncf(full, jnp.asarray(TS), n_modes=12, vms=red.dofs, mds=0, spin_state=False)
+    tip = full.body.n_vectors - full.body.vectors_per_node  # the tip node's position vector
     out = {}
     for name, r in (("mds", red), ("vms", vm_only)):
         P, V, w = _reduced_run(r.model)
-        est = estimate_error(full, r.model, TS, P, V)
+        est = estimate_error(full, r.model, TS, P, V, output=3 * tip + np.arange(3))
         measured = float(chi_rel(w_ref, w))
         out[name] = (est.chi_rel_percent, measured)
         assert est.reliable == (est.chi_rel_percent <= RELIABLE_PERCENT)
         assert 0.5 <= est.chi_rel_percent / measured <= 2.0, (name, est.chi_rel_percent, measured)
+        # the tip's rows of the correction, sample by sample
+        assert est.output_error.shape == (len(est.ts), 3)
     assert out["vms"][0] > 5 * out["mds"][0], out
 
 
@@ -75,3 +78,5 @@ def test_sample_indices_and_bad_input(spin):
     red = reduce_rotating_model(full, np.eye(full.n_dof)[:, :3])
     with pytest.raises(ValueError, match="ps and vs"):
         estimate_error(full, red, TS, np.zeros((3, 3)), np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="output"):
+        estimate_error(full, red, TS[:2], np.zeros((2, 3)), np.zeros((2, 3)), output=[full.n_dof])

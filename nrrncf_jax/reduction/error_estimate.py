@@ -53,13 +53,16 @@ displacement and the estimate is an order of magnitude, not a figure
 class ErrorEstimate:
     """The static-correction estimate of a reduced run (module docstring): the sampled output
     times ``ts``, the estimated error |e(t)| and the displacement |w(t)| there (2-norms over all
-    nodal coordinates), ``chi_rel_percent`` (the estimate of χ_rel), and the estimate's compile
-    and run times [s]."""
+    nodal coordinates), ``chi_rel_percent`` (the estimate of χ_rel), the estimated error of a
+    quantity of interest at each sample, ``output_error`` (the correction's rows ``output``
+    of ``estimate_error``, e.g. the tip's displacement; shape (samples, rows), empty without
+    one), and the estimate's compile and run times [s]."""
 
     ts: np.ndarray
     error_norm: np.ndarray
     displacement_norm: np.ndarray
     chi_rel_percent: float
+    output_error: np.ndarray
     compile_s: float
     run_s: float
 
@@ -88,12 +91,12 @@ def static_correction(full, reduced, t, p: Float[Array, " k"], v: Float[Array, "
     return jnp.where(full.free_mask(), e, 0.0)
 
 
-def _estimate(full, reduced, ts, ps, vs):
+def _estimate(full, reduced, ts, ps, vs, rows):
     def one(args):
         t, p, v = args
         e = static_correction(full, reduced, t, p, v)
         w = reduced.coordinates(p).reshape(-1) - reduced.q_hat.reshape(-1)
-        return jnp.linalg.norm(e), jnp.linalg.norm(w)
+        return jnp.linalg.norm(e), jnp.linalg.norm(w), e[rows]
     # One sample after another (``lax.map``): a vmapped factorisation would be one batched
     # LAPACK call, which the library avoids on the CPU (``linalg.dense.solve_once``).
     return lax.map(one, (ts, ps, vs))
@@ -110,11 +113,13 @@ def sample_indices(n_out: int, samples: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n_out - 1, min(samples, n_out))).astype(int))
 
 
-def estimate_error(full, reduced, ts, ps, vs, samples: int = 16) -> ErrorEstimate:
+def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=()) -> ErrorEstimate:
     """The static-correction estimate (module docstring) of the reduced run whose coordinates
     ``ps`` and velocities ``vs`` (each (n_out, k)) were recorded at the output times ``ts``,
     against the full RNCF model ``full`` it was reduced from, at ``samples`` of the output times.
-    Compiled once per model structure; compile and run timed apart."""
+    ``output``: indices of full coordinates whose error is wanted on its own (a quantity of
+    interest: the tip node's position, say), in ``output_error``. Compiled once per model
+    structure; compile and run timed apart."""
     ts, ps, vs = np.asarray(ts, float), np.asarray(ps, float), np.asarray(vs, float)
     if ps.ndim != 2 or ps.shape != vs.shape or ps.shape[0] != ts.shape[0] or ps.shape[1] != reduced.n_dof:
         raise ValueError(f"ps and vs must be (len(ts), {reduced.n_dof}) = ({ts.shape[0]}, {reduced.n_dof}), got "
@@ -122,18 +127,21 @@ def estimate_error(full, reduced, ts, ps, vs, samples: int = 16) -> ErrorEstimat
     if reduced.Psi.shape[0] != full.n_dof:
         raise ValueError(f"the reduced model's basis has {reduced.Psi.shape[0]} rows; the full model has "
                          f"{full.n_dof} coordinates: pass the full model it was reduced from")
+    rows = np.asarray(output, dtype=int).reshape(-1)
+    if rows.size and (rows.min() < 0 or rows.max() >= full.n_dof):
+        raise ValueError(f"output must index the full model's {full.n_dof} coordinates, got {rows.tolist()}")
     idx = sample_indices(ts.shape[0], int(samples))
-    args = (full, reduced, jnp.asarray(ts[idx]), jnp.asarray(ps[idx]), jnp.asarray(vs[idx]))
+    args = (full, reduced, jnp.asarray(ts[idx]), jnp.asarray(ps[idx]), jnp.asarray(vs[idx]), jnp.asarray(rows))
     t0 = time.perf_counter()
     compiled = _estimate_jit.lower(*args).compile()
     t1 = time.perf_counter()
-    e, w = jax.block_until_ready(compiled(*args))
+    e, w, out = jax.block_until_ready(compiled(*args))
     t2 = time.perf_counter()
     e, w = np.asarray(e), np.asarray(w)
     den = float(np.sqrt(np.sum(w**2)))
     chi = 100.0 * float(np.sqrt(np.sum(e**2))) / den if den > 0 else 0.0
     return ErrorEstimate(ts=ts[idx], error_norm=e, displacement_norm=w, chi_rel_percent=chi,
-                         compile_s=t1 - t0, run_s=t2 - t1)
+                         output_error=np.asarray(out), compile_s=t1 - t0, run_s=t2 - t1)
 
 
 __all__ = ["RELIABLE_PERCENT", "ErrorEstimate", "estimate_error", "lift", "sample_indices", "static_correction"]

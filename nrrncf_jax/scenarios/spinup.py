@@ -131,9 +131,14 @@ class SpinupResult(RunRecord):
         if e is None:
             return {}
         eff = None if not self.chi_rel_percent else e.chi_rel_percent / self.chi_rel_percent
-        return {"chi_rel_estimate_percent": e.chi_rel_percent, "estimate_reliable": e.reliable,
-                "estimate_samples": int(len(e.ts)), "estimate_compile_s": e.compile_s, "estimate_run_s": e.run_s,
-                "effectivity": eff}
+        out = {"chi_rel_estimate_percent": e.chi_rel_percent, "estimate_reliable": e.reliable,
+               "tip_error_estimate_m": float(np.linalg.norm(e.output_error, axis=1).max()),
+               "estimate_samples": int(len(e.ts)), "estimate_compile_s": e.compile_s, "estimate_run_s": e.run_s,
+               "effectivity": eff}
+        if self.reference is not None:  # the tip's error measured at the same samples
+            at = np.searchsorted(self.ts, e.ts)
+            out["tip_error_m"] = float(np.linalg.norm(self.tip[at] - self.reference.tip[at], axis=1).max())
+        return out
 
     def table(self) -> str:
         s = self.summary()
@@ -157,6 +162,8 @@ class SpinupResult(RunRecord):
             note = "" if s["estimate_reliable"] else "  (above its reliable range: the basis misses much of the motion)"
             rows.append(("chi_rel estimate [%] (no full run)", f"{s['chi_rel_estimate_percent']:.4f}  "
                          f"({s['estimate_samples']} samples, {s['estimate_run_s']:.3f} s){note}"))
+            rows.append(("tip error estimate [m]", f"{s['tip_error_estimate_m']:.2e}"
+                         + ("" if "tip_error_m" not in s else f"  (measured {s['tip_error_m']:.2e})")))
         rows += [("steps accepted / rejected", f"{s['steps']} / {s['rejected']}"),
                  ("Newton iterations", f"{s['newton_iters']}"), ("compile [s]", f"{s['compile_s']:.2f}"),
                  ("run [s]", f"{s['run_s']:.3f}"),
@@ -265,13 +272,14 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     theta = np.asarray(jax.vmap(lambda t: full.motion(t)[0])(jnp.asarray(ts)))
     body = full.body
     name = beam if isinstance(beam, str) else beam.name
+    tip_rows = 3 * (body.n_vectors - body.vectors_per_node) + np.arange(3)  # the tip node's position
     res = SpinupResult(
         formulation="nr-rncf", beam=name, omega_s=float(omega_s), T_s=float(T_s), elements=body.n_elements,
         dofs=red.dofs, ts=ts, theta=theta, tip=w[:, body.n_vectors - body.vectors_per_node],
         steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
         compile_s=compile_s, run_s=run_s, displacements=w, vms=red.selection.vms, mds=red.selection.pairs,
         offline_s=dict(red.offline_s), reduction=red, spin=red.spin,
-        estimate=estimate_error(full, model, ts, P, V, samples=estimate_samples) if estimate else None,
+        estimate=estimate_error(full, model, ts, P, V, samples=estimate_samples, output=tip_rows) if estimate else None,
     )
     if reference is False or reference is None:
         return res
