@@ -159,7 +159,7 @@ class SpinupResult(RunRecord):
                              f"{c['omega_spin']:.4f} rad/s, rest basis {c['omega_ritz']:.4f} "
                              f"({100 * c['rel_err']:+.3f} %); {added}"))
         if self.estimate is not None:
-            note = "" if s["estimate_reliable"] else "  (above its reliable range: the basis misses much of the motion)"
+            note = "" if s["estimate_reliable"] else "  (above its reliable range: an order of magnitude, not a figure)"
             rows.append(("chi_rel estimate [%] (no full run)", f"{s['chi_rel_estimate_percent']:.4f}  "
                          f"({s['estimate_samples']} samples, {s['estimate_run_s']:.3f} s){note}"))
             rows.append(("tip error estimate [m]", f"{s['tip_error_estimate_m']:.2e}"
