@@ -38,6 +38,23 @@ def test_spinup_json_csv_plot(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+@pytest.mark.slow
+@pytest.mark.xdist_group("cli_paper2_nr_rncf")
+def test_spinup_nr_rncf_to_a_tolerance_json(capsys):
+    """``--tol``: the basis search's record in the JSON. The first basis tried (two columns: the
+    first mode and its modal derivative) meets 50 %; the one-column basis tried next, the mode
+    alone, misses the foreshortening (an estimate of about 90 %), so two columns are kept."""
+    rc = main(["spinup", "--formulation", "nr-rncf", "--beam", "paper", "--elements", "2", "--omega", "4",
+               "--t-end", "3", "--modes", "8", "--tol", "50", "--json", "--no-progress"])
+    assert rc == 0
+    d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert d["tol_percent"] == 50 and d["tol_met"] is True
+    assert [t["columns"] for t in d["basis_trials"]] == [2, 1]
+    assert d["basis_trials"][1]["chi_rel_estimate_percent"] > 50
+    assert d["dofs"] == d["basis_trials"][0]["dofs"] == 2 and (d["vms"], d["mds"]) == (1, 1)
+    assert d["basis_trials"][0]["chi_rel_estimate_percent"] == pytest.approx(d["chi_rel_estimate_percent"], rel=1e-9)
+
+
 def test_modes_json(capsys):
     assert main(["modes", "--beam", "paper", "--elements", "4", "--count", "4", "--json"]) == 0
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
@@ -132,6 +149,9 @@ BAD_INPUT = {
                      "argument --mds: must be 'auto' or an integer >= 0, got '-2'"),
     "vms-beyond-modes": (["spinup", "--formulation", "nr-rncf", "--omega", "10", "--vms", "9", "--modes", "8"],
                          "--vms 9 asks for more vibration modes than the --modes 8 candidates"),
+    "tol-negative": (["spinup", "--formulation", "nr-rncf", "--omega", "4", "--tol=-1"],
+                     "--tol (target chi_rel in per cent) must be > 0, got -1"),
+    "tol-full-order": (["spinup", "--omega", "4", "--tol", "1"], "--tol chooses a reduced basis; use it with"),
     "spinup-out-dir": (["spinup", "--omega", "10", "--out", MISSING + "tip.csv"],
                        f"--out {MISSING}tip.csv: the directory /nonexistent/dir does not exist"),
     "spinup-plot-dir": (["spinup", "--omega", "10", "--plot", MISSING + "tip.png"], "/nonexistent/dir does not exist"),

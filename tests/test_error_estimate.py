@@ -9,6 +9,7 @@ import pytest
 from conftest import EPS, paper_body
 
 from nrrncf_jax import AdaptiveStepSize, GeneralizedAlpha, RotatingFrameModel, SpinUp, chi_rel, nr_rncf, simulate
+from nrrncf_jax.reduction.basis_to_tolerance import greedy_order
 from nrrncf_jax.reduction.error_estimate import RELIABLE_PERCENT, estimate_error, sample_indices
 from nrrncf_jax.reduction.reduced_model import reduce_rotating_model
 
@@ -80,3 +81,44 @@ def test_sample_indices_and_bad_input(spin):
         estimate_error(full, red, TS, np.zeros((3, 3)), np.zeros((3, 3)))
     with pytest.raises(ValueError, match="output"):
         estimate_error(full, red, TS[:2], np.zeros((2, 3)), np.zeros((2, 3)), output=[full.n_dof])
+
+
+def test_greedy_order_ranks_by_interaction_and_breaks_ties_by_index():
+    """The greedy order (``basis_to_tolerance.greedy_order``): by weight, an MD only once both
+    of its modes are in, and weights equal to within ``TIE`` (round-off, as between two CPUs)
+    ranked by index, so that the order is the same for W perturbed by round-off."""
+    W = np.array([[9.0, 2.0, 0.5], [2.0, 4.0, 3.0], [0.5, 3.0, 4.0]])
+    assert greedy_order(W, [0, 1, 2]) == [0, (0, 0), 1, 2, (1, 1), (2, 2), (1, 2), (0, 1), (0, 2)]
+    # Modes 1 and 2 tie (W_11 = W_22): ranked by index, whichever is larger by round-off.
+    for sign in (1.0, -1.0):
+        Wp = W.copy()
+        Wp[2, 2] *= 1.0 + sign * 64 * EPS
+        assert greedy_order(Wp, [0, 1, 2]) == greedy_order(W, [0, 1, 2])
+    # A real MMI matrix, |η|ᵀ|η| of a random response, perturbed relatively by a few ulps.
+    rng = np.random.default_rng(0)
+    A = np.abs(rng.standard_normal((200, 6))) * np.array([1.0, 0.5, 0.5, 0.2, 0.1, 0.05])
+    W = A.T @ A
+    base = greedy_order(W, range(6))
+    assert len(base) == 6 + 21 and base[:2] == [0, (0, 0)]
+    for _ in range(5):
+        assert greedy_order(W * (1.0 + 8 * EPS * rng.standard_normal(W.shape)), range(6)) == base
+    with pytest.raises(ValueError, match="at least one candidate"):
+        greedy_order(W, [])
+
+
+@pytest.mark.slow
+@pytest.mark.xdist_group("error_estimate")
+def test_basis_to_a_tolerance_meets_it_measured(spin):
+    """``nr_rncf(..., tol=0.5)``: the basis grows along the MMI order until the estimate of its
+    training run is at most 0.5 %; every shorter prefix tried was above it, and the χ_rel measured
+    against the full run is below the tolerance too."""
+    full, w_ref = spin
+    red = nr_rncf(full, jnp.asarray(TS), n_modes=12, max_dofs=8, tol=0.5, training=dict(rtol=1e-5, atol=1e-7))
+    s = red.search
+    assert s.met and s.chosen.chi_rel_estimate_percent <= 0.5
+    assert red.dofs == s.chosen.dofs and red.selection.vms == s.chosen.vms
+    assert all(t.chi_rel_estimate_percent > 0.5 for t in s.trials if t.columns < s.chosen.columns)
+    assert any(t.columns == s.chosen.columns - 1 for t in s.trials)  # the next shorter prefix was tried
+    _, _, w = _reduced_run(red.model)
+    assert float(chi_rel(w_ref, w)) <= 0.5
+    assert "the first" in s.describe()

@@ -214,6 +214,7 @@ def rotor_runs():
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("rotor")  # one worker runs the fixture, not one per test
 @pytest.mark.parametrize("formulation", ["nr-rncf", "ancf"])
 def test_the_rotor_keeps_its_momentum_and_energy_balances(rotor_runs, formulation):
     """The rotor's angular momentum about its axis is the motor's impulse, and its energy the
@@ -236,6 +237,7 @@ def test_the_rotor_keeps_its_momentum_and_energy_balances(rotor_runs, formulatio
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("rotor")
 def test_the_reduced_rotor_follows_the_full_one(rotor_runs):
     """NR-RNCF (4 in-plane modes and their derivatives a beam) against full ANCF on the same
     mesh: the hub's speed and beam 0's tip deflection within χ_rel 1 %."""

@@ -17,6 +17,10 @@ def _check(args) -> None:
     _common.at_least("--max-dofs", args.max_dofs, 1)
     if isinstance(args.vms, int) and args.vms > args.modes:
         raise ValueError(f"--vms {args.vms} asks for more vibration modes than the --modes {args.modes} candidates")
+    if args.tol is not None:
+        _validate.positive("--tol (target chi_rel in per cent)", args.tol)
+        if args.formulation != "nr-rncf":
+            raise ValueError("--tol chooses a reduced basis; use it with --formulation nr-rncf")
     if args.reference and args.formulation != "nr-rncf":
         raise ValueError("--reference compares a reduced run against the full model; use it with "
                          "--formulation nr-rncf")
@@ -32,7 +36,9 @@ def _spinup(args) -> int:
         args.elements = default_elements(args.omega)
     reduced = args.formulation == "nr-rncf"
     if not args.json:
-        basis = (f", basis from {args.modes} modes (VMs {args.vms}, MDs {args.mds})"
+        choice = (f"to chi_rel estimate <= {args.tol:g} %" if args.tol is not None
+                  else f"(VMs {args.vms}, MDs {args.mds})")
+        basis = (f", basis from {args.modes} modes {choice}"
                  + (f", reference {args.reference.upper()}" if args.reference else "")) if reduced else ""
         print(f"nrrncf spinup: {args.formulation.upper()} {args.beam} beam, omega_s = {args.omega:g} rad/s, "
               f"T_s = {args.ts:g} s, t = 0..{args.t_end:g} s, {args.elements} elements{basis}", flush=True)
@@ -40,7 +46,7 @@ def _spinup(args) -> int:
                   dt_out=args.dt_out, progress=not args.no_progress)
     if reduced:
         res = run_nr_rncf_spinup(args.beam, args.omega, vms=args.vms, mds=args.mds, n_modes=args.modes,
-                                 max_dofs=args.max_dofs,
+                                 max_dofs=args.max_dofs, tol=args.tol,
                                  spin_state={"auto": "auto", "on": True, "off": False}[args.spin_state],
                                  reference=args.reference == "rncf", **common)
     else:
@@ -82,6 +88,10 @@ def register(sub) -> None:
                    help="nr-rncf: modal derivatives kept, 'auto' (MMI) or a count >= 0")
     s.add_argument("--modes", type=int, default=24, help="nr-rncf: candidate vibration modes")
     s.add_argument("--max-dofs", type=int, default=25, help="nr-rncf: at most this many VMs + MDs")
+    s.add_argument("--tol", type=float, default=None, metavar="P",
+                   help="nr-rncf: choose the basis to a target chi_rel of P per cent: the smallest prefix of the MMI "
+                        "ranking whose run's error estimate is <= P (up to --max-dofs columns; --vms, --mds and "
+                        "--spin-state are then not used)")
     s.add_argument("--spin-state", choices=["auto", "on", "off"], default="auto",
                    help="nr-rncf: spinning-state enrichment (beyond the paper): 'auto' adds the spinning beam's "
                         "first mode and MDs when the rest basis misses its frequency by > 0.2 %%; 'off' is the "

@@ -29,10 +29,17 @@ the two planes: ``align_degenerate_modes`` turns each pair to the load, and ``ex
 exactly). ``craig_bampton`` is the extended Craig-Bampton basis of a jointed body (paper Eqs.
 44-46: the joint's coordinates kept as boundary coordinates with their static constraint modes,
 fixed-interface modes and their modal derivatives), used by ``multibody.floating``. Mode indices
-are 0-based everywhere (``Reduction.selection.vms``, ``.pairs``), as in the command line's output."""
+are 0-based everywhere (``Reduction.selection.vms``, ``.pairs``), as in the command line's output.
+
+How good a reduced run is, without the full run: ``error_estimate`` (the static-correction
+estimate of χ_rel from the run alone), and ``basis_to_tolerance`` (``nr_rncf(..., tol=P)``: the
+basis grown along the MMI ranking until that estimate over a training run is at most P per cent)."""
 
 from .basis import ModalBasis as ModalBasis
 from .basis import modal_basis as modal_basis
+from .basis_to_tolerance import BasisSearch as BasisSearch
+from .basis_to_tolerance import greedy_order as greedy_order
+from .basis_to_tolerance import nr_rncf_to_tolerance as nr_rncf_to_tolerance
 from .craig_bampton import CraigBampton as CraigBampton
 from .craig_bampton import craig_bampton as craig_bampton
 from .deflation import deflate as deflate

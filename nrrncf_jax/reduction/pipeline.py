@@ -30,6 +30,7 @@ class Reduction:
     n_mds: int
     offline_s: dict  # wall time per offline stage (compilation included)
     spin: SpinCheck | None = None  # the spinning-state check (None: not made)
+    search: object = None  # ``basis_to_tolerance.BasisSearch`` when chosen to a tolerance (None: not)
 
     @property
     def dofs(self) -> int:
@@ -66,7 +67,8 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
             band: float = 6.0, vm_tol: float = 1e-6, md_tol: float = 0.01, max_mds: int | None = None,
             max_dofs: int | None = 25, md_method: str = "closed_form", deflation_tol: float = 1e-6,
             force: str = "auto", spin_state: bool | str = "auto", spin_vms: int = 1, spin_mds: int = 4,
-            spin_tol: float = 2e-3, error_rows=None, modes=None) -> Reduction:
+            spin_tol: float = 2e-3, error_rows=None, modes=None, tol: float | None = None,
+            training: dict | None = None) -> Reduction:
     """Build the NR-RNCF reduced model of ``full`` for its load case.
 
     ``n_modes`` candidate vibration modes enter the linear MMI simulation over ``ts_mmi``;
@@ -88,38 +90,34 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
     full model's vibration modes at rest (``vibration_modes`` on its free coordinates, at least
     ``n_modes`` of them), when the caller has computed them already; their time is then not in
     ``offline_s``.
+
+    ``tol``: a target χ_rel in per cent. The basis is then grown along the MMI ranking until the
+    a-posteriori error estimate of a training run over ``ts_mmi`` is at most ``tol``
+    (``basis_to_tolerance.nr_rncf_to_tolerance``, with ``training`` its further keyword
+    arguments: the run's ``rho_inf``, ``rtol``, ``atol``, ``samples``, ...); ``max_dofs`` caps
+    the basis tried, ``vms``, ``mds``, ``max_mds``, ``md_tol`` and the spinning-state enrichment
+    are not used, and ``search`` of the result records every basis tried.
     """
+    if tol is not None:
+        from .basis_to_tolerance import nr_rncf_to_tolerance  # it builds on this module
+
+        red = nr_rncf_to_tolerance(full, ts_mmi, tol, n_modes=n_modes, band=band, vm_tol=vm_tol, max_dofs=max_dofs,
+                                   md_method=md_method, deflation_tol=deflation_tol, modes=modes,
+                                   **(training or {}))
+        if error_rows is not None:
+            red.model = red.model.with_error_rows(error_rows)
+        return red
     if not isinstance(full, RotatingFrameModel):
         raise ValueError("nr_rncf reduces a RotatingFrameModel (RNCF); got " + type(full).__name__)
     if spin_state not in ("auto", True, False):
         raise ValueError(f"spin_state must be 'auto', True or False, got {spin_state!r}")
-    times = {}
     body, free = full.body, full.free_mask()
-
-    t0 = time.perf_counter()
-    if modes is None:
-        modes = vibration_modes(body, free, n_modes)
-    else:
-        if modes.phi.shape[0] != body.n_dof or modes.omega.shape[0] < n_modes:
-            raise ValueError(f"modes must hold at least n_modes={n_modes} modes of the full model's {body.n_dof} "
-                             f"coordinates, got phi of shape {tuple(modes.phi.shape)}")
-        modes = eqx.tree_at(lambda m: (m.omega, m.phi), modes, (modes.omega[:n_modes], modes.phi[:, :n_modes]))
-    jax.block_until_ready(modes.phi)
-    times["modes"] = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    ts_mmi = jnp.asarray(ts_mmi, dtype=float)
-    _, vectors, _ = _mmi_loads(full, modes.phi, ts_mmi)
-    phi = align_degenerate_modes(modes.phi, modes.omega, vectors)
-    modes = eqx.tree_at(lambda m: m.phi, modes, phi)
-    history, _, spin = _mmi_loads(full, phi, ts_mmi)
-    eta = modal_response(ts_mmi, history, modes.omega, _modal_damping_ratio(full, modes.omega))
-    spin = float(spin)
-    W = mmi_matrix(ts_mmi, eta)
+    modes, W, spin, times = modal_interaction(full, ts_mmi, n_modes, modes)
     choose = functools.partial(select, W, vms, mds, vm_tol=vm_tol, md_tol=md_tol, max_mds=max_mds,
                                omega=modes.omega, omega_band=band * spin if band else None)
+    t0 = time.perf_counter()
     sel = choose(max_dofs=max_dofs)
-    times["mmi"] = time.perf_counter() - t0
+    times["mmi"] += time.perf_counter() - t0
 
     t0 = time.perf_counter()
     basis = rest = modal_basis(body, free, modes.phi, sel.pairs, vms=sel.vms, md_method=md_method,
@@ -153,6 +151,37 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
     times["total"] = sum(times.values())
     return Reduction(model=model, omega=np.asarray(modes.omega), selection=sel, n_vms=len(sel.vms),
                      n_mds=len(sel.pairs), offline_s=times, spin=check)
+
+
+def modal_interaction(full: RotatingFrameModel, ts_mmi, n_modes: int = 24, modes=None):
+    """The maximum-modal-interaction data of ``full``'s load case (Eq. 39): its ``n_modes``
+    vibration modes at rest (``modes`` when the caller has them: at least ``n_modes`` of them),
+    each cluster of equal frequencies aligned to the loads, the MMI matrix ``W`` of the linear
+    simulation over ``ts_mmi``, and the manoeuvre's largest spin rate. Returns
+    ``(modes, W, spin, offline_s)`` with the wall time of the ``'modes'`` and ``'mmi'`` stages."""
+    times = {}
+    body, free = full.body, full.free_mask()
+    t0 = time.perf_counter()
+    if modes is None:
+        modes = vibration_modes(body, free, n_modes)
+    else:
+        if modes.phi.shape[0] != body.n_dof or modes.omega.shape[0] < n_modes:
+            raise ValueError(f"modes must hold at least n_modes={n_modes} modes of the full model's {body.n_dof} "
+                             f"coordinates, got phi of shape {tuple(modes.phi.shape)}")
+        modes = eqx.tree_at(lambda m: (m.omega, m.phi), modes, (modes.omega[:n_modes], modes.phi[:, :n_modes]))
+    jax.block_until_ready(modes.phi)
+    times["modes"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    ts_mmi = jnp.asarray(ts_mmi, dtype=float)
+    _, vectors, _ = _mmi_loads(full, modes.phi, ts_mmi)
+    phi = align_degenerate_modes(modes.phi, modes.omega, vectors)
+    modes = eqx.tree_at(lambda m: m.phi, modes, phi)
+    history, _, spin = _mmi_loads(full, phi, ts_mmi)
+    eta = modal_response(ts_mmi, history, modes.omega, _modal_damping_ratio(full, modes.omega))
+    W = mmi_matrix(ts_mmi, eta)
+    times["mmi"] = time.perf_counter() - t0
+    return modes, W, float(spin), times
 
 
 def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n_mds, tol, choose, max_dofs,

@@ -76,6 +76,7 @@ class SpinupResult(RunRecord):
     spin: object = None  # the ``SpinCheck`` of the spinning-state enrichment (None: not checked)
     reduction: object = dataclasses.field(default=None, repr=False)  # the ``Reduction`` (W, omega, model)
     estimate: object = None  # the ``reduction.error_estimate.ErrorEstimate`` of the run (None: not made)
+    basis_search: object = None  # the ``reduction.basis_to_tolerance.BasisSearch`` (None: no tol given)
 
     REFERENCE: ClassVar[str] = ("a full RNCF SpinupResult of the same beam mesh and output times, run with "
                                 "save_displacements=True")
@@ -117,7 +118,7 @@ class SpinupResult(RunRecord):
                     "omega_ritz": self.spin.omega_ritz, "rel_err": self.spin.rel_err, "enriched": self.spin.enriched,
                     "spin_vms": list(self.spin.vms), "spin_mds": [list(p) for p in self.spin.pairs]},
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup,
-                **self._estimate_summary(),
+                **self._estimate_summary(), **self._tolerance_summary(),
                 "reference": None if ref is None else {"formulation": ref.formulation, "dofs": ref.dofs,
                                                        **ref.statistics()},
             })
@@ -140,6 +141,16 @@ class SpinupResult(RunRecord):
             out["tip_error_m"] = float(np.linalg.norm(self.tip[at] - self.reference.tip[at], axis=1).max())
         return out
 
+    def _tolerance_summary(self) -> dict:
+        """The basis search's fields (empty without ``tol``): the target, whether it was met,
+        and each basis tried (DOFs and estimate)."""
+        b = self.basis_search
+        if b is None:
+            return {}
+        return {"tol_percent": b.tol, "tol_met": b.met,
+                "basis_trials": [{"columns": t.columns, "dofs": t.dofs, "chi_rel_estimate_percent":
+                                  t.chi_rel_estimate_percent, "seconds": t.seconds} for t in b.trials]}
+
     def table(self) -> str:
         s = self.summary()
         rows = [("formulation", s["formulation"].upper()), ("beam", s["beam"]),
@@ -151,6 +162,12 @@ class SpinupResult(RunRecord):
                      ("offline [s]", f"{s['offline_s']:.2f}")]
             if self.reduction is not None:
                 rows.insert(-1, ("reduced coordinates", self.reduction.describe()))
+            if self.basis_search is not None:
+                b = self.basis_search
+                tried = ", ".join(f"{t.dofs}: {t.chi_rel_estimate_percent:.3g} %"
+                                  for t in sorted(b.trials, key=lambda t: t.columns))
+                rows.insert(-1, ("basis to tol [%]", f"{b.tol:g}: {'met' if b.met else 'NOT MET (largest kept)'}; "
+                                 f"tried DOFs: estimate {tried}"))
             c = s["spin_check"]
             if c is not None:
                 added = (f"added spinning mode(s) {c['spin_vms']} and MDs "
@@ -242,7 +259,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
                        spin_state: bool | str = "auto", rho_inf: float = 0.9, rtol: float = 1e-4,
                        atol: float = 1e-6, dt_out: float = 0.01, reference: "bool | SpinupResult" = False,
                        progress: bool = False, max_steps: int = 500_000, estimate: bool = True,
-                       estimate_samples: int = 16) -> SpinupResult:
+                       estimate_samples: int = 16, tol: float | None = None) -> SpinupResult:
     """The spin-up of Eq. 43 with the NR-RNCF reduced model (paper Section 4.1).
 
     The basis is built by ``nr_rncf`` from ``n_modes`` candidate vibration modes, with the MMI
@@ -258,11 +275,18 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     ``estimate``: the run's a-posteriori error estimate from the run alone, at
     ``estimate_samples`` output times (``reduction.error_estimate``: χ_rel estimated without the
     full run; with a reference also the effectivity, estimate / measured).
+
+    ``tol``: a target χ_rel in per cent. The basis is then the smallest prefix of the MMI ranking
+    whose run has an estimate at or below it (``reduction.basis_to_tolerance``, the run itself
+    the training manoeuvre, ``max_dofs`` the largest basis tried); ``vms``, ``mds`` and
+    ``spin_state`` are not used. ``basis_search`` holds every basis tried.
     """
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
-    red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs, spin_state=spin_state)
+    red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs, spin_state=spin_state,
+                  tol=tol, training=dict(samples=estimate_samples, rho_inf=rho_inf, rtol=rtol, atol=atol,
+                                         max_steps=max_steps))
     model = red.model
     sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
                                            jnp.asarray(ts), observe=_observe_pv, progress=progress, max_steps=max_steps)
@@ -278,7 +302,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         dofs=red.dofs, ts=ts, theta=theta, tip=w[:, body.n_vectors - body.vectors_per_node],
         steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
         compile_s=compile_s, run_s=run_s, displacements=w, vms=red.selection.vms, mds=red.selection.pairs,
-        offline_s=dict(red.offline_s), reduction=red, spin=red.spin,
+        offline_s=dict(red.offline_s), reduction=red, spin=red.spin, basis_search=red.search,
         estimate=estimate_error(full, model, ts, P, V, samples=estimate_samples, output=tip_rows) if estimate else None,
     )
     if reference is False or reference is None:
