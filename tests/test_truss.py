@@ -145,9 +145,10 @@ def test_truss_dynamics_command(capsys, tmp_path):
                  "--plot", str(plot), "--vtk", str(tmp_path / "vtk")])
     assert code == 0
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    for key in ("dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s"):
+    for key in ("dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s", "chi_rel_estimate_percent"):
         assert key in d
     assert d["dofs"] == 10 and len(d["vms"]) == 4 and len(d["mds"]) == 6
+    assert d["chi_rel_estimate_percent"] > 0
     assert np.isfinite(d["tip_y_max_m"]) and d["tip_y_max_m"] > 0
     assert plot.stat().st_size > 0 and len(list((tmp_path / "vtk").glob("*.vtu"))) > 1
     assert main(["truss", "dynamics", "--formulation", "rncf", "--reference", "rncf"]) == 2

@@ -52,11 +52,12 @@ displacement and the estimate is an order of magnitude, not a figure
 @dataclasses.dataclass
 class ErrorEstimate:
     """The static-correction estimate of a reduced run (module docstring): the sampled output
-    times ``ts``, the estimated error |e(t)| and the displacement |w(t)| there (2-norms over all
-    nodal coordinates), ``chi_rel_percent`` (the estimate of χ_rel), the estimated error of a
-    quantity of interest at each sample, ``output_error`` (the correction's rows ``output``
-    of ``estimate_error``, e.g. the tip's displacement; shape (samples, rows), empty without
-    one), and the estimate's compile and run times [s]."""
+    times ``ts``, the estimated error |e(t)| and the displacement |w(t)| there (2-norms over the
+    coordinates ``norm_rows`` of ``estimate_error``, all of them by default), ``chi_rel_percent``
+    (the estimate of χ_rel), the estimated error of a quantity of interest at each sample,
+    ``output_error`` (the correction's rows ``output`` of ``estimate_error``, e.g. the tip's
+    displacement; shape (samples, rows), empty without one), and the estimate's compile and run
+    times [s]."""
 
     ts: np.ndarray
     error_norm: np.ndarray
@@ -96,23 +97,23 @@ def _correction(full, t, q, qd, qdd):
 
 
 @eqx.filter_jit
-def _lifted(reduced, ts, ps, vs):
-    """The sampled reduced states lifted to full coordinates, and their displacements w = q − q̂."""
+def _lifted(reduced, ts, ps, vs, norm_rows):
+    """The sampled reduced states lifted to full coordinates, and |w| = |q − q̂| on ``norm_rows``."""
     q, qd, qdd = jax.vmap(lambda t, p, v: lift(reduced, t, p, v))(ts, ps, vs)
-    w = jax.vmap(lambda p: reduced.coordinates(p).reshape(-1) - reduced.q_hat.reshape(-1))(ps)
-    return q, qd, qdd, w
+    w = jax.vmap(lambda p: reduced.coordinates(p).reshape(-1)[norm_rows] - reduced.q_hat.reshape(-1)[norm_rows])(ps)
+    return q, qd, qdd, jnp.linalg.norm(w, axis=1)
 
 
 @eqx.filter_jit
-def _corrections(full, ts, q, qd, qdd, rows):
-    """|e| and e[rows] at each sample. Apart from the lift, so that it is compiled once per full
+def _corrections(full, ts, q, qd, qdd, norm_rows, rows):
+    """|e| on ``norm_rows`` and e[rows] at each sample. Apart from the lift, so that it is compiled once per full
     model and sample count, whatever the reduced model (``basis_to_tolerance`` tries many
     reduced sizes against one full model). One sample after another (``lax.map``): a vmapped
     factorisation would be one batched LAPACK call, which the library avoids on the CPU
     (``linalg.dense.solve_once``)."""
     def one(args):
         e = _correction(full, *args)
-        return jnp.linalg.norm(e), e[rows]
+        return jnp.linalg.norm(e[norm_rows]), e[rows]
     return lax.map(one, (ts, q, qd, qdd))
 
 
@@ -124,13 +125,15 @@ def sample_indices(n_out: int, samples: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n_out - 1, min(samples, n_out))).astype(int))
 
 
-def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=()) -> ErrorEstimate:
+def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=(), norm_rows=None) -> ErrorEstimate:
     """The static-correction estimate (module docstring) of the reduced run whose coordinates
     ``ps`` and velocities ``vs`` (each (n_out, k)) were recorded at the output times ``ts``,
     against the full RNCF model ``full`` it was reduced from, at ``samples`` of the output times.
     ``output``: indices of full coordinates whose error is wanted on its own (a quantity of
-    interest: the tip node's position, say), in ``output_error``. Compiled once per model
-    structure; compile and run timed apart."""
+    interest: the tip node's position, say), in ``output_error``. ``norm_rows``: the full
+    coordinates the χ_rel norm runs over, as in the measured χ_rel it estimates (default all of
+    them; the membrane's and truss's χ_rel take their position vectors only). Compiled once per
+    model structure; compile and run timed apart."""
     ts, ps, vs = np.asarray(ts, float), np.asarray(ps, float), np.asarray(vs, float)
     if ps.ndim != 2 or ps.shape != vs.shape or ps.shape[0] != ts.shape[0] or ps.shape[1] != reduced.n_dof:
         raise ValueError(f"ps and vs must be (len(ts), {reduced.n_dof}) = ({ts.shape[0]}, {reduced.n_dof}), got "
@@ -141,15 +144,19 @@ def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=()) -> E
     rows = np.asarray(output, dtype=int).reshape(-1)
     if rows.size and (rows.min() < 0 or rows.max() >= full.n_dof):
         raise ValueError(f"output must index the full model's {full.n_dof} coordinates, got {rows.tolist()}")
+    norm_rows = np.arange(full.n_dof) if norm_rows is None else np.asarray(norm_rows, dtype=int).reshape(-1)
+    if norm_rows.size == 0 or norm_rows.min() < 0 or norm_rows.max() >= full.n_dof:
+        raise ValueError(f"norm_rows must index the full model's {full.n_dof} coordinates")
+    norm_rows = jnp.asarray(norm_rows)
     idx = sample_indices(ts.shape[0], int(samples))
     t_s = jnp.asarray(ts[idx])
-    lifted = (reduced, t_s, jnp.asarray(ps[idx]), jnp.asarray(vs[idx]))
+    lifted = (reduced, t_s, jnp.asarray(ps[idx]), jnp.asarray(vs[idx]), norm_rows)
     t0 = time.perf_counter()
     lift_c = _lifted.lower(*lifted).compile()
     t1 = time.perf_counter()
     q, qd, qdd, w = jax.block_until_ready(lift_c(*lifted))
     t2 = time.perf_counter()
-    args = (full, t_s, q, qd, qdd, jnp.asarray(rows))
+    args = (full, t_s, q, qd, qdd, norm_rows, jnp.asarray(rows))
     correct = _corrections.lower(*args).compile()
     t3 = time.perf_counter()
     e, out = jax.block_until_ready(correct(*args))

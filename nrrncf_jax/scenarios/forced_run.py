@@ -34,6 +34,7 @@ class ForcedRun(RunRecord):
     mds: tuple | None = None
     offline_s: float | None = None
     reduction: object = None
+    estimate: object = None  # the ``reduction.error_estimate.ErrorEstimate`` of an NR-RNCF run (None: not made)
 
     REFERENCE: ClassVar[str] = "a full RNCF run of the same body and output times"
 
@@ -47,14 +48,27 @@ class ForcedRun(RunRecord):
                 "vms": None if self.vms is None else list(self.vms),
                 "mds": None if self.mds is None else [list(p) for p in self.mds],
                 **self.statistics(newton_key="newton_iterations"),
-                "offline_s": None if self.offline_s is None else round(self.offline_s, 2), **self.comparison()}
+                "offline_s": None if self.offline_s is None else round(self.offline_s, 2), **self.comparison(),
+                **self.estimate_summary()}
+
+    def estimate_summary(self) -> dict:
+        """The error estimate's fields (empty without one): the estimated χ_rel, whether it is in
+        its reliable range, its samples and run time, and after ``compare`` the effectivity
+        (estimate / measured)."""
+        e = self.estimate
+        if e is None:
+            return {}
+        eff = None if not self.chi_rel_percent else e.chi_rel_percent / self.chi_rel_percent
+        return {"chi_rel_estimate_percent": e.chi_rel_percent, "estimate_reliable": e.reliable,
+                "estimate_samples": int(len(e.ts)), "estimate_run_s": e.run_s, "effectivity": eff}
 
     def command_record(self, **extra) -> dict:
         """What the commands' ``--json`` prints: ``dofs, vms, mds, steps, compile_s, run_s,
         offline_s``, after a comparison also ``reference_dofs, reference_run_s, chi_rel_percent,
         speedup``, the formulation, and ``extra``."""
         s = self.summary()
-        keys = ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s", *self.comparison()]
+        keys = ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s", *self.comparison(),
+                *self.estimate_summary()]
         return {**{k: s[k] for k in keys}, "formulation": self.formulation, **extra}
 
     def displacement_fields(self, body, count: int = 50) -> tuple[dict, np.ndarray]:
@@ -73,12 +87,16 @@ class ForcedRun(RunRecord):
 
 def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *, vms=4, mds=6, n_modes: int = 12,
                spin_state="auto", modes=None, rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-6,
-               progress: bool = False, max_steps: int = 500_000, cls=ForcedRun, **fields) -> ForcedRun:
+               progress: bool = False, max_steps: int = 500_000, estimate: bool = True, estimate_samples: int = 16,
+               cls=ForcedRun, **fields) -> ForcedRun:
     """Run ``full`` (``'rncf'``) or its NR-RNCF reduction (``'nr-rncf'``: ``nr_rncf`` with ``vms``,
     ``mds`` among ``n_modes`` candidates, MMI over ``ts``, no cap on the size; ``modes``: see
     ``nr_rncf``) to the output times
     ``ts``, observing the mean displacement of ``point_vectors``. Returns a ``cls`` (a
-    ``ForcedRun``) with ``fields`` added."""
+    ``ForcedRun``) with ``fields`` added. ``estimate``: an NR-RNCF run's a-posteriori error
+    estimate from the run alone (``reduction.error_estimate``, at ``estimate_samples`` output
+    times, over the position vectors as χ_rel is): one sparse factorisation of the full model per
+    sample, seconds on the 19k-DOF bodies."""
     from ..reduction.pipeline import nr_rncf
 
     if formulation not in FORMULATIONS:
@@ -96,15 +114,17 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
         model = red.model
 
     def observe(t, q, v):
-        # The reduced model's p alone keeps the loop's carry small (the output buffer is carried
-        # through every step); its displacements are rebuilt afterwards.
-        return q if red is not None else model.displacements(t, q)[pos]
+        # The reduced model's (p, ṗ) alone keeps the loop's carry small (the output buffer is
+        # carried through every step); its displacements are rebuilt afterwards.
+        return (q, v) if red is not None else model.displacements(t, q)[pos]
 
     sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
                                            jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps)
-    w = np.asarray(jax.device_get(sol.ys))
     if red is not None:
-        w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p)[pos])(jnp.asarray(w)))
+        P, V = (np.asarray(y) for y in jax.device_get(sol.ys))
+        w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p)[pos])(jnp.asarray(P)))
+    else:
+        w = np.asarray(jax.device_get(sol.ys))
     where = {int(p): i for i, p in enumerate(pos)}
     run = cls(formulation=formulation, dofs=int(np.sum(np.asarray(full.free_mask()))) if red is None else red.dofs,
               ts=np.asarray(ts), point=w[:, [where[int(p)] for p in np.atleast_1d(point_vectors)]].mean(axis=1),
@@ -113,6 +133,10 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     if red is not None:
         run.vms, run.mds, run.reduction = red.selection.vms, red.selection.pairs, red
         run.offline_s = red.offline_s["total"]  # nr_rncf's own timing of its stages
+        if estimate:
+            from ..reduction.error_estimate import estimate_error
+
+            run.estimate = estimate_error(full, model, ts, P, V, samples=estimate_samples, norm_rows=rows)
     return run
 
 
