@@ -82,7 +82,9 @@ def test_in_plane_case_needs_the_modal_derivative():
     """Case A at ωs = 7 rad/s over the spin-up (0-2 s): VM 19 alone misses the centrifugal stretch
     (its radial rim deflection stays zero); with θ19,19 NR-RNCF follows the full model within the
     issue's 1 %. Both runs' error estimates (from the reduced run alone, over the position
-    vectors as χ_rel) are within the effectivity band [0.5, 2] of the measured χ_rel."""
+    vectors as χ_rel) are within the effectivity band [0.5, 2] of the measured χ_rel, and a basis
+    chosen to 1 % (``tol``) is the paper's: the in-plane torsion mode and its MD, the one
+    candidate mode the load excites."""
     kw = dict(t_end=2.0, dt_out=0.02, rtol=1e-4, atol=1e-6)
     ref = run_membrane("in-plane", 7.0, "rncf", SMALL, **kw)
     both = run_membrane("in-plane", 7.0, "nr-rncf", SMALL, n_modes=24, reference=ref, **kw)
@@ -91,6 +93,9 @@ def test_in_plane_case_needs_the_modal_derivative():
     assert both.chi_rel_percent < 1.0 and alone.chi_rel_percent > 3 * both.chi_rel_percent
     for run in (both, alone):
         assert 0.5 <= run.estimate.chi_rel_percent / run.chi_rel_percent <= 2.0, run.summary()
+    chosen = run_membrane("in-plane", 7.0, "nr-rncf", SMALL, n_modes=24, tol=1.0, reference=ref, **kw)
+    assert chosen.vms == both.vms and chosen.mds == both.mds and chosen.dofs == 2
+    assert chosen.summary()["tol_met"] and chosen.chi_rel_percent < 1.0
     radial = np.abs(ref.rim[:, 0]).max()
     assert radial > 0 and np.abs(alone.rim[:, 0]).max() < 1e-3 * radial
     assert np.abs(both.rim[:, 0]).max() == pytest.approx(radial, rel=0.05)

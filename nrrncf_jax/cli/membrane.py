@@ -41,7 +41,7 @@ def _run(args) -> int:
         run = ref
     else:
         mds = None if args.mds is None else ([] if args.mds == ["none"] else args.mds)
-        run = run_membrane(args.case, omega, "nr-rncf", spec, vms=args.vms, mds=mds, n_modes=args.modes,
+        run = run_membrane(args.case, omega, "nr-rncf", spec, vms=args.vms, mds=mds, n_modes=args.modes, tol=args.tol,
                            reference=ref if ref is not None else False, **kw)
     if args.plot:
         from ..post.plotting import plot_membrane_rim
@@ -67,9 +67,11 @@ def _check(args) -> None:
     _common.output_path("--plot", args.plot)
     _common.output_times(args.t_end, args.dt_out)
     _validate.tolerances(args.rtol, args.atol)
+    if args.tol is not None:
+        _validate.positive("--tol (target chi_rel in per cent)", args.tol)
     if args.formulation == "rncf":
-        if args.reference is not None:
-            raise ValueError("--reference goes with --formulation nr-rncf")
+        if args.reference is not None or args.tol is not None:
+            raise ValueError("--reference and --tol go with --formulation nr-rncf")
         if args.vms is not None or args.mds is not None:
             raise ValueError("--vms and --mds go with --formulation nr-rncf")
     if args.mds is not None and "none" in args.mds and len(args.mds) > 1:
@@ -97,6 +99,9 @@ def register(sub) -> None:
     t.add_argument("--mds", type=lambda s: s if s == "none" else _pair(s), nargs="+", default=None,
                    help="nr-rncf: modal derivatives as pairs i,j, or 'none' (default: all pairs of the VMs)")
     t.add_argument("--modes", type=int, default=24, help="nr-rncf: candidate modes (the MMI's)")
+    t.add_argument("--tol", type=float, default=None, metavar="P",
+                   help="nr-rncf: choose the basis to a target chi_rel of P per cent (the smallest prefix of the MMI "
+                        "ranking whose run's error estimate is <= P/2; --vms and --mds are then not used)")
     t.add_argument("--reference", choices=("rncf",), default=None,
                    help="nr-rncf: also run the full RNCF model and report chi_rel and the speed-up")
     t.add_argument("--rings", type=int, default=15, help="rings of the hexagonal disk mesh (15: 1350 triangles)")

@@ -12,6 +12,7 @@ Mode indices are 0-based.
 
 import json
 
+from .. import _validate
 from . import _common
 
 
@@ -74,7 +75,7 @@ def _dynamics(args) -> int:
     if args.formulation == "rncf":
         run = ref
     else:
-        run = run_truss("nr-rncf", spec, vms=args.vms, mds=args.mds, n_modes=args.modes,
+        run = run_truss("nr-rncf", spec, vms=args.vms, mds=args.mds, n_modes=args.modes, tol=args.tol,
                         reference=ref if ref is not None else False, **kw)
     if args.plot:
         from ..post.plotting import plot_truss_tip
@@ -101,8 +102,10 @@ def _check(args) -> None:
         _common.at_least("--count", args.count, 1)
     else:
         _common.output_times(args.t_end, args.dt_out)
-        if args.formulation == "rncf" and args.reference is not None:
-            raise ValueError("--reference goes with --formulation nr-rncf")
+        if args.tol is not None:
+            _validate.positive("--tol (target chi_rel in per cent)", args.tol)
+        if args.formulation == "rncf" and (args.reference is not None or args.tol is not None):
+            raise ValueError("--reference and --tol go with --formulation nr-rncf")
         _common.at_least("--vms", args.vms, 1)
         _common.at_least("--mds", args.mds, 0)
         _common.at_least("--modes", args.modes, args.vms)
@@ -123,6 +126,9 @@ def register(sub) -> None:
     t.add_argument("--vms", type=int, default=4, help="dynamics, nr-rncf: vibration modes chosen by MMI")
     t.add_argument("--mds", type=int, default=6, help="dynamics, nr-rncf: modal derivatives chosen by MMI")
     t.add_argument("--modes", type=int, default=12, help="dynamics, nr-rncf: candidate modes for the MMI")
+    t.add_argument("--tol", type=float, default=None, metavar="P",
+                   help="dynamics, nr-rncf: choose the basis to a target chi_rel of P per cent (the smallest prefix of "
+                        "the MMI ranking whose run's error estimate is <= P/2; --vms and --mds are then not used)")
     t.add_argument("--reference", choices=("rncf",), default=None,
                    help="dynamics, nr-rncf: also run the full RNCF model and report chi_rel and the speed-up")
     t.add_argument("--t-end", type=float, default=10.0, help="dynamics: end time [s]")

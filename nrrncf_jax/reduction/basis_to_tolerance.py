@@ -110,6 +110,13 @@ class BasisSearch:
     order: list
     estimate: ErrorEstimate
 
+    def summary(self) -> dict:
+        """The JSON-ready record: the target, whether it was met, and each basis tried."""
+        return {"tol_percent": self.tol, "tol_met": self.met,
+                "basis_trials": [{"columns": t.columns, "dofs": t.dofs,
+                                  "chi_rel_estimate_percent": t.chi_rel_estimate_percent, "seconds": t.seconds}
+                                 for t in self.trials]}
+
     def describe(self) -> str:
         """What was chosen and why: the tolerance, the verdict and every trial."""
         c = self.chosen
@@ -135,7 +142,8 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
                          vm_tol: float = 1e-6, max_dofs: int | None = None, samples: int = 16,
                          md_method: str = "closed_form", deflation_tol: float = 1e-6, rho_inf: float = 0.9,
                          rtol: float = 1e-4, atol: float = 1e-6, max_steps: int = 500_000,
-                         start: int = 2, safety: float = 2.0, modes=None) -> Reduction:
+                         start: int = 2, safety: float = 2.0, error_rows=None, norm_rows=None,
+                         modes=None) -> Reduction:
     """The NR-RNCF reduced model of ``full`` with the smallest greedy basis whose training run
     over the output times ``ts`` has an error estimate of at most ``tol`` per cent χ_rel (module
     docstring). ``max_dofs`` caps the columns tried (default: every candidate); ``start`` is the
@@ -175,10 +183,12 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         basis = modal_basis(body, free, phi, pairs, vms=vms, theta=theta[:, cols] if cols else None,
                             deflation_tol=deflation_tol)
         model = _reduce(full, basis.Psi, force="auto")
+        if error_rows is not None:
+            model = model.with_error_rows(error_rows)
         sol = simulate(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol), jnp.asarray(ts),
                        observe=_observe_pv, max_steps=max_steps)
         P, V = (np.asarray(y) for y in sol.ys)
-        est = estimate_error(full, model, ts, P, V, samples=samples)
+        est = estimate_error(full, model, ts, P, V, samples=samples, norm_rows=norm_rows)
         jax.block_until_ready(model.elastic.N)
         runs[n] = (model, est)
         trials[n] = Trial(columns=n, dofs=model.n_dof, vms=vms, pairs=pairs,

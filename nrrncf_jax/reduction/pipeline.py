@@ -101,12 +101,9 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
     if tol is not None:
         from .basis_to_tolerance import nr_rncf_to_tolerance  # it builds on this module
 
-        red = nr_rncf_to_tolerance(full, ts_mmi, tol, n_modes=n_modes, band=band, vm_tol=vm_tol, max_dofs=max_dofs,
-                                   md_method=md_method, deflation_tol=deflation_tol, modes=modes,
-                                   **(training or {}))
-        if error_rows is not None:
-            red.model = red.model.with_error_rows(error_rows)
-        return red
+        return nr_rncf_to_tolerance(full, ts_mmi, tol, n_modes=n_modes, band=band, vm_tol=vm_tol, max_dofs=max_dofs,
+                                    md_method=md_method, deflation_tol=deflation_tol, modes=modes,
+                                    error_rows=error_rows, **(training or {}))
     if not isinstance(full, RotatingFrameModel):
         raise ValueError("nr_rncf reduces a RotatingFrameModel (RNCF); got " + type(full).__name__)
     if spin_state not in ("auto", True, False):

@@ -59,8 +59,10 @@ class ForcedRun(RunRecord):
         if e is None:
             return {}
         eff = None if not self.chi_rel_percent else e.chi_rel_percent / self.chi_rel_percent
+        search = getattr(self.reduction, "search", None)
         return {"chi_rel_estimate_percent": e.chi_rel_percent, "estimate_reliable": e.reliable,
-                "estimate_samples": int(len(e.ts)), "estimate_run_s": e.run_s, "effectivity": eff}
+                "estimate_samples": int(len(e.ts)), "estimate_run_s": e.run_s, "effectivity": eff,
+                **({} if search is None else search.summary())}
 
     def command_record(self, **extra) -> dict:
         """What the commands' ``--json`` prints: ``dofs, vms, mds, steps, compile_s, run_s,
@@ -88,7 +90,7 @@ class ForcedRun(RunRecord):
 def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *, vms=4, mds=6, n_modes: int = 12,
                spin_state="auto", modes=None, rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-6,
                progress: bool = False, max_steps: int = 500_000, estimate: bool = True, estimate_samples: int = 16,
-               cls=ForcedRun, **fields) -> ForcedRun:
+               tol: float | None = None, cls=ForcedRun, **fields) -> ForcedRun:
     """Run ``full`` (``'rncf'``) or its NR-RNCF reduction (``'nr-rncf'``: ``nr_rncf`` with ``vms``,
     ``mds`` among ``n_modes`` candidates, MMI over ``ts``, no cap on the size; ``modes``: see
     ``nr_rncf``) to the output times
@@ -96,7 +98,9 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     ``ForcedRun``) with ``fields`` added. ``estimate``: an NR-RNCF run's a-posteriori error
     estimate from the run alone (``reduction.error_estimate``, at ``estimate_samples`` output
     times, over the position vectors as χ_rel is): one sparse factorisation of the full model per
-    sample, seconds on the 19k-DOF bodies."""
+    sample, seconds on the 19k-DOF bodies. ``tol``: the basis chosen to a target χ_rel in per cent
+    instead (``nr_rncf(..., tol=...)``, the run itself the training manoeuvre; ``vms``, ``mds``
+    and ``spin_state`` are then not used)."""
     from ..reduction.pipeline import nr_rncf
 
     if formulation not in FORMULATIONS:
@@ -110,7 +114,9 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
         # all of a large body's coordinates every step costs more than the reduced step itself.
         rows = (3 * pos[:, None] + np.arange(3)).reshape(-1)
         red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=None, error_rows=rows,
-                      spin_state=spin_state, modes=modes)
+                      spin_state=spin_state, modes=modes, tol=tol,
+                      training=dict(samples=estimate_samples, rho_inf=rho_inf, rtol=rtol, atol=atol,
+                                    max_steps=max_steps, norm_rows=rows))
         model = red.model
 
     def observe(t, q, v):

@@ -142,14 +142,8 @@ class SpinupResult(RunRecord):
         return out
 
     def _tolerance_summary(self) -> dict:
-        """The basis search's fields (empty without ``tol``): the target, whether it was met,
-        and each basis tried (DOFs and estimate)."""
-        b = self.basis_search
-        if b is None:
-            return {}
-        return {"tol_percent": b.tol, "tol_met": b.met,
-                "basis_trials": [{"columns": t.columns, "dofs": t.dofs, "chi_rel_estimate_percent":
-                                  t.chi_rel_estimate_percent, "seconds": t.seconds} for t in b.trials]}
+        """The basis search's fields (empty without ``tol``): ``BasisSearch.summary``."""
+        return {} if self.basis_search is None else self.basis_search.summary()
 
     def table(self) -> str:
         s = self.summary()
