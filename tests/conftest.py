@@ -86,3 +86,16 @@ def pendulum_run():
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum
 
     return run_pendulum(PendulumSpec(elements=2), **PENDULUM_RUN)
+
+
+def pytest_collection_modifyitems(config, items):
+    """The longest tests first: the notebooks, then the rest of the slow tier, then the fast one
+    (a stable sort: each file's order within a rank is kept). pytest-xdist hands work to its
+    workers in this order, so a notebook of two minutes started last would leave the other
+    worker idle until it ends."""
+    def rank(item):
+        if item.path.name == "test_notebooks.py":
+            return 0
+        return 1 if item.get_closest_marker("slow") else 2
+
+    items.sort(key=rank)
