@@ -81,6 +81,13 @@ def test_sample_indices_and_bad_input(spin):
         estimate_error(full, red, TS, np.zeros((3, 3)), np.zeros((3, 3)))
     with pytest.raises(ValueError, match="output"):
         estimate_error(full, red, TS[:2], np.zeros((2, 3)), np.zeros((2, 3)), output=[full.n_dof])
+    with pytest.raises(ValueError, match="norm_rows"):
+        estimate_error(full, red, TS[:2], np.zeros((2, 3)), np.zeros((2, 3)), norm_rows=[-1])
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="tol"):
+            nr_rncf(full, TS, tol=bad)
+    with pytest.raises(ValueError, match="safety"):
+        nr_rncf(full, TS, tol=1.0, training=dict(safety=0.0))
 
 
 def test_greedy_order_ranks_by_interaction_and_breaks_ties_by_index():
