@@ -139,7 +139,11 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     if red is not None:
         run.vms, run.mds, run.reduction = red.selection.vms, red.selection.pairs, red
         run.offline_s = red.offline_s["total"]  # nr_rncf's own timing of its stages
-        if estimate:
+        if red.search is not None:
+            # The search ran the chosen basis over these output times with these settings: its
+            # estimate is this run's, and a second one would cost a sparse factorisation a sample.
+            run.estimate = red.search.estimate
+        elif estimate:
             from ..reduction.error_estimate import estimate_error
 
             run.estimate = estimate_error(full, model, ts, P, V, samples=estimate_samples, norm_rows=rows)
