@@ -3,21 +3,21 @@ ranking until the a-posteriori error estimate of a training run is below the tar
 divided by a safety factor (``nr_rncf_to_tolerance``'s ``safety``: the estimate can fall short of
 the true error by up to about 3x on small bases).
 
-The candidates are the vibration modes the MMI simulation finds active (``select``'s ``'auto'``
-rule: amplitude at least ``vm_tol`` of the largest, and inside ``band`` times the largest spin
-rate or strongly loaded) and the modal derivatives of their pairs. The *greedy order* ranks them
+The candidates are the vibration modes the MMI simulation finds active (amplitude at least
+``vm_tol`` of the largest; unlike ``nr_rncf``'s ``'auto'`` choice, no spin-rate band: the order
+itself puts weakly excited modes late) and the modal derivatives of their pairs. The *greedy order* ranks them
 by modal interaction (Eq. 39): at each place the candidate of largest weight among those
 available, a VM i weighing W_ii and an MD θ_ij weighing W_ij, an MD being available once both of
 its modes are in. (By Cauchy-Schwarz W_ij ≤ √(W_ii W_jj), so each MD comes after the first of its
-modes; θ_11 of a spinning beam, its foreshortening, typically comes second.) Weights within
+modes; a spinning beam's first mode with itself, its foreshortening, typically comes second.) Weights within
 ``TIE`` of each other, relative to the largest, count as tied and keep the candidates' index
 order: a ranking decided by round-off would make the chosen basis depend on the CPU.
 
 A basis is a prefix of that order, SVD-deflated (Algorithm 1). Each prefix tried is a *trial*:
 its reduced model is built, run over the training manoeuvre (the full model's own load case on
 the output times ``ts``) and its error estimated from the run alone
-(``reduction.error_estimate``). The shortest prefix whose estimate is at most ``tol / safety`` is searched
-by growth (prefix lengths 2, 3, 5, 8, 12, ... : ×1.5) and then bisection between the last
+(``reduction.error_estimate``). The shortest prefix whose estimate is at most ``tol / safety`` is
+searched by growth (prefix lengths 2, 3, 5, 8, 12, ... : ×1.5) and then bisection between the last
 failing and the first passing length, which assumes that the estimate falls along the order;
 every trial is recorded, so where it does not the record shows it. A trial compiles its own
 reduced model (the reduced size is a shape), which is most of its cost.
@@ -138,18 +138,18 @@ def _observe_pv(t, p, v):
     return p, v
 
 
-def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: int = 24, band: float = 6.0,
+def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: int = 24,
                          vm_tol: float = 1e-6, max_dofs: int | None = None, samples: int = 16,
                          md_method: str = "closed_form", deflation_tol: float = 1e-6, rho_inf: float = 0.9,
                          rtol: float = 1e-4, atol: float = 1e-6, max_steps: int = 500_000,
                          start: int = 2, safety: float = 2.0, error_rows=None, norm_rows=None,
                          modes=None) -> Reduction:
     """The NR-RNCF reduced model of ``full`` with the smallest greedy basis whose training run
-    over the output times ``ts`` has an error estimate of at most ``tol`` per cent χ_rel (module
-    docstring). ``max_dofs`` caps the columns tried (default: every candidate); ``start`` is the
+    over the output times ``ts`` has an error estimate of at most ``tol / safety`` per cent χ_rel
+    (module docstring). ``max_dofs`` caps the columns tried (default: every candidate); ``start`` is the
     first prefix length tried; ``samples`` the estimate's sample count; ``rho_inf``, ``rtol``,
     ``atol`` and ``max_steps`` the training run's integrator settings (those of the run the
-    basis is for). ``n_modes``, ``band``, ``vm_tol``, ``md_method``, ``deflation_tol`` and
+    basis is for). ``n_modes``, ``vm_tol``, ``md_method``, ``deflation_tol`` and
     ``modes`` are ``nr_rncf``'s (``nr_rncf(..., tol=...)`` calls this). Returns the ``Reduction``
     of the chosen basis, with ``search`` (a ``BasisSearch``) holding every trial; ``search.met``
     is False (and the largest basis tried is kept) when no basis reaches the tolerance."""

@@ -95,13 +95,13 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
     a-posteriori error estimate of a training run over ``ts_mmi`` is at most ``tol``
     (``basis_to_tolerance.nr_rncf_to_tolerance``, with ``training`` its further keyword
     arguments: the run's ``rho_inf``, ``rtol``, ``atol``, ``samples``, ...); ``max_dofs`` caps
-    the basis tried, ``vms``, ``mds``, ``max_mds``, ``md_tol`` and the spinning-state enrichment
-    are not used, and ``search`` of the result records every basis tried.
+    the basis tried, ``vms``, ``mds``, ``max_mds``, ``md_tol``, ``band`` and the spinning-state
+    enrichment are not used, and ``search`` of the result records every basis tried.
     """
     if tol is not None:
         from .basis_to_tolerance import nr_rncf_to_tolerance  # it builds on this module
 
-        return nr_rncf_to_tolerance(full, ts_mmi, tol, n_modes=n_modes, band=band, vm_tol=vm_tol, max_dofs=max_dofs,
+        return nr_rncf_to_tolerance(full, ts_mmi, tol, n_modes=n_modes, vm_tol=vm_tol, max_dofs=max_dofs,
                                     md_method=md_method, deflation_tol=deflation_tol, modes=modes,
                                     error_rows=error_rows, **(training or {}))
     if not isinstance(full, RotatingFrameModel):
