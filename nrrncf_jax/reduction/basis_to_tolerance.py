@@ -1,16 +1,16 @@
-"""An NR-RNCF basis chosen to a tolerance (issue 34): grown along the maximum-modal-interaction
+"""An NR-RNCF basis chosen to a tolerance: grown along the maximum-modal-interaction
 ranking until the a-posteriori error estimate of a training run is below the target χ_rel
 divided by a safety factor (``nr_rncf_to_tolerance``'s ``safety``: the estimate can fall short of
 the true error by up to about 3x on small bases).
 
 The candidates are the vibration modes the MMI simulation finds active (amplitude at least
 ``vm_tol`` of the largest; unlike ``nr_rncf``'s ``'auto'`` choice, no spin-rate band: the order
-itself puts weakly excited modes late) and the modal derivatives of their pairs. The *greedy order* ranks them
-by modal interaction (Eq. 39): at each place the candidate of largest weight among those
+itself puts weakly excited modes late) and the modal derivatives of their pairs. The *greedy
+order* ranks them by modal interaction (Eq. 39): at each place the candidate of largest weight among those
 available, a VM i weighing W_ii and an MD θ_ij weighing W_ij, an MD being available once both of
 its modes are in. (By Cauchy-Schwarz W_ij ≤ √(W_ii W_jj), so each MD comes after the first of its
-modes; a spinning beam's first mode with itself, its foreshortening, typically comes second.) Weights within
-``TIE`` of each other, relative to the largest, count as tied and keep the candidates' index
+modes; a spinning beam's first mode with itself, its foreshortening, typically comes second.)
+Weights within ``TIE`` of each other, relative to the largest, count as tied and keep the candidates' index
 order: a ranking decided by round-off would make the chosen basis depend on the CPU.
 
 A basis is a prefix of that order, SVD-deflated (Algorithm 1). Each prefix tried is a *trial*:
@@ -33,7 +33,6 @@ import dataclasses
 import math
 import time
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -98,9 +97,9 @@ class Trial:
 @dataclasses.dataclass
 class BasisSearch:
     """How a basis was chosen to ``tol`` (per cent χ_rel; a basis passes with an estimate at most
-    ``tol / safety``): whether the tolerance was ``met``,
-    every ``Trial`` in the order it was made, the ``chosen`` one, the greedy ``order`` and the
-    chosen trial's ``estimate`` (its ``ErrorEstimate``)."""
+    ``tol / safety``): whether the tolerance was ``met``, every ``Trial`` in the order it was
+    made, the ``chosen`` one, the greedy ``order`` and the chosen trial's ``estimate`` (its
+    ``ErrorEstimate``)."""
 
     tol: float
     safety: float
@@ -142,12 +141,12 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
                          vm_tol: float = 1e-6, max_dofs: int | None = None, samples: int = 16,
                          md_method: str = "closed_form", deflation_tol: float = 1e-6, rho_inf: float = 0.9,
                          rtol: float = 1e-4, atol: float = 1e-6, max_steps: int = 500_000,
-                         start: int = 2, safety: float = 2.0, error_rows=None, norm_rows=None,
+                         start: int = 2, safety: float = 2.0, error_rows=None, norm_rows=None, output=(),
                          modes=None) -> Reduction:
     """The NR-RNCF reduced model of ``full`` with the smallest greedy basis whose training run
     over the output times ``ts`` has an error estimate of at most ``tol / safety`` per cent χ_rel
-    (module docstring). ``max_dofs`` caps the columns tried (default: every candidate); ``start`` is the
-    first prefix length tried; ``samples`` the estimate's sample count; ``rho_inf``, ``rtol``,
+    (module docstring). ``max_dofs`` caps the columns tried (default: every candidate); ``start``
+    is the first prefix length tried; ``samples`` the estimate's sample count; ``rho_inf``, ``rtol``,
     ``atol`` and ``max_steps`` the training run's integrator settings (those of the run the
     basis is for). ``n_modes``, ``vm_tol``, ``md_method``, ``deflation_tol`` and
     ``modes`` are ``nr_rncf``'s (``nr_rncf(..., tol=...)`` calls this). Returns the ``Reduction``
@@ -188,8 +187,7 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         sol = simulate(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol), jnp.asarray(ts),
                        observe=_observe_pv, max_steps=max_steps)
         P, V = (np.asarray(y) for y in sol.ys)
-        est = estimate_error(full, model, ts, P, V, samples=samples, norm_rows=norm_rows)
-        jax.block_until_ready(model.elastic.N)
+        est = estimate_error(full, model, ts, P, V, samples=samples, output=output, norm_rows=norm_rows)
         runs[n] = (model, est)
         trials[n] = Trial(columns=n, dofs=model.n_dof, vms=vms, pairs=pairs,
                           chi_rel_estimate_percent=est.chi_rel_percent, reliable=est.reliable,

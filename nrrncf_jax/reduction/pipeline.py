@@ -92,8 +92,8 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
     ``offline_s``.
 
     ``tol``: a target χ_rel in per cent. The basis is then grown along the MMI ranking until the
-    a-posteriori error estimate of a training run over ``ts_mmi`` is at most ``tol``
-    (``basis_to_tolerance.nr_rncf_to_tolerance``, with ``training`` its further keyword
+    a-posteriori error estimate of a training run over ``ts_mmi`` is at most ``tol / safety``
+    (``basis_to_tolerance.nr_rncf_to_tolerance``, safety 2 by default; with ``training`` its further keyword
     arguments: the run's ``rho_inf``, ``rtol``, ``atol``, ``samples``, ...); ``max_dofs`` caps
     the basis tried, ``vms``, ``mds``, ``max_mds``, ``md_tol``, ``band`` and the spinning-state
     enrichment are not used, and ``search`` of the result records every basis tried.

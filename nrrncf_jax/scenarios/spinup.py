@@ -271,16 +271,18 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     full run; with a reference also the effectivity, estimate / measured).
 
     ``tol``: a target χ_rel in per cent. The basis is then the smallest prefix of the MMI ranking
-    whose run has an estimate at or below it (``reduction.basis_to_tolerance``, the run itself
+    whose run has an estimate at or below ``tol`` / 2 (``reduction.basis_to_tolerance``, the run itself
     the training manoeuvre, ``max_dofs`` the largest basis tried); ``vms``, ``mds`` and
     ``spin_state`` are not used. ``basis_search`` holds every basis tried.
     """
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
+    body = full.body
+    tip_rows = 3 * (body.n_vectors - body.vectors_per_node) + np.arange(3)  # the tip node's position
     red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs, spin_state=spin_state,
                   tol=tol, training=dict(samples=estimate_samples, rho_inf=rho_inf, rtol=rtol, atol=atol,
-                                         max_steps=max_steps))
+                                         max_steps=max_steps, output=tip_rows))
     model = red.model
     sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
                                            jnp.asarray(ts), observe=_observe_pv, progress=progress, max_steps=max_steps)
@@ -288,16 +290,16 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     P, V = sol.ys
     w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(P))
     theta = np.asarray(jax.vmap(lambda t: full.motion(t)[0])(jnp.asarray(ts)))
-    body = full.body
     name = beam if isinstance(beam, str) else beam.name
-    tip_rows = 3 * (body.n_vectors - body.vectors_per_node) + np.arange(3)  # the tip node's position
     res = SpinupResult(
         formulation="nr-rncf", beam=name, omega_s=float(omega_s), T_s=float(T_s), elements=body.n_elements,
         dofs=red.dofs, ts=ts, theta=theta, tip=w[:, body.n_vectors - body.vectors_per_node],
         steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
         compile_s=compile_s, run_s=run_s, displacements=w, vms=red.selection.vms, mds=red.selection.pairs,
         offline_s=dict(red.offline_s), reduction=red, spin=red.spin, basis_search=red.search,
-        estimate=estimate_error(full, model, ts, P, V, samples=estimate_samples, output=tip_rows) if estimate else None,
+        # With tol, the search ran the chosen basis over these output times: its estimate is this run's.
+        estimate=red.search.estimate if red.search is not None else
+        estimate_error(full, model, ts, P, V, samples=estimate_samples, output=tip_rows) if estimate else None,
     )
     if reference is False or reference is None:
         return res
