@@ -184,6 +184,7 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
                              "--reference", "ancf", "--json"]) == 0
     assert [kw.get("formulation", "ancf") for _, kw in calls] == ["ancf", "nr-rncf"]
     assert calls[1][1]["n_vms"] == 3 and calls[1][1]["pairs"] == [] and calls[1][1]["joint_modes"] is True
+    assert calls[1][1]["estimate"] is True and calls[1][1]["estimate_method"] == "static"  # by default
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert d["chi_rel_percent"] == pytest.approx(50.0, rel=RTOL_ROUNDOFF) and d["speedup"] == pytest.approx(2.0)
     assert d["reference_dofs"] == pendulum_run.dofs
@@ -194,7 +195,15 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     assert calls[1][1]["craig_bampton"] is True and calls[1][1]["joint_modes"] is False
     np.testing.assert_allclose([(kw["rtol"], kw["atol"]) for _, kw in calls], [(1e-6, 1e-7), (1e-5, 1e-6)],
                                rtol=1e-12)
+    calls.clear()
+    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--estimate-method", "dynamic", "--json"]) == 0
+    assert calls[0][1]["estimate"] is True and calls[0][1]["estimate_method"] == "dynamic"
+    calls.clear()
+    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--no-estimate", "--json"]) == 0
+    assert calls[0][1]["estimate"] is False
     capsys.readouterr()
+    assert main(["pendulum", "--no-estimate"]) == 2
+    assert "--no-estimate go with --formulation nr-rncf" in capsys.readouterr().err
     assert main(["pendulum", "--formulation", "nr-rncf", "--reference-rtol", "1e-6"]) == 2
     assert "--reference-rtol needs --reference ancf" in capsys.readouterr().err
     assert main(["pendulum", "--formulation", "nr-rncf", "--craig-bampton", "--joint-modes"]) == 2

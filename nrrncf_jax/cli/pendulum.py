@@ -3,6 +3,7 @@
 
     nrrncf pendulum [--formulation {ancf,rncf,nr-rncf}] [--elements 10] [--vms 5] [--mds all|none]
                     [--joint-modes | --craig-bampton]
+                    [--no-estimate | --estimate-method {static,dynamic}]
                     [--reference {ancf,rncf}] [--reference-rtol R] [--t-end 2] [--dt-out 0.001]
                     [--out tips.csv] [--plot F] [--animate F.gif] [--vtk DIR] [--json] [--no-progress]
 
@@ -14,7 +15,13 @@ coordinates. ``nr-rncf``: each beam in its floating frame with its deformation r
 first ``--vms`` cantilever modes and their modal derivatives (``multibody.floating``), or with
 ``--craig-bampton`` to the extended Craig-Bampton basis (``reduction.craig_bampton``);
 ``--reference ancf|rncf`` runs that full model too and reports χ_rel and the speed-up
-(``--reference-rtol``: the full model at its own tolerance).
+(``--reference-rtol``: the full model at its own tolerance). An ``nr-rncf`` run carries its error
+estimate from the run alone (``chi_rel_estimate_percent``, ``multibody.error_estimate``; with
+``--reference`` its ``effectivity``) unless ``--no-estimate``. ``--estimate-method static``
+(the default) sees each beam's deformation error, not the drift of the chain's swing that error
+causes over time, and reads low where that drift dominates; ``dynamic`` integrates the
+linearised error equation and follows the drift until its linearisation fails
+(``estimate_valid_until_s``; ``benchmarks/results/error_estimate_mechanism.md``).
 
 ``--out`` writes the columns ``t, x1, y1, x2, y2, x3, y3``: each beam's right end, global (the
 hinge at the origin, the beams initially along +x). ``--plot`` draws the shapes at 0, 0.5, 1, 1.5
@@ -49,7 +56,8 @@ def _run(args) -> int:
         run = ref
     else:
         run = run_pendulum(spec, formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
-                           joint_modes=args.joint_modes, craig_bampton=args.craig_bampton, **kw)
+                           joint_modes=args.joint_modes, craig_bampton=args.craig_bampton,
+                           estimate=not args.no_estimate, estimate_method=args.estimate_method, **kw)
         if ref is not None:
             run.compare(ref)
     if args.out:
@@ -77,8 +85,9 @@ def _check(args) -> None:
     if args.reference_rtol is not None and (args.reference is None or not args.reference_rtol > 0):
         raise ValueError("--reference-rtol needs --reference ancf|rncf and a positive value")
     if args.formulation != "nr-rncf" and (args.reference is not None or args.vms is not None or args.mds is not None
-                                       or args.joint_modes or args.craig_bampton):
-        raise ValueError("--reference, --vms, --mds, --joint-modes and --craig-bampton go with --formulation nr-rncf")
+                                       or args.joint_modes or args.craig_bampton or args.no_estimate):
+        raise ValueError("--reference, --vms, --mds, --joint-modes, --craig-bampton and --no-estimate go with "
+                         "--formulation nr-rncf")
     if args.joint_modes and args.craig_bampton:
         raise ValueError("--craig-bampton already holds the joint's static modes: pass one of --joint-modes, "
                          "--craig-bampton")
@@ -118,7 +127,15 @@ def register(sub) -> None:
                    help="nr-rncf: the extended Craig-Bampton basis: the right end's position as boundary coordinates, "
                         "fixed-interface VMs and their MDs")
     t.add_argument("--reference", choices=("ancf", "rncf"), default=None,
-                   help="nr-rncf: also run this full model and report chi_rel and the speed-up")
+                   help="nr-rncf: also run this full model and report chi_rel, the speed-up and the error "
+                        "estimate's effectivity")
+    t.add_argument("--no-estimate", action="store_true",
+                   help="nr-rncf: skip the error estimate from the run alone (chi_rel_estimate_percent)")
+    t.add_argument("--estimate-method", choices=("static", "dynamic"), default="static",
+                   help="nr-rncf: static (each beam's quasi-static correction at 16 sampled outputs: cheap, blind to "
+                        "the drift of the chain's swing) or dynamic (the linearised error equation over every "
+                        "output: tracks the drift while its linearisation holds, reports where it stopped holding "
+                        "as estimate_valid_until_s; costs a few full-model steps an output)")
     t.add_argument("--reference-rtol", type=float, default=None,
                    help="the reference run's relative tolerance (default: --rtol; its atol scaled alike): the full "
                         "model is the reference and may need a tighter one than the reduced model's")

@@ -19,6 +19,9 @@
   with reduced deformation (``FloatingBody``): NR-RNCF for jointed systems.
 - ``full_order_frame``: ``full_floating_body``, a floating-frame body with every free nodal
   coordinate kept and the elements' own elastic force: the full-order RNCF.
+- ``error_estimate``: how good a reduced mechanism's run is, from the run alone
+  (``estimate_mechanism_error`` against ``full_counterpart(system)``: each reduced body's static
+  correction in its frame), and where that stops working (the drift of a long multibody motion).
 
 A ``MultibodySystem`` is an index-3 DAE: the joints' multipliers are in the integrator's state
 (``integrate.GeneralizedAlphaIndex3``, generalized-α in the Arnold-Brüls form, scaled), and its

@@ -129,7 +129,10 @@ class FloatingBody(AbstractBodyKind):
     the stress-free state in frame coordinates), the deformation basis ``basis`` (n_dof × k,
     zero on the reference conditions), its ``tensors`` (``reduction.elastic_tensors(body,
     body.q_hat, basis)``; or ``full_order_frame.NodalElasticForce``, the elements' own force, for
-    the full-order RNCF body), and the frame's initial origin ``R0`` and orientation ``A0``."""
+    the full-order RNCF body), and the frame's initial origin ``R0`` and orientation ``A0``.
+    ``free`` (optional, n_dof booleans): the coordinates its reference conditions leave free, of
+    which the basis moves some; the full-order counterpart of the body keeps them all
+    (``multibody.error_estimate.full_counterpart``). ``multibody.reduce`` records it."""
 
     body: Body
     basis: Float[Array, "ndof k"]
@@ -147,14 +150,23 @@ class FloatingBody(AbstractBodyKind):
     G: Float[Array, "3 3 k"]  # Σ M_vw q̂_va Ψ_wbj
     H: Float[Array, "3 3 k k"]  # Σ M_vw Ψ_vaj Ψ_wbl
     H_trace: Float[Array, "k k"]  # Σ_a H_aa = Ψᵀ (M_b ⊗ I) Ψ
+    free: Array | None  # the reference conditions' free coordinates (n_dof booleans), if known
 
-    def __init__(self, body: Body, basis, tensors: ElasticTensors, R0=(0.0, 0.0, 0.0), A0=None):
+    def __init__(self, body: Body, basis, tensors: ElasticTensors, R0=(0.0, 0.0, 0.0), A0=None, free=None):
         basis = jnp.asarray(basis)
         if basis.ndim != 2 or basis.shape[0] != body.n_dof:
             raise ValueError(f"basis must be (n_dof, k) = ({body.n_dof}, k), got {basis.shape}")
         if tensors.n_coordinates != basis.shape[1]:
             raise ValueError(f"tensors are for {tensors.n_coordinates} coordinates, the basis has {basis.shape[1]}")
-        self.body, self.basis, self.tensors = body, basis, tensors
+        if free is not None:
+            free = np.asarray(free, dtype=bool).reshape(-1)
+            if free.shape != (body.n_dof,):
+                raise ValueError(f"free must be a mask of the body's {body.n_dof} coordinates, got {free.shape}")
+            B = np.abs(np.asarray(basis))
+            if B.size and B[~free].max(initial=0.0) > 1e-9 * B.max():
+                raise ValueError("the basis moves coordinates that free holds")
+            free = jnp.asarray(free)
+        self.body, self.basis, self.tensors, self.free = body, basis, tensors, free
         self.R0 = jnp.asarray(R0, dtype=float).reshape(3)
         self.e0 = jnp.asarray(euler_parameters(np.eye(3) if A0 is None else A0))
         self.is_position = jnp.asarray(np.asarray(body.is_position, dtype=float))

@@ -76,7 +76,8 @@ def full_floating_body(body: Body, free, R0=(0.0, 0.0, 0.0), A0=None) -> Floatin
     (n_dof booleans: False on the reference conditions, which hold the frame) a deformation
     coordinate: the full-order RNCF body."""
     force = NodalElasticForce(body, np.asarray(free, dtype=bool))  # checks the mask
-    return FloatingBody(body, np.eye(body.n_dof)[:, np.asarray(force.free)], force, R0=R0, A0=A0)
+    return FloatingBody(body, np.eye(body.n_dof)[:, np.asarray(force.free)], force, R0=R0, A0=A0,
+                        free=np.asarray(free, dtype=bool))
 
 
 __all__ = ["NodalElasticForce", "full_floating_body"]

@@ -329,6 +329,15 @@ class Mechanism(AbstractConstrainedModel):
         return self._map(lambda b, zb, vb, ab, reaction: b.block(zb, c_M, c_K, self.gravity, (vb, ab, reaction), c_C),
                          z, v, a, tuple(self._nodal_reactions(z, lam)))
 
+    def tangent_blocks(self, t, z, v, a, lam) -> list:
+        """∂r/∂z body by body at a state (z, ż, z̈, λ) of the DAE: each body's elastic stiffness with
+        the inertia terms' p columns (``_blocks`` with c_M = 0, c_K = 1) and the force elements'
+        stiffness; the joints' Hessian left out, as in ``factor_augmented``."""
+        blocks = self._blocks(z, 0.0, 1.0, v, a, lam)
+        if self.forces:
+            blocks = [S + F for S, F in zip(blocks, self._force_blocks(t, z, v, 1.0, 0.0))]
+        return blocks
+
     def _nodal_reactions(self, z, lam, t: Scalar = 0.0) -> tuple:
         """The joints' forces on each body's nodal vectors, C_xᵀλ (zero without joints)."""
         xs = self.nodal_vectors(z)

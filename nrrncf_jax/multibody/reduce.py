@@ -87,7 +87,7 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     else:
         modes = vibration_modes(local, free, vms)
         Psi = np.asarray(modal_basis(local, free, modes.phi, pairs, deflation_tol=deflation_tol).Psi)
-    return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0)
+    return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free)
 
 
 __all__ = ["reduce"]

@@ -33,7 +33,8 @@ are 0-based everywhere (``Reduction.selection.vms``, ``.pairs``), as in the comm
 
 How good a reduced run is, without the full run: ``error_estimate`` (the static-correction
 estimate of χ_rel from the run alone), and ``basis_to_tolerance`` (``nr_rncf(..., tol=P)``: the
-basis grown along the MMI ranking until that estimate over a training run is at most P per cent)."""
+basis grown along the MMI ranking until that estimate over a training run is at most P per cent);
+for jointed systems of reduced bodies, ``multibody.error_estimate``."""
 
 from .basis import ModalBasis as ModalBasis
 from .basis import modal_basis as modal_basis

@@ -62,7 +62,9 @@ class ErrorEstimate:
     (the estimate of χ_rel), the estimated error of a quantity of interest at each sample,
     ``output_error`` (the correction's rows ``output`` of ``estimate_error``, e.g. the tip's
     displacement; shape (samples, rows), empty without one), and the estimate's compile and run
-    times [s]."""
+    times [s]. ``valid_until``: for an error equation integrated along the run
+    (``multibody.error_estimate``, ``method="dynamic"``), the last output time at which its
+    linearisation held (None: throughout); χ_rel is then over the outputs up to it."""
 
     ts: np.ndarray
     error_norm: np.ndarray
@@ -71,11 +73,14 @@ class ErrorEstimate:
     output_error: np.ndarray
     compile_s: float
     run_s: float
+    valid_until: float | None = None  # where an integrated error equation stopped being valid (None: throughout)
 
     @property
     def reliable(self) -> bool:
-        """Whether the estimate is in the range where it is first-order accurate."""
-        return self.chi_rel_percent <= RELIABLE_PERCENT
+        """Whether the estimate is in the range where it is first-order accurate (and, for an
+        integrated error equation, valid over the whole run)."""
+        throughout = self.valid_until is None or self.valid_until >= self.ts[-1]
+        return self.chi_rel_percent <= RELIABLE_PERCENT and throughout
 
 
 def lift(reduced, t, p: Float[Array, " k"], v: Float[Array, " k"]):

@@ -34,7 +34,6 @@ class ForcedRun(RunRecord):
     mds: tuple | None = None
     offline_s: float | None = None
     reduction: object = None
-    estimate: object = None  # the ``reduction.error_estimate.ErrorEstimate`` of an NR-RNCF run (None: not made)
 
     REFERENCE: ClassVar[str] = "a full RNCF run of the same body and output times"
 
@@ -50,19 +49,6 @@ class ForcedRun(RunRecord):
                 **self.statistics(newton_key="newton_iterations"),
                 "offline_s": None if self.offline_s is None else round(self.offline_s, 2), **self.comparison(),
                 **self.estimate_summary()}
-
-    def estimate_summary(self) -> dict:
-        """The error estimate's fields (empty without one): the estimated χ_rel, whether it is in
-        its reliable range, its samples and run time, and after ``compare`` the effectivity
-        (estimate / measured)."""
-        e = self.estimate
-        if e is None:
-            return {}
-        eff = None if not self.chi_rel_percent else e.chi_rel_percent / self.chi_rel_percent
-        search = getattr(self.reduction, "search", None)
-        return {"chi_rel_estimate_percent": e.chi_rel_percent, "estimate_reliable": e.reliable,
-                "estimate_samples": int(len(e.ts)), "estimate_run_s": e.run_s, "effectivity": eff,
-                **({} if search is None else search.summary())}
 
     def command_record(self, **extra) -> dict:
         """What the commands' ``--json`` prints: ``dofs, vms, mds, steps, compile_s, run_s,

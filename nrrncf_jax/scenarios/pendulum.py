@@ -228,7 +228,8 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
                  for bp in ([pairs] if body_pairs is None else body_pairs)]
     tensors = [jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi)) for Psi in bases]
     which = [0] * spec.beams if len(bases) == 1 else range(spec.beams)  # one shared basis, or one a beam
-    bodies = [FloatingBody(beam, bases[i], tensors[i], R0=(k * spec.length, 0.0, 0.0)) for k, i in enumerate(which)]
+    bodies = [FloatingBody(beam, bases[i], tensors[i], R0=(k * spec.length, 0.0, 0.0), free=np.asarray(free))
+              for k, i in enumerate(which)]
     k_out = bodies[0].k if body_pairs is None else [b.k for b in bodies]
     pairs = pairs if body_pairs is None else body_pairs
     system = FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
@@ -330,7 +331,7 @@ class PendulumRun(RunRecord):
                 "kinetic_max": float(self.kinetic.max()),
                 "tips_final_m": self.tips[-1, :, :2].round(6).tolist(),
                 **({} if self.offline is None else {"offline_s": round(self.offline["offline_s"], 3)}),
-                **self.comparison()}
+                **self.comparison(), **self.estimate_summary()}
 
 
 FORMULATIONS = ("ancf", "rncf", "nr-rncf")
@@ -340,11 +341,13 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
                  rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
                  max_steps: int = 500_000, formulation: str = "ancf", n_vms: int = 5, pairs="all",
                  joint_modes: bool = False, newton_tol: float = 1e-2, craig_bampton: bool = False,
-                 body_pairs=None) -> PendulumRun:
+                 body_pairs=None, estimate: bool = False, estimate_samples: int = 16,
+                 estimate_method: str = "static") -> PendulumRun:
     """The pendulum released from rest: full order (``"ancf"``: ANCF bodies, ``build_pendulum``;
     ``"rncf"``: floating frames, ``build_rncf_pendulum``) or NR-RNCF (``"nr-rncf"``:
     ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=...,
-    body_pairs=...)``), index-3 generalized-α."""
+    body_pairs=...)``), index-3 generalized-α. ``estimate`` (NR-RNCF): the run's error estimate
+    from the run alone (``run_chain``)."""
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     info = None
@@ -355,7 +358,10 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
     else:
         system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=craig_bampton,
                                               body_pairs=body_pairs)
-    run = run_chain(system, t_end, dt_out, rho_inf, rtol, atol, progress, max_steps, newton_tol)
+    if estimate and formulation != "nr-rncf":
+        raise ValueError("estimate goes with formulation='nr-rncf' (a full model has no reduction error to estimate)")
+    run = run_chain(system, t_end, dt_out, rho_inf, rtol, atol, progress, max_steps, newton_tol, estimate=estimate,
+                    estimate_samples=estimate_samples, estimate_method=estimate_method)
     run.offline = info
     return run
 
@@ -373,7 +379,8 @@ def _chain(system: AbstractConstrainedModel) -> tuple[str, object, np.ndarray]:
 
 def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0, dt_out: float = 0.001,
               rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
-              max_steps: int = 500_000, newton_tol: float = 1e-2) -> PendulumRun:
+              max_steps: int = 500_000, newton_tol: float = 1e-2, estimate: bool = False,
+              estimate_samples: int = 16, estimate_method: str = "static") -> PendulumRun:
     """Any chain of C1 beams joined into a ``MultibodySystem`` (``"ancf"``) or a
     ``FloatingFrameSystem`` (``"rncf"`` with full-order bodies, else ``"nr-rncf"``), from its
     reference state at rest, index-3 generalized-α: the ``PendulumRun`` record (every node's
@@ -386,24 +393,40 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     pendulum's modified Newton converges linearly (its iteration matrix leaves out the inertia
     terms' derivatives), so a tighter stop costs iterations without changing χ_rel
     (``benchmarks/results/design_notes.md``). The full model's Newton stops after its second
-    correction either way."""
+    correction either way.
+
+    ``estimate`` (a reduced system): the run's a-posteriori error estimate from the run alone, at
+    ``estimate_samples`` output times (``multibody.error_estimate``, against the system's
+    full-order counterpart), in ``PendulumRun.estimate``; the run then also records its
+    coordinates and velocities at the output times."""
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     formulation, vectors, nodes = _chain(system)
 
     def observe(t, x, v):
         xs, kinetic = vectors(x), system.kinetic_energy(x, v)
-        return (jnp.stack([xb[nodes] for xb in xs]), jnp.stack([xb[_RX] for xb in xs]),
-                kinetic + system.potential_energy(x), kinetic, jnp.max(jnp.abs(system.constraints(x))))
+        out = (jnp.stack([xb[nodes] for xb in xs]), jnp.stack([xb[_RX] for xb in xs]),
+               kinetic + system.potential_energy(x), kinetic, jnp.max(jnp.abs(system.constraints(x))))
+        return out + ((x, v) if estimate else ())
 
+    if estimate:
+        from ..multibody.error_estimate import full_counterpart
+
+        full = full_counterpart(system)  # checks that the system has reduced bodies, before the run
     sol, compile_s, run_s = simulate_timed(system, GeneralizedAlphaIndex3(rho_inf), AdaptiveStepSize(rtol, atol),
                                            jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps,
                                            newton=Newton(newton_tol))
-    pos, slopes, energy, kinetic, cmax = (np.asarray(y) for y in jax.device_get(sol.ys))
-    return PendulumRun(formulation=formulation, dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes,
-                       energy=energy, kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
-                       rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton), compile_s=compile_s,
-                       run_s=run_s)
+    pos, slopes, energy, kinetic, cmax, *state = (np.asarray(y) for y in jax.device_get(sol.ys))
+    run = PendulumRun(formulation=formulation, dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes,
+                      energy=energy, kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
+                      rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton), compile_s=compile_s,
+                      run_s=run_s)
+    if estimate:
+        from ..multibody.error_estimate import estimate_mechanism_error
+
+        run.estimate = estimate_mechanism_error(full, system, ts, *state, samples=estimate_samples,
+                                                method=estimate_method)
+    return run
 
 
 def _released(system, angle):

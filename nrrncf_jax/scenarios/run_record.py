@@ -23,8 +23,9 @@ class RunRecord(abc.ABC):
     """One run: its ``formulation`` (e.g. ``"rncf"``, ``"nr-rncf"``), coordinates ``dofs``, output
     times ``ts``, the integrator's accepted and rejected ``steps``/``rejected`` and Newton
     iterations ``newton_iters``, the compile and run times [s] (measured apart); after ``compare``
-    the reference's DOFs and run time, χ_rel [%] and the speed-up. Keyword-only: each scenario's
-    record adds fields of its own."""
+    the reference's DOFs and run time, χ_rel [%] and the speed-up; for a reduced run, where it
+    was made, the error estimate from the run alone (``reduction.error_estimate``,
+    ``multibody.error_estimate``). Keyword-only: each scenario's record adds fields of its own."""
 
     formulation: str
     dofs: int
@@ -38,6 +39,7 @@ class RunRecord(abc.ABC):
     reference_run_s: float | None = None
     chi_rel_percent: float | None = None
     speedup: float | None = None  # reference_run_s / run_s
+    estimate: object = None  # an NR-RNCF run's a-posteriori ``ErrorEstimate`` (None: not made)
 
     REFERENCE: ClassVar[str] = "a run of the same model and output times"
     """What ``compare`` accepts as the reference, for its error message."""
@@ -74,6 +76,20 @@ class RunRecord(abc.ABC):
             return {}
         return {"reference_dofs": self.reference_dofs, "reference_run_s": round(self.reference_run_s, 3),
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup}
+
+    def estimate_summary(self) -> dict:
+        """The error estimate's fields (empty without one): the estimated χ_rel, whether it is in
+        its reliable range, its samples and run time, after ``compare`` the effectivity (estimate /
+        measured), and the basis search's record where the basis was chosen to a tolerance."""
+        e = self.estimate
+        if e is None:
+            return {}
+        eff = None if not self.chi_rel_percent else e.chi_rel_percent / self.chi_rel_percent
+        search = getattr(getattr(self, "reduction", None), "search", None)
+        return {"chi_rel_estimate_percent": e.chi_rel_percent, "estimate_reliable": e.reliable,
+                "estimate_samples": int(len(e.ts)), "estimate_run_s": e.run_s, "effectivity": eff,
+                **({} if e.valid_until is None else {"estimate_valid_until_s": e.valid_until}),
+                **({} if search is None else search.summary())}
 
 
 __all__ = ["RunRecord"]

@@ -75,7 +75,6 @@ class SpinupResult(RunRecord):
     reference: "SpinupResult | None" = None  # the full RNCF run compared against
     spin: object = None  # the ``SpinCheck`` of the spinning-state enrichment (None: not checked)
     reduction: object = dataclasses.field(default=None, repr=False)  # the ``Reduction`` (W, omega, model)
-    estimate: object = None  # the ``reduction.error_estimate.ErrorEstimate`` of the run (None: not made)
     basis_search: object = None  # the ``reduction.basis_to_tolerance.BasisSearch`` (None: no tol given)
 
     REFERENCE: ClassVar[str] = ("a full RNCF SpinupResult of the same beam mesh and output times, run with "
@@ -118,24 +117,20 @@ class SpinupResult(RunRecord):
                     "omega_ritz": self.spin.omega_ritz, "rel_err": self.spin.rel_err, "enriched": self.spin.enriched,
                     "spin_vms": list(self.spin.vms), "spin_mds": [list(p) for p in self.spin.pairs]},
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup,
-                **self._estimate_summary(), **self._tolerance_summary(),
+                **self.estimate_summary(), **self._tolerance_summary(),
                 "reference": None if ref is None else {"formulation": ref.formulation, "dofs": ref.dofs,
                                                        **ref.statistics()},
             })
         return s
 
-    def _estimate_summary(self) -> dict:
-        """The error estimate's fields (empty without one): the estimated χ_rel, whether it is in
-        its reliable range, its run time, and with a reference the effectivity (estimate /
-        measured)."""
+    def estimate_summary(self) -> dict:
+        """``RunRecord.estimate_summary`` and the tip's estimated error (the largest over the
+        samples), with a reference also the tip's error measured at the same samples."""
         e = self.estimate
         if e is None:
             return {}
-        eff = None if not self.chi_rel_percent else e.chi_rel_percent / self.chi_rel_percent
-        out = {"chi_rel_estimate_percent": e.chi_rel_percent, "estimate_reliable": e.reliable,
-               "tip_error_estimate_m": float(np.linalg.norm(e.output_error, axis=1).max()),
-               "estimate_samples": int(len(e.ts)), "estimate_compile_s": e.compile_s, "estimate_run_s": e.run_s,
-               "effectivity": eff}
+        out = {**super().estimate_summary(), "estimate_compile_s": e.compile_s,
+               "tip_error_estimate_m": float(np.linalg.norm(e.output_error, axis=1).max())}
         if self.reference is not None:  # the tip's error measured at the same samples
             at = np.searchsorted(self.ts, e.ts)
             out["tip_error_m"] = float(np.linalg.norm(self.tip[at] - self.reference.tip[at], axis=1).max())

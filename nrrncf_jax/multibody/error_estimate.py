@@ -1,0 +1,267 @@
+"""A-posteriori error estimate of a reduced mechanism's run (NR-RNCF bodies in floating frames,
+joints, drivers, force elements), from the run alone: ``reduction.error_estimate``'s
+static correction carried over to a jointed system, and the linearised error equation integrated
+along the run, which sees what the static one cannot.
+
+The full model is the same mechanism with each NR-RNCF body replaced by its full-order RNCF
+counterpart (``full_counterpart``: the same element body, frame and reference conditions, every
+coordinate those conditions leave free, the elements' own elastic force). At an output time the
+reduced state (z, ż) is completed by its consistent accelerations and multipliers (z̈, λ) from
+the reduced DAE (``consistent_accelerations``) and lifted body by body,
+
+    z_f = (R, e, Ψ̄ p),   ż_f = (Ṙ, ė, Ψ̄ ṗ),   z̈_f = (R̈, ë, Ψ̄ p̈),
+
+Ψ̄ the reduced basis's rows on the full body's free coordinates (the frame coordinates R, e and
+the rigid bodies are shared). The full model's residual r = R(z_f, ż_f, z̈_f) + C_zᵀλ is
+evaluated there; on each flexible body's deformation coordinates it is what the basis cannot
+represent (the reduced equations make its projection on the basis vanish).
+
+``method="static"``: at sampled output times, the displacement correction that would cancel r,
+quasi-statically with the body's frame and the joints' reactions held, one solve a body,
+K_b e_b = −r_b (K_b the full body's deformation block with the inertia terms' derivatives,
+``Mechanism.tangent_blocks``): the correction of a cantilever held by its frame. Cheap (a few
+small solves a sample), but blind to error in the mechanism's own motion: a reduced body slightly
+too stiff or too soft moves its joints and the frames beyond them a little differently, and that
+difference is carried and amplified over the run (the phase of a swinging chain), while the
+residual at any one instant is of the size of the deformation error only. Where the tangent is
+near singular (a very soft beam in compression) a sample's correction spikes.
+
+``method="dynamic"``: the full equations linearised about the lifted run, for the error
+e = z − z_f of every coordinate (frames included) and the multipliers' error μ,
+
+    R_z̈ ë + R_ż ė + R_z e + C_zᵀμ = −r(t),    C_z e = −C(z_f),    e(0) = ė(0) = 0,
+
+integrated over the output times by Newmark's rule; δx = ∂x/∂z e on the position vectors. It
+carries the error through the mechanism's motion, drift included, and tracks the measured error
+output by output where the linearisation holds. Where the linearised equations are unstable
+(again a soft beam in compression, which buckles, where the nonlinear motion stays bounded) its
+solution grows without bound: the first output where |δx| exceeds ``RELIABLE_PERCENT`` of the
+largest displacement so far ends its validity (``ErrorEstimate.valid_until``; χ_rel is then over
+the outputs before it, and the estimate says it is not reliable). It costs a factorisation of
+the full model's constrained iteration matrix an output, as much as a few steps of the full
+run: output intervals of the order of the motion's time scale, not of the integrator's steps.
+
+Either way the estimate of χ_rel is 100 √(Σ_t |δx(t)|²) / √(Σ_t |w(t)|²) over the flexible
+bodies' position vectors, w(t) their displacement from the run's first output: the norm of
+``scenarios.pendulum.PendulumRun.compare``. Measured cases (the paper's pendulum, both methods):
+``benchmarks/results/error_estimate_mechanism.md``."""
+
+import time
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from .._types import Array, Float
+from ..reduction.error_estimate import RELIABLE_PERCENT, ErrorEstimate, sample_indices
+from .floating import FloatingBody, rotation
+from .full_order_frame import full_floating_body
+from .mechanism import Mechanism
+
+
+def _reduced(body) -> bool:
+    return isinstance(body, FloatingBody) and body.k > 0 and not getattr(body.tensors, "full_order", False)
+
+
+def full_counterpart(system: Mechanism) -> Mechanism:
+    """The full-order mechanism of a reduced one: each NR-RNCF ``FloatingBody`` replaced by the
+    full-order RNCF body of the same element body, frame origin and orientation, with every
+    nodal coordinate its reference conditions leave free (``FloatingBody.free``;
+    ``full_floating_body``); every other body, the joints, gravity and the force elements as
+    they are. A planar body's ``free`` (``reduce(plane_normal=...)``) holds the coordinates odd
+    under the plane's mirror, which the full planar motion leaves at zero too."""
+    if not isinstance(system, Mechanism):
+        raise ValueError(f"system must be a Mechanism (FloatingFrameSystem), got {type(system).__name__}")
+    if not any(_reduced(b) for b in system.bodies):
+        raise ValueError("the system has no NR-RNCF body (a FloatingBody with a reduced basis) to estimate")
+    if any(_reduced(b) and b.free is None for b in system.bodies):
+        raise ValueError("an NR-RNCF body does not record its free coordinates (its reference conditions): build it "
+                         "with multibody.reduce, or pass free= to FloatingBody")
+    bodies = [full_floating_body(b.body, np.asarray(b.free), R0=b.R0, A0=np.asarray(rotation(b.e0))) if _reduced(b)
+              else b for b in system.bodies]
+    return type(system)(bodies, system.joints, gravity=system.gravity, forces=system.forces)
+
+
+def _lift_maps(full: Mechanism, reduced: Mechanism) -> list:
+    """For each body, the matrix Ψ̄ (full body's deformation coordinates × reduced ones) that lifts
+    p, or None where the two bodies are the same kind of body (z copied). Checks that the
+    systems correspond (``ValueError``)."""
+    if len(full.bodies) != len(reduced.bodies) or full.n_constraints != reduced.n_constraints:
+        raise ValueError("full and reduced must be the same mechanism (bodies, joints), the full one with full-order "
+                         "bodies: build it with full_counterpart(reduced)")
+    maps = []
+    for k, (bf, br) in enumerate(zip(full.bodies, reduced.bodies)):
+        if not _reduced(br):
+            if full.body_sizes()[k] != reduced.body_sizes()[k]:
+                raise ValueError(f"body {k}: the full and reduced systems' bodies differ")
+            maps.append(None)
+            continue
+        if not (isinstance(bf, FloatingBody) and getattr(bf.tensors, "full_order", False)) or \
+                bf.body.n_dof != br.body.n_dof or not np.allclose(np.asarray(bf.body.q_hat), np.asarray(br.body.q_hat)):
+            raise ValueError(f"body {k}: the full system's body must be the full-order RNCF body of the reduced one's "
+                             "element body (full_counterpart)")
+        sel, Psi = np.asarray(bf.basis), np.asarray(br.basis)
+        P = sel.T @ Psi
+        if np.abs(sel @ P - Psi).max() > 1e-9 * max(np.abs(Psi).max(), 1.0):
+            raise ValueError(f"body {k}: the reduced basis moves coordinates the full body holds")
+        maps.append(jnp.asarray(P))
+    return maps
+
+
+def _lift(maps, reduced: Mechanism, y):
+    """A reduced mechanism's stacked coordinates (or velocities, accelerations) in the full one's."""
+    parts = [yb if P is None else jnp.concatenate([yb[:7], P @ yb[7:]]) for P, yb in zip(maps, reduced.split(y))]
+    return jnp.concatenate(parts)
+
+
+def _positions(system: Mechanism, z, flexible) -> Float[Array, " n"]:
+    """The flexible bodies' nodal vectors in the inertial frame, stacked, zero but on the
+    position vectors."""
+    xs = system.nodal_vectors(z)
+    return jnp.concatenate([(system.bodies[b].is_position[:, None] * xs[b]).reshape(-1) for b in flexible])
+
+
+@eqx.filter_jit
+def _mechanism_corrections(full, reduced, maps, ts, zs, vs, flexible):
+    """|e| over the flexible bodies' position vectors at each sample (``lax.map``: one sample
+    after another, as ``reduction.error_estimate`` does, for the same reason)."""
+    def one(args):
+        t, z, v = args
+        a, lam = reduced.consistent_accelerations(t, z, v)
+        zf, vf, af = (_lift(maps, reduced, y) for y in (z, v, a))
+        r = full.residual(t, zf, vf, af) + full.constraint_force(zf, lam, t)
+        blocks = full.tangent_blocks(t, zf, vf, af, lam)
+        total = jnp.zeros((), zf.dtype)
+        for b, rb in zip(flexible, [full.split(r)[b] for b in flexible]):
+            e = -jnp.linalg.solve(blocks[b][7:, 7:], rb[7:])
+            body = full.bodies[b]
+            dq = (body.basis @ e).reshape(-1, 3)
+            total = total + jnp.sum(body.is_position[:, None] * dq**2)
+        return jnp.sqrt(total)
+    return lax.map(one, (ts, zs, vs))
+
+
+NEWMARK_GAMMA, NEWMARK_BETA = 0.6, 0.3025
+"""The error equation's Newmark parameters: γ = 0.6, β = (γ + 1/2)²/4, unconditionally stable
+with a little numerical damping of the components at the output interval's frequency and above.
+With the trapezoidal rule (γ = 1/2, none) the pendulum's error at 0.01 s outputs spiked where
+the stiff components rang; the slow, mechanism-scale part the estimate is for is barely touched
+(first order in γ − 1/2 times the output interval over its period)."""
+
+REFINEMENTS = 3
+"""Corrections a step of the error equation solves with its iteration matrix, each on the exact
+defect (the matrix leaves out the joints' Hessian and the frames' inertia derivatives, as the
+integrator's does): the linear step's equations to far below the estimate's own accuracy."""
+
+
+@eqx.filter_jit
+def _error_equation(full, reduced, maps, ts, zs, vs, flexible):
+    """The linearised error equation integrated along the run (``method="dynamic"``): |δx(t)| of
+    the flexible bodies' position vectors at each output time.
+
+    The full equations R(z, ż, z̈) + C_zᵀλ = 0, C(z) = 0, linearised about the lifted run
+    (z_f, ż_f, z̈_f, λ) for the error e = z − z_f and the multipliers' error μ:
+
+        R_z̈ ë + R_ż ė + R_z e + C_zᵀ μ = −r(t),    C_z e = −C(z_f),
+
+    r the lifted residual (the static estimate's), integrated from e = ė = 0 by Newmark's rule
+    (``NEWMARK_GAMMA``) over the output times; each step's linear equations solved by the full
+    model's constrained iteration matrix (``factor_augmented``) with ``REFINEMENTS`` corrections
+    on the exact defect (its products R_z e, ... by forward-mode derivatives). δx = ∂x/∂z e."""
+    g, b = NEWMARK_GAMMA, NEWMARK_BETA
+
+    def state(t, z, v):
+        a, lam = reduced.consistent_accelerations(t, z, v)
+        zf, vf, af = (_lift(maps, reduced, y) for y in (z, v, a))
+        return zf, vf, af, lam
+
+    def equations(t, zf, vf, af, lam):
+        def F(dz, dv, da, mu):
+            return (full.residual(t, zf + dz, vf + dv, af + da) + full.constraint_force(zf + dz, lam, t)
+                    + full.constraint_force(zf, mu, t))
+
+        return F
+
+    def position_error(zf, e):
+        return jnp.linalg.norm(jax.jvp(lambda y: _positions(full, y, flexible), (zf,), (e,))[1])
+
+    n, m = full.n_dof, full.n_constraints
+    zero_n, zero_m = jnp.zeros(n, zs.dtype), jnp.zeros(m, zs.dtype)
+
+    def step(carry, args):
+        e, ed, edd, mu = carry
+        t0, t, z, v = args
+        h = t - t0
+        zf, vf, af, lam = state(t, z, v)
+        F = equations(t, zf, vf, af, lam)
+        e_p, ed_p = e + h * ed + (0.5 - b) * h**2 * edd, ed + (1.0 - g) * h * edd
+        c_f = full.constraints(zf, t)
+        fac = full.factor_augmented(t, zf, vf, lam, g * h, b * h**2, a=af)
+
+        def defect(x):
+            a_, mu_ = x[:n], x[n:]
+            r, lin = jax.jvp(F, (zero_n, zero_n, zero_n, zero_m),
+                             (e_p + b * h**2 * a_, ed_p + g * h * a_, a_, mu_))
+            c = c_f + jax.jvp(lambda y: full.constraints(y, t), (zf,), (e_p + b * h**2 * a_,))[1]
+            return jnp.concatenate([r + lin, c / (b * h**2)])
+
+        x = lax.fori_loop(0, REFINEMENTS, lambda _, x: x - fac.solve(defect(x)), jnp.concatenate([edd, mu]))
+        edd1, mu1 = x[:n], x[n:]
+        e1, ed1 = e_p + b * h**2 * edd1, ed_p + g * h * edd1
+        return (e1, ed1, edd1, mu1), position_error(zf, e1)
+
+    # ë(0) = 0 rather than its consistent value (one factorisation less to compile): the first
+    # step's predictor misses (1/2 − β) h² ë(0), second order in the output interval
+    carry0 = (zero_n, zero_n, zero_n, zero_m)
+    _, errors = lax.scan(step, carry0, (ts[:-1], ts[1:], zs[1:], vs[1:]))
+    return jnp.concatenate([jnp.zeros((1,), errors.dtype), errors])
+
+
+METHODS = ("static", "dynamic")
+
+
+def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, samples: int = 16,
+                             method: str = "static") -> ErrorEstimate:
+    """The static-correction estimate (module docstring) of the reduced mechanism's run whose
+    coordinates ``zs`` and velocities ``vs`` (each (n_out, n_dof)) were recorded at the output
+    times ``ts``, against ``full`` (``full_counterpart(reduced)``), at ``samples`` of the output
+    times. χ_rel over the flexible bodies' position vectors, their displacement from the first
+    output. Compile and run timed together in ``compile_s`` and ``run_s`` apart."""
+    ts, zs, vs = np.asarray(ts, float), np.asarray(zs, float), np.asarray(vs, float)
+    if zs.ndim != 2 or zs.shape != vs.shape or zs.shape[0] != ts.shape[0] or zs.shape[1] != reduced.n_dof:
+        raise ValueError(f"zs and vs must be (len(ts), {reduced.n_dof}) = ({ts.shape[0]}, {reduced.n_dof}), got "
+                         f"{zs.shape} and {vs.shape}")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    maps = _lift_maps(full, reduced)
+    flexible = tuple(b for b, P in enumerate(maps) if P is not None)
+    idx = sample_indices(ts.shape[0], int(samples)) if method == "static" else np.arange(ts.shape[0])
+    args = (full, reduced, maps, jnp.asarray(ts[idx]), jnp.asarray(zs[idx]), jnp.asarray(vs[idx]), flexible)
+    fn = _mechanism_corrections if method == "static" else _error_equation
+    t0 = time.perf_counter()
+    compiled = fn.lower(*args).compile()
+    t1 = time.perf_counter()
+    e = np.asarray(jax.block_until_ready(compiled(*args)))
+    t2 = time.perf_counter()
+    x0 = _positions(reduced, jnp.asarray(zs[0]), flexible)
+    w = np.asarray(jax.vmap(lambda z: jnp.linalg.norm(_positions(reduced, z, flexible) - x0))(jnp.asarray(zs[idx])))
+    valid_until, upto = None, idx.size
+    if method == "dynamic":
+        # the linearisation holds while the error is small next to the motion (as the static
+        # estimate's RELIABLE_PERCENT); past the first output where it is not, the linear error
+        # equation's growth is its own (an unstable linearisation), not the reduced run's error
+        broken = ~(np.abs(e) <= RELIABLE_PERCENT / 100.0 * np.maximum.accumulate(w))
+        broken[0] = False
+        if broken.any():
+            upto = int(np.argmax(broken))
+            valid_until = float(ts[idx][upto - 1])
+    den = float(np.sqrt(np.sum(w[:upto] ** 2)))
+    chi = 100.0 * float(np.sqrt(np.sum(e[:upto] ** 2))) / den if den > 0 else 0.0
+    return ErrorEstimate(ts=ts[idx], error_norm=e, displacement_norm=w, chi_rel_percent=chi,
+                         output_error=np.zeros((idx.size, 0)), compile_s=t1 - t0, run_s=t2 - t1,
+                         valid_until=valid_until)
+
+
+__all__ = ["estimate_mechanism_error", "full_counterpart"]
