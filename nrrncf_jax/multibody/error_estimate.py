@@ -221,6 +221,38 @@ def _error_equation(full, reduced, maps, ts, zs, vs, flexible):
 
 METHODS = ("static", "dynamic")
 
+BLOWUP_FACTOR = 10.0
+"""The error equation's solution is taken to have left its linearisation's validity where it
+grows by more than this factor within 1/ω_max, ω_max the frames' largest angular speed over the
+run: an exponential rate above ln(10) ω_max ≈ 2.3 ω_max. A reduced run's own error grows with
+the motion, at rates below ω_max; an unstable linearisation (a soft beam in compression, which
+buckles) grows faster, as fast as its buckling modes (on the pendulum, ω_max ≈ 31 rad/s, its
+error at up to 20 /s, the unstable error equation at 90-460 /s:
+``benchmarks/results/error_estimate_mechanism.md``)."""
+
+
+def _valid_outputs(reduced: Mechanism, ts, vs, e, w) -> int:
+    """How many outputs, from the first, the integrated error equation's solution ``e`` (|δx| at
+    each output) is valid for: up to the first output where it exceeds ``RELIABLE_PERCENT`` of
+    the largest displacement so far (the linearisation is then no longer small), or, where it
+    first grows by more than ``BLOWUP_FACTOR`` within 1/ω_max, up to where that growth began.
+    Growth is that of the error relative to the largest displacement so far: at the start of the
+    run both grow from zero together, and the error alone grows infinitely fast."""
+    w_max = np.maximum.accumulate(w)
+    broken = e > RELIABLE_PERCENT / 100.0 * w_max
+    broken[0] = False
+    first = int(np.argmax(broken)) if broken.any() else e.size
+    parts = zip(reduced.bodies, reduced.split(np.asarray(vs).T))  # each body's (n_b, n_out)
+    frames = [vb[3:7] for b, vb in parts if isinstance(b, FloatingBody)]
+    omega = max((2.0 * float(np.linalg.norm(f, axis=0).max()) for f in frames), default=0.0)  # |ω| = 2|ė|
+    if omega > 0:
+        k = max(1, int(np.ceil(1.0 / (omega * (ts[-1] - ts[0]) / max(ts.size - 1, 1)))))
+        relative = e / np.where(w_max > 0, w_max, np.inf)
+        for i in range(k + 1, first):
+            if relative[i] > BLOWUP_FACTOR * max(relative[i - k], 1e-6):
+                return i - k + 1
+    return first
+
 
 def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, samples: int = 16,
                              method: str = "static") -> ErrorEstimate:
@@ -249,14 +281,9 @@ def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, sa
     w = np.asarray(jax.vmap(lambda z: jnp.linalg.norm(_positions(reduced, z, flexible) - x0))(jnp.asarray(zs[idx])))
     valid_until, upto = None, idx.size
     if method == "dynamic":
-        # the linearisation holds while the error is small next to the motion (as the static
-        # estimate's RELIABLE_PERCENT); past the first output where it is not, the linear error
-        # equation's growth is its own (an unstable linearisation), not the reduced run's error
-        broken = ~(np.abs(e) <= RELIABLE_PERCENT / 100.0 * np.maximum.accumulate(w))
-        broken[0] = False
-        if broken.any():
-            upto = int(np.argmax(broken))
-            valid_until = float(ts[idx][upto - 1])
+        upto = _valid_outputs(reduced, ts, vs, e, w)
+        if upto < idx.size:
+            valid_until = float(ts[upto - 1])
     den = float(np.sqrt(np.sum(w[:upto] ** 2)))
     chi = 100.0 * float(np.sqrt(np.sum(e[:upto] ** 2))) / den if den > 0 else 0.0
     return ErrorEstimate(ts=ts[idx], error_norm=e, displacement_norm=w, chi_rel_percent=chi,
