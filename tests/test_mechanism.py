@@ -293,3 +293,42 @@ def test_stiffened_bodies_scale_their_elastic_force():
     scale = float(jnp.abs(r1).max())
     for part1, part2, kind in zip(mech.split(r1), mech.split(r2), ("ancf", "nr-rncf", "rigid")):
         np.testing.assert_allclose(part2, 2.5 * part1, atol=1e-12 * scale, err_msg=kind)
+
+
+@pytest.mark.slow
+def test_modal_derivatives_chosen_by_the_mechanisms_own_motion():
+    """``reduce(..., mds="mmi")`` then ``select_modal_derivatives``: two soft beams hinged end to
+    end, 3 VMs each, their motion over 0-0.3 s. Each beam's W is symmetric and non-negative, its
+    two pairs are its largest W_ij (i ≤ j), the two beams' W differ (they move differently), and
+    each rebuilt basis spans its vibration modes and the modal derivatives of its pairs (the
+    projection leaves round-off of the SVD-deflated columns)."""
+    from nrrncf_jax.multibody.modal_interaction import select_modal_derivatives
+    from nrrncf_jax.multibody.reduce import reduce
+    from nrrncf_jax.multibody.system import placed
+    from nrrncf_jax.reduction import modal_derivatives
+
+    material, section = Material(2e6, 1100.0, 0.3), TubeSection(0.01)
+    beams = [placed(beam_body(material, section, straight_reference(1.0, 2)), None, (x, 0.0, 0.0)) for x in (0.0, 1.0)]
+    bodies = [reduce(b, [(x, 0.0, 0.0)], vms=3, mds="mmi", plane_normal=Z) for b, x in zip(beams, (0.0, 1.0))]
+    assert [b.k for b in bodies] == [3, 3]
+    joints = [hinge(None, Marker(0, (0.0, 0.0, 0.0)), Z),
+              hinge(Marker(0, (1.0, 0.0, 0.0)), Marker(1, (1.0, 0.0, 0.0)), Z)]
+    mech = Mechanism(bodies, joints, gravity=(0.0, -9.81, 0.0))
+    enriched, sels = select_modal_derivatives(mech, np.linspace(0.0, 0.3, 31), n_mds=2)
+    cand = [(i, j) for i in range(3) for j in range(i, 3)]
+    for body, sel in zip(enriched.bodies, sels):
+        W = np.asarray(sel.W)
+        assert W.shape == (3, 3) and np.allclose(W, W.T) and W.min() >= 0.0
+        assert list(sel.pairs) == sorted(cand, key=lambda p: -W[p])[:2]
+        Psi, phi = np.asarray(body.basis), np.asarray(body.modes)
+        theta = np.asarray(modal_derivatives(body.body, np.asarray(body.free), phi, sel.pairs).theta)
+        X = np.concatenate([phi, theta], axis=1)
+        X = X / np.linalg.norm(X, axis=0)
+        assert np.abs(X - Psi @ np.linalg.lstsq(Psi, X, rcond=None)[0]).max() < 1e-6
+    assert not np.allclose(sels[0].W, sels[1].W, rtol=1e-2)
+    with pytest.raises(ValueError, match="records its vibration modes"):
+        select_modal_derivatives(Mechanism([RigidBody(1.0, [0.1, 0.1, 0.1])]), [0.0, 0.1])
+    with pytest.raises(ValueError, match="mds must be"):
+        reduce(beams[0], [(0.0, 0.0, 0.0)], mds="some")
+    with pytest.raises(ValueError, match="basis='free'"):
+        reduce(beams[0], [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)], mds="mmi", basis="craig-bampton")

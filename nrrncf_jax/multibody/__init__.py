@@ -19,6 +19,9 @@
   with reduced deformation (``FloatingBody``): NR-RNCF for jointed systems.
 - ``full_order_frame``: ``full_floating_body``, a floating-frame body with every free nodal
   coordinate kept and the elements' own elastic force: the full-order RNCF.
+- ``modal_interaction``: ``select_modal_derivatives(system, ts)``, each reduced body's modal
+  derivatives chosen by maximum modal interaction in the mechanism's own motion (bodies reduced
+  with ``reduce(..., mds="mmi")``; the paper's Fig. 16).
 - ``error_estimate``: how good a reduced mechanism's run is, from the run alone
   (``estimate_mechanism_error`` against ``full_counterpart(system)``: each reduced body's static
   correction in its frame), and where that stops working (the drift of a long multibody motion).

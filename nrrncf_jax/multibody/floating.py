@@ -132,7 +132,10 @@ class FloatingBody(AbstractBodyKind):
     the full-order RNCF body), and the frame's initial origin ``R0`` and orientation ``A0``.
     ``free`` (optional, n_dof booleans): the coordinates its reference conditions leave free, of
     which the basis moves some; the full-order counterpart of the body keeps them all
-    (``multibody.error_estimate.full_counterpart``). ``multibody.reduce`` records it."""
+    (``multibody.error_estimate.full_counterpart``). ``modes`` (optional, n_dof × n): the
+    vibration modes the basis was built from, whose modal interaction in the mechanism's motion
+    chooses modal derivatives (``multibody.modal_interaction``). ``multibody.reduce`` records
+    both."""
 
     body: Body
     basis: Float[Array, "ndof k"]
@@ -151,8 +154,10 @@ class FloatingBody(AbstractBodyKind):
     H: Float[Array, "3 3 k k"]  # Σ M_vw Ψ_vaj Ψ_wbl
     H_trace: Float[Array, "k k"]  # Σ_a H_aa = Ψᵀ (M_b ⊗ I) Ψ
     free: Array | None  # the reference conditions' free coordinates (n_dof booleans), if known
+    modes: Array | None  # the vibration modes Φ (n_dof × n) the basis was built from, if known
 
-    def __init__(self, body: Body, basis, tensors: ElasticTensors, R0=(0.0, 0.0, 0.0), A0=None, free=None):
+    def __init__(self, body: Body, basis, tensors: ElasticTensors, R0=(0.0, 0.0, 0.0), A0=None, free=None,
+                 modes=None):
         basis = jnp.asarray(basis)
         if basis.ndim != 2 or basis.shape[0] != body.n_dof:
             raise ValueError(f"basis must be (n_dof, k) = ({body.n_dof}, k), got {basis.shape}")
@@ -166,7 +171,11 @@ class FloatingBody(AbstractBodyKind):
             if B.size and B[~free].max(initial=0.0) > 1e-9 * B.max():
                 raise ValueError("the basis moves coordinates that free holds")
             free = jnp.asarray(free)
-        self.body, self.basis, self.tensors, self.free = body, basis, tensors, free
+        if modes is not None:
+            modes = jnp.asarray(modes)
+            if modes.ndim != 2 or modes.shape[0] != body.n_dof:
+                raise ValueError(f"modes must be (n_dof, n) = ({body.n_dof}, n), got {modes.shape}")
+        self.body, self.basis, self.tensors, self.free, self.modes = body, basis, tensors, free, modes
         self.R0 = jnp.asarray(R0, dtype=float).reshape(3)
         self.e0 = jnp.asarray(euler_parameters(np.eye(3) if A0 is None else A0))
         self.is_position = jnp.asarray(np.asarray(body.is_position, dtype=float))

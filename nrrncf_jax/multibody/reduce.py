@@ -12,11 +12,14 @@ The recipe it runs, the one the paper's examples run by hand:
    plane held at zero (``elements.beam.mirror_even``: exactly the in-plane modes, C1 beams whose
    section axes contain the normal);
 4. ``vms`` vibration modes of the held body, the modal derivatives of ``mds`` pairs
-   (``"all"``: every i ≤ j; a list of (i, j), e.g. ``reduction.select``'s maximum modal
-   interaction; ``()``: none), deflated by SVD (``reduction.modal_basis``); ``basis="craig-bampton"``:
-   the extended Craig-Bampton basis instead, the other interfaces' positions its boundary
-   coordinates (``reduction.craig_bampton``); ``basis="full"``: every free coordinate kept, the
-   elements' own force (the full-order RNCF reference, ``full_order_frame``);
+   (``"all"``: every i ≤ j; a list of (i, j); ``()``: none; ``"mmi"``: none yet, the pairs of
+   largest modal interaction in the mechanism's own motion added by
+   ``modal_interaction.select_modal_derivatives(system, ts)`` once the body is in its system,
+   as maximum modal interaction needs that motion), deflated by SVD (``reduction.modal_basis``);
+   ``basis="craig-bampton"``: the extended Craig-Bampton basis instead, the other interfaces'
+   positions its boundary coordinates (``reduction.craig_bampton``); ``basis="full"``: every
+   free coordinate kept, the elements' own force (the full-order RNCF reference,
+   ``full_order_frame``);
 5. the reduced cubic elastic force's tensors (``reduction.elastic_tensors``, Eq. 24).
 """
 
@@ -76,7 +79,12 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
         free &= mirror_even(body.n_vectors // NODAL_VECTORS_PER_NODE, "yz"[axis - 1])
     if basis == "full":
         return full_floating_body(local, free, R0=R0, A0=A0)
-    pairs = [(i, j) for i in range(vms) for j in range(i, vms)] if mds == "all" else [tuple(p) for p in mds]
+    if isinstance(mds, str) and mds not in ("all", "mmi"):
+        raise ValueError(f"mds must be 'all', 'mmi' or a list of pairs (i, j), got {mds!r}")
+    if mds == "mmi" and basis != "free":
+        raise ValueError("mds='mmi' goes with basis='free' (the vibration modes whose interaction chooses the pairs)")
+    pairs = [(i, j) for i in range(vms) for j in range(i, vms)] if mds == "all" else \
+        [] if mds == "mmi" else [tuple(p) for p in mds]
     if any(not 0 <= i <= j < vms for i, j in pairs):
         raise ValueError(f"mds must be pairs (i, j) with 0 <= i <= j < vms = {vms}")
     if basis == "craig-bampton":
@@ -87,6 +95,8 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     else:
         modes = vibration_modes(local, free, vms)
         Psi = np.asarray(modal_basis(local, free, modes.phi, pairs, deflation_tol=deflation_tol).Psi)
+        return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free,
+                            modes=modes.phi)
     return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free)
 
 

@@ -228,8 +228,9 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
                  for bp in ([pairs] if body_pairs is None else body_pairs)]
     tensors = [jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi)) for Psi in bases]
     which = [0] * spec.beams if len(bases) == 1 else range(spec.beams)  # one shared basis, or one a beam
-    bodies = [FloatingBody(beam, bases[i], tensors[i], R0=(k * spec.length, 0.0, 0.0), free=np.asarray(free))
-              for k, i in enumerate(which)]
+    phi = None if craig_bampton else np.asarray(modes.phi)
+    bodies = [FloatingBody(beam, bases[i], tensors[i], R0=(k * spec.length, 0.0, 0.0), free=np.asarray(free),
+                           modes=phi) for k, i in enumerate(which)]
     k_out = bodies[0].k if body_pairs is None else [b.k for b in bodies]
     pairs = pairs if body_pairs is None else body_pairs
     system = FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
@@ -243,24 +244,18 @@ def mmi_per_body(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, n_mds: int
                  rtol: float = 1e-3, n_samples: int = 401) -> list:
     """Maximum modal interaction per beam (Eq. 39, the paper's Fig. 16): the reduced pendulum
     with its ``n_vms`` VMs alone run over 0-``t_end`` (its own nonlinear motion, frames and
-    joints included, at a loose ``rtol``: W ranks the pairs, it need not be accurate), each
-    beam's modal amplitudes η_b(t) (its coordinates in the VMs), W_b = ∫|η_i η_j| dt, and the
-    ``n_mds`` pairs (i ≤ j) with the largest W_b,ij: one ``reduction.Selection`` a beam, for
-    ``build_reduced_pendulum(body_pairs=[s.pairs for s in selections])``."""
-    from ..reduction import mmi_matrix, select
+    joints included, at a loose ``rtol``: W ranks the pairs, it need not be accurate), and each
+    beam's ``n_mds`` pairs (i ≤ j) of largest W_b,ij (``multibody.modal_interaction``): one
+    ``reduction.Selection`` a beam, for ``build_reduced_pendulum(body_pairs=[s.pairs for s in
+    selections])``."""
+    from ..multibody.modal_interaction import modal_interaction
 
     positive_int("n_mds", n_mds)
-    system, info = build_reduced_pendulum(spec, n_vms, pairs=[])
+    system, _ = build_reduced_pendulum(spec, n_vms, pairs=[])
     ts = np.linspace(0.0, t_end, n_samples)
     sol = simulate(system, GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(rtol, rtol / 10), ts,
                    observe=lambda t, z, v: z)
-    Z = np.asarray(sol.ys)
-    out = []
-    for b, zb in zip(system.bodies, system.split(Z.T)):
-        to_vms = np.linalg.lstsq(info["phi"], np.asarray(b.basis), rcond=None)[0]  # η = Φ⁺ Ψ p
-        eta = np.asarray(zb[7:]).T @ to_vms.T
-        out.append(select(mmi_matrix(ts, eta), n_vms=list(range(n_vms)), n_mds=n_mds))
-    return out
+    return modal_interaction(system, ts, np.asarray(sol.ys), n_mds)
 
 
 def tip_vectors(spec: PendulumSpec) -> list[tuple[int, int]]:

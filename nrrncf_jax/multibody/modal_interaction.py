@@ -1,0 +1,76 @@
+"""Maximum modal interaction in a mechanism (paper Eq. 39, its Fig. 16 for the pendulum): the
+modal derivatives of each reduced body chosen from that body's own motion in its system.
+
+A body alone cannot choose them: which pairs of its vibration modes interact depends on how the
+mechanism moves it (the pendulum's three beams rank their pairs differently). So the mechanism is
+run first with its bodies' vibration modes (``reduce(..., mds="mmi")``: the VMs and no modal
+derivatives), each body's modal amplitudes are recovered from its reduced coordinates,
+η(t) = Φ⁺ Ψ p(t), and W_ij = ∫ |η_i η_j| dt ranks its pairs (``reduction.mmi_matrix``,
+``reduction.select``). Each body's basis is then rebuilt from its modes and its ``n_mds`` pairs
+of largest W, deflated by SVD, with its tensors (``reduction.modal_basis``,
+``reduction.elastic_tensors``). The first run need not be accurate, only rank the pairs: a loose
+tolerance serves."""
+
+import numpy as np
+
+from ..reduction import elastic_tensors, mmi_matrix, modal_basis, select
+from ..reduction.selection import Selection
+from .floating import FloatingBody, rotation
+from .mechanism import Mechanism
+
+
+def _with_pairs(body: FloatingBody, pairs, deflation_tol: float) -> FloatingBody:
+    """``body`` with its basis rebuilt from its vibration modes and the modal derivatives of
+    ``pairs``."""
+    phi, free = np.asarray(body.modes), np.asarray(body.free)
+    Psi = np.asarray(modal_basis(body.body, free, phi, pairs, deflation_tol=deflation_tol).Psi)
+    return FloatingBody(body.body, Psi, elastic_tensors(body.body, body.body.q_hat, Psi), R0=body.R0,
+                        A0=np.asarray(rotation(body.e0)), free=free, modes=phi)
+
+
+def modal_interaction(system: Mechanism, ts, zs, n_mds: int) -> list[Selection | None]:
+    """Each body's ``reduction.Selection`` from the mechanism's motion ``zs`` (n_out × n_dof) at
+    ``ts``: its W over its vibration modes and its ``n_mds`` pairs (i ≤ j) of largest W_ij; None
+    for a body without recorded vibration modes (rigid, full-order, Craig-Bampton)."""
+    zs = np.asarray(zs, float)
+    if zs.ndim != 2 or zs.shape != (len(ts), system.n_dof):
+        raise ValueError(f"zs must be (len(ts), n_dof) = ({len(ts)}, {system.n_dof}), got {zs.shape}")
+    out = []
+    for body, zb in zip(system.bodies, system.split(zs.T)):
+        if not isinstance(body, FloatingBody) or body.modes is None:
+            out.append(None)
+            continue
+        phi = np.asarray(body.modes)
+        to_vms = np.linalg.lstsq(phi, np.asarray(body.basis), rcond=None)[0]  # η = Φ⁺ Ψ p
+        eta = np.asarray(zb[7:]).T @ to_vms.T
+        n_vms = phi.shape[1]
+        out.append(select(mmi_matrix(np.asarray(ts, float), eta), n_vms=list(range(n_vms)),
+                          n_mds=min(n_mds, n_vms * (n_vms + 1) // 2)))
+    return out
+
+
+def select_modal_derivatives(system: Mechanism, ts, n_mds: int = 8, rtol: float = 1e-3, rho_inf: float = 0.9,
+                             deflation_tol: float = 1e-6) -> tuple[Mechanism, list[Selection | None]]:
+    """The mechanism with each reduced body's basis enriched by the modal derivatives of its
+    ``n_mds`` most interacting pairs (module docstring), from a run of ``system`` as it is over
+    the output times ``ts`` at ``rtol`` (index-3 generalized-α, ρ∞ ``rho_inf``), and each body's
+    ``Selection`` (None for bodies it leaves as they are). Raises ``ValueError`` when no body
+    records its vibration modes (build them with ``reduce(..., mds="mmi")``)."""
+    from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, simulate
+
+    if not isinstance(system, Mechanism):
+        raise ValueError(f"system must be a Mechanism, got {type(system).__name__}")
+    if not any(isinstance(b, FloatingBody) and b.modes is not None for b in system.bodies):
+        raise ValueError("no body records its vibration modes: reduce the flexible bodies with "
+                         "multibody.reduce(..., mds='mmi')")
+    if not (isinstance(n_mds, int) and n_mds >= 1):
+        raise ValueError(f"n_mds must be a positive integer, got {n_mds!r}")
+    ts = np.asarray(ts, float)
+    sol = simulate(system, GeneralizedAlphaIndex3(rho_inf), AdaptiveStepSize(rtol, rtol / 10), ts,
+                   observe=lambda t, z, v: z)
+    selections = modal_interaction(system, ts, np.asarray(sol.ys), n_mds)
+    bodies = [b if s is None else _with_pairs(b, s.pairs, deflation_tol) for b, s in zip(system.bodies, selections)]
+    return type(system)(bodies, system.joints, gravity=system.gravity, forces=system.forces), selections
+
+
+__all__ = ["modal_interaction", "select_modal_derivatives"]
