@@ -50,10 +50,11 @@ def modal_interaction(system: Mechanism, ts, zs, n_mds: int) -> list[Selection |
 
 
 def select_modal_derivatives(system: Mechanism, ts, n_mds: int = 8, rtol: float = 1e-3, rho_inf: float = 0.9,
-                             deflation_tol: float = 1e-6) -> tuple[Mechanism, list[Selection | None]]:
+                             y0=None, deflation_tol: float = 1e-6) -> tuple[Mechanism, list[Selection | None]]:
     """The mechanism with each reduced body's basis enriched by the modal derivatives of its
     ``n_mds`` most interacting pairs (module docstring), from a run of ``system`` as it is over
-    the output times ``ts`` at ``rtol`` (index-3 generalized-α, ρ∞ ``rho_inf``), and each body's
+    the output times ``ts`` at ``rtol`` (index-3 generalized-α, ρ∞ ``rho_inf``) from ``y0``
+    (z, ż) (default: its reference at rest), and each body's
     ``Selection`` (None for bodies it leaves as they are). Raises ``ValueError`` when no body
     records its vibration modes (build them with ``reduce(..., mds="mmi")``)."""
     from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, simulate
@@ -67,7 +68,7 @@ def select_modal_derivatives(system: Mechanism, ts, n_mds: int = 8, rtol: float 
         raise ValueError(f"n_mds must be a positive integer, got {n_mds!r}")
     ts = np.asarray(ts, float)
     sol = simulate(system, GeneralizedAlphaIndex3(rho_inf), AdaptiveStepSize(rtol, rtol / 10), ts,
-                   observe=lambda t, z, v: z)
+                   observe=lambda t, z, v: z, y0=y0)
     selections = modal_interaction(system, ts, np.asarray(sol.ys), n_mds)
     bodies = [b if s is None else _with_pairs(b, s.pairs, deflation_tol) for b, s in zip(system.bodies, selections)]
     return type(system)(bodies, system.joints, gravity=system.gravity, forces=system.forces), selections
