@@ -326,6 +326,11 @@ def test_modal_derivatives_chosen_by_the_mechanisms_own_motion():
         X = X / np.linalg.norm(X, axis=0)
         assert np.abs(X - Psi @ np.linalg.lstsq(Psi, X, rcond=None)[0]).max() < 1e-6
     assert not np.allclose(sels[0].W, sels[1].W, rtol=1e-2)
+    # a model file's reduced body: the slider-crank's rod, its pairs chosen by a first run
+    setup = load_setup("slider_crank", {"formulation": "nr-rncf", "elements": 2, "vms": 2, "mds": "mmi", "n_mds": 1,
+                                        "t_end": 0.005})
+    rod = setup.system.bodies[1]
+    assert rod.kind == "nr-rncf" and rod.k == 3 and np.asarray(rod.modes).shape[1] == 2
     with pytest.raises(ValueError, match="records its vibration modes"):
         select_modal_derivatives(Mechanism([RigidBody(1.0, [0.1, 0.1, 0.1])]), [0.0, 0.1])
     with pytest.raises(ValueError, match="mds must be"):
