@@ -256,11 +256,12 @@ def _valid_outputs(reduced: Mechanism, ts, vs, e, w) -> int:
 
 def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, samples: int = 16,
                              method: str = "static") -> ErrorEstimate:
-    """The static-correction estimate (module docstring) of the reduced mechanism's run whose
-    coordinates ``zs`` and velocities ``vs`` (each (n_out, n_dof)) were recorded at the output
-    times ``ts``, against ``full`` (``full_counterpart(reduced)``), at ``samples`` of the output
-    times. χ_rel over the flexible bodies' position vectors, their displacement from the first
-    output. Compile and run timed together in ``compile_s`` and ``run_s`` apart."""
+    """The error estimate (module docstring) of the reduced mechanism's run whose coordinates
+    ``zs`` and velocities ``vs`` (each (n_out, n_dof)) were recorded at the output times ``ts``,
+    against ``full`` (``full_counterpart(reduced)``): ``method="static"`` at ``samples`` of the
+    output times, ``"dynamic"`` (the integrated error equation) over all of them, its validity
+    in ``valid_until``. χ_rel over the flexible bodies' position vectors, their displacement from
+    the first output. Compile and run timed apart (``compile_s``, ``run_s``)."""
     ts, zs, vs = np.asarray(ts, float), np.asarray(zs, float), np.asarray(vs, float)
     if zs.ndim != 2 or zs.shape != vs.shape or zs.shape[0] != ts.shape[0] or zs.shape[1] != reduced.n_dof:
         raise ValueError(f"zs and vs must be (len(ts), {reduced.n_dof}) = ({ts.shape[0]}, {reduced.n_dof}), got "
