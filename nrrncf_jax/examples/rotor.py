@@ -26,6 +26,7 @@ import numpy as np
 
 from ..bodies.rigid import RigidBody
 from ..multibody import Marker, Mechanism, clamp, hinge, motor, placed
+from ..multibody.modal_interaction import select_modal_derivatives
 from ..multibody.reduce import reduce
 from ..multibody.sensors import AngularMomentum, ChordDeflection, ElementForce, Energy
 from ..scenarios.beams import beam_preset
@@ -51,9 +52,12 @@ def impulse(t, tau0: float, T: float):
 
 def mechanism(formulation: str = "ancf", elements: int = 8, vms: int = 4, mds="all", torque: float = 2000.0,
               spin_time: float = 2.0, hub_radius: float = 0.5, hub_inertia: float = 0.5, hub_mass: float = 20.0,
-              beam: str = "paper", t_end: float = 4.0, rtol: float = 1e-5, rho_inf: float = 0.9) -> MechanismSetup:
+              beam: str = "paper", t_end: float = 4.0, rtol: float = 1e-5, rho_inf: float = 0.9,
+              n_mds: int = 4) -> MechanismSetup:
     """The rotor (module docstring); ``elements`` C1 elements a beam; ``torque`` τ₀ [N m] and
-    ``spin_time`` T [s] the motor's pulse."""
+    ``spin_time`` T [s] the motor's pulse. ``mds="mmi"`` (nr-rncf): each reduced body's
+    ``n_mds`` modal derivatives of largest modal interaction in a first run of the mechanism with
+    its VMs alone over 0-``t_end`` (``multibody.modal_interaction``)."""
     if formulation not in ("ancf", "nr-rncf"):
         raise ValueError(f"formulation must be 'ancf' or 'nr-rncf', got {formulation!r}")
     if not (spin_time > 0 and hub_radius > 0 and hub_inertia > 0):
@@ -72,6 +76,8 @@ def mechanism(formulation: str = "ancf", elements: int = 8, vms: int = 4, mds="a
     joints = [hinge(None, O, Z)] + [clamp(Marker(HUB, tuple(r)), Marker(k + 1, tuple(r))) for k, r in enumerate(roots)]
     forces = [motor(None, O, Z, torque_pulse, (float(torque), float(spin_time)))]
     system = Mechanism([hub] + beams, joints, forces=forces)
+    if mds == "mmi" and formulation == "nr-rncf":
+        system, _ = select_modal_derivatives(system, np.linspace(0.0, t_end, 201), n_mds=int(n_mds), rho_inf=rho_inf)
     tip = tuple(roots[0] + preset.length * np.array([1.0, 0.0, 0.0]))
     sensors = {"omega": ElementForce(0, "rate"), "torque": ElementForce(0), "power": ElementForce(0, "power"),
                "H_z": AngularMomentum(2), "energy": Energy(),

@@ -31,6 +31,7 @@ from ..bodies import Material, TubeSection, beam_body, straight_reference
 from ..integrate import ConstantStepSize, GeneralizedAlphaIndex3, simulate
 from ..motion import RestToRest
 from ..multibody import Marker, Mechanism, PointMass, ball, hinge, placed
+from ..multibody.modal_interaction import select_modal_derivatives
 from ..multibody.reduce import reduce
 from ..multibody.sensors import DriverEffort, Position, observe
 from ..scenarios.mechanism_file import MechanismSetup
@@ -47,10 +48,13 @@ def mechanism(formulation: str = "nr-rncf", elements: int = 4, vms: int = 3, mds
               coeffs=None, move_time: float = 1.0, angle_1: float = np.pi / 2, angle_2: float = np.pi / 3,
               length: float = 1.0, radius: float = 0.01, E: float = 70e9, rho: float = 2700.0, nu: float = 0.3,
               payload: float = 0.1, t_end: float = 1.6, rtol: float = 1e-5, rho_inf: float = 0.5,
-              basis: str = "free") -> MechanismSetup:
+              basis: str = "free", n_mds: int = 4) -> MechanismSetup:
     """The arm (module docstring); ``coeffs`` (2, n_terms): the hinges' correction coefficients
     [rad] (zero: the plain cycloids); ``basis``: the reduced links' (``reduce``: ``"free"``
-    cantilever modes, or ``"craig-bampton"`` with the tip's boundary coordinates)."""
+    cantilever modes, or ``"craig-bampton"`` with the tip's boundary coordinates). ``mds="mmi"``
+    (nr-rncf): each reduced body's ``n_mds`` modal derivatives of largest modal interaction in a
+    first run of the mechanism with its VMs alone over 0-``t_end``
+    (``multibody.modal_interaction``)."""
     if formulation not in ("ancf", "nr-rncf"):
         raise ValueError(f"formulation must be 'ancf' or 'nr-rncf', got {formulation!r}")
     c = np.zeros((2, int(n_terms))) if coeffs is None else np.asarray(coeffs, dtype=float)
@@ -68,6 +72,8 @@ def mechanism(formulation: str = "nr-rncf", elements: int = 4, vms: int = 3, mds
               hinge(Marker(0, root_2), Marker(1, root_2), Z, drive=RestToRest(angle_2, move_time, c[1])),
               ball(Marker(1, tip), Marker(2, tip))]
     system = Mechanism([*links, PointMass(payload, tip)], joints)
+    if mds == "mmi" and formulation == "nr-rncf":
+        system, _ = select_modal_derivatives(system, np.linspace(0.0, t_end, 201), n_mds=int(n_mds), rho_inf=rho_inf)
     sensors = {"tip": Position(Marker(2, tip)), "torque_1": DriverEffort(DRIVERS[0]),
                "torque_2": DriverEffort(DRIVERS[1])}
     return MechanismSetup(system, sensors, t_end=t_end, rtol=rtol, rho_inf=rho_inf, compare=("tip",),
