@@ -123,19 +123,26 @@ def _positions(system: Mechanism, z, flexible) -> Float[Array, " n"]:
     return jnp.concatenate([(system.bodies[b].is_position[:, None] * xs[b]).reshape(-1) for b in flexible])
 
 
+def _lifted_state(maps, reduced: Mechanism, t, z, v):
+    """(z_f, ż_f, z̈_f, λ): the reduced state completed by its consistent accelerations and
+    multipliers, lifted to the full mechanism's coordinates."""
+    a, lam = reduced.consistent_accelerations(t, z, v)
+    zf, vf, af = (_lift(maps, reduced, y) for y in (z, v, a))
+    return zf, vf, af, lam
+
+
 @eqx.filter_jit
 def _mechanism_corrections(full, reduced, maps, ts, zs, vs, flexible):
     """|e| over the flexible bodies' position vectors at each sample (``lax.map``: one sample
     after another, as ``reduction.error_estimate`` does, for the same reason)."""
     def one(args):
         t, z, v = args
-        a, lam = reduced.consistent_accelerations(t, z, v)
-        zf, vf, af = (_lift(maps, reduced, y) for y in (z, v, a))
-        r = full.residual(t, zf, vf, af) + full.constraint_force(zf, lam, t)
+        zf, vf, af, lam = _lifted_state(maps, reduced, t, z, v)
+        r = full.split(full.residual(t, zf, vf, af) + full.constraint_force(zf, lam, t))
         blocks = full.tangent_blocks(t, zf, vf, af, lam)
         total = jnp.zeros((), zf.dtype)
-        for b, rb in zip(flexible, [full.split(r)[b] for b in flexible]):
-            e = -jnp.linalg.solve(blocks[b][7:, 7:], rb[7:])
+        for b in flexible:
+            e = -jnp.linalg.solve(blocks[b][7:, 7:], r[b][7:])
             body = full.bodies[b]
             dq = (body.basis @ e).reshape(-1, 3)
             total = total + jnp.sum(body.is_position[:, None] * dq**2)
@@ -172,11 +179,6 @@ def _error_equation(full, reduced, maps, ts, zs, vs, flexible):
     on the exact defect (its products R_z e, ... by forward-mode derivatives). δx = ∂x/∂z e."""
     g, b = NEWMARK_GAMMA, NEWMARK_BETA
 
-    def state(t, z, v):
-        a, lam = reduced.consistent_accelerations(t, z, v)
-        zf, vf, af = (_lift(maps, reduced, y) for y in (z, v, a))
-        return zf, vf, af, lam
-
     def equations(t, zf, vf, af, lam):
         def F(dz, dv, da, mu):
             return (full.residual(t, zf + dz, vf + dv, af + da) + full.constraint_force(zf + dz, lam, t)
@@ -194,7 +196,7 @@ def _error_equation(full, reduced, maps, ts, zs, vs, flexible):
         e, ed, edd, mu = carry
         t0, t, z, v = args
         h = t - t0
-        zf, vf, af, lam = state(t, z, v)
+        zf, vf, af, lam = _lifted_state(maps, reduced, t, z, v)
         F = equations(t, zf, vf, af, lam)
         e_p, ed_p = e + h * ed + (0.5 - b) * h**2 * edd, ed + (1.0 - g) * h * edd
         c_f = full.constraints(zf, t)

@@ -13,19 +13,11 @@ tolerance serves."""
 
 import numpy as np
 
-from ..reduction import elastic_tensors, mmi_matrix, modal_basis, select
+from ..reduction import mmi_matrix, select
 from ..reduction.selection import Selection
 from .floating import FloatingBody, rotation
 from .mechanism import Mechanism
-
-
-def _with_pairs(body: FloatingBody, pairs, deflation_tol: float) -> FloatingBody:
-    """``body`` with its basis rebuilt from its vibration modes and the modal derivatives of
-    ``pairs``."""
-    phi, free = np.asarray(body.modes), np.asarray(body.free)
-    Psi = np.asarray(modal_basis(body.body, free, phi, pairs, deflation_tol=deflation_tol).Psi)
-    return FloatingBody(body.body, Psi, elastic_tensors(body.body, body.body.q_hat, Psi), R0=body.R0,
-                        A0=np.asarray(rotation(body.e0)), free=free, modes=phi)
+from .reduce import modal_body
 
 
 def modal_interaction(system: Mechanism, ts, zs, n_mds: int) -> list[Selection | None]:
@@ -70,7 +62,9 @@ def select_modal_derivatives(system: Mechanism, ts, n_mds: int = 8, rtol: float 
     sol = simulate(system, GeneralizedAlphaIndex3(rho_inf), AdaptiveStepSize(rtol, rtol / 10), ts,
                    observe=lambda t, z, v: z, y0=y0)
     selections = modal_interaction(system, ts, np.asarray(sol.ys), n_mds)
-    bodies = [b if s is None else _with_pairs(b, s.pairs, deflation_tol) for b, s in zip(system.bodies, selections)]
+    bodies = [b if s is None else modal_body(b.body, np.asarray(b.free), np.asarray(b.modes), s.pairs, b.R0,
+                                             np.asarray(rotation(b.e0)), deflation_tol)
+              for b, s in zip(system.bodies, selections)]
     return type(system)(bodies, system.joints, gravity=system.gravity, forces=system.forces), selections
 
 

@@ -93,11 +93,18 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
             raise ValueError("a Craig-Bampton basis needs a second interface (its boundary coordinates)")
         Psi = np.asarray(craig_bampton_basis(local, free, boundary, vms, pairs, deflate_tol=deflation_tol).basis)
     else:
-        modes = vibration_modes(local, free, vms)
-        Psi = np.asarray(modal_basis(local, free, modes.phi, pairs, deflation_tol=deflation_tol).Psi)
-        return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free,
-                            modes=modes.phi)
+        return modal_body(local, free, np.asarray(vibration_modes(local, free, vms).phi), pairs, R0, A0,
+                          deflation_tol)
     return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free)
 
 
-__all__ = ["reduce"]
+def modal_body(local: Body, free, phi, pairs, R0, A0, deflation_tol: float = 1e-6) -> FloatingBody:
+    """The NR-RNCF body of ``local`` (in its frame, held on ``free``'s complement) from its
+    vibration modes ``phi`` and the modal derivatives of ``pairs``, deflated by SVD, with its
+    tensors; it records ``free`` and ``phi`` (``reduce`` step 4, and
+    ``modal_interaction.select_modal_derivatives`` when it rebuilds a body with its pairs)."""
+    Psi = np.asarray(modal_basis(local, free, phi, pairs, deflation_tol=deflation_tol).Psi)
+    return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free, modes=phi)
+
+
+__all__ = ["modal_body", "reduce"]
