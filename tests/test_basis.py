@@ -137,16 +137,17 @@ def test_offline_family_map_reproduces_the_reduction_basis(curved):
 
 @pytest.mark.slow
 def test_pendulum_beam_bases_are_the_direct_construction():
-    """``build_reduced_pendulum``'s beams (2 elements): deflate([Φ, Θ_pairs, joint static modes])
-    of the in-plane cantilever modes, one basis for all beams or one a beam (``body_pairs``)."""
+    """``build_reduced_pendulum``'s beams (2 elements, reduced by ``multibody.reduce`` and moved
+    along the chain): deflate([Φ, Θ_pairs, joint static modes]) of the in-plane cantilever modes,
+    the same pairs for all beams or one list a beam (``body_pairs``)."""
     from nrrncf_jax.elements.beam import mirror_even
     from nrrncf_jax.motion import Stationary
+    from nrrncf_jax.reduction import static_modes
     from nrrncf_jax.scenarios.pendulum import (
         _PER_NODE,
         REFERENCE_CONDITIONS,
         PendulumSpec,
         _beam,
-        boundary_modes,
         build_reduced_pendulum,
     )
 
@@ -155,7 +156,8 @@ def test_pendulum_beam_bases_are_the_direct_construction():
     free = RotatingFrameModel(beam, Stationary(), clamped=list(REFERENCE_CONDITIONS)).free_mask()
     free = free & jnp.asarray(mirror_even(spec.elements + 1, "z"))
     modes = vibration_modes(beam, free, 3)
-    tip = boundary_modes(beam, free, [_PER_NODE * spec.elements])
+    tip = 3 * _PER_NODE * spec.elements + np.arange(3)  # the right end's position: its in-plane components
+    tip = static_modes(beam, free, tip[np.asarray(free)[tip]])
 
     def direct(pairs, extra):
         mds = [np.asarray(modal_derivatives(beam, free, modes.phi, pairs).theta)] if pairs else []

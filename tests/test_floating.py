@@ -334,18 +334,19 @@ def _kinematics(system, looped, z, v, a, F, lam):
 
 
 def test_joint_modes_give_the_cantilevers_tip_flexibility():
-    """``scenarios.pendulum.boundary_modes``: the static deflections of a beam held at its left end
+    """``reduction.static_modes``: the static deflections of a beam held at its left end
     under unit forces at its right end have the Euler-Bernoulli cantilever's tip flexibilities,
     L³/(3EI) transversely and L/(EA) axially (a slender rod: shear and the section's Poisson
     contraction change them by about (r/L)² ~ 1e-4 and ν²(r/L)², and the C1 element's cubic
     interpolation is exact for a tip load)."""
-    from nrrncf_jax.scenarios.pendulum import PendulumSpec, _beam, boundary_modes
+    from nrrncf_jax.reduction import static_modes
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, _beam
 
     spec = PendulumSpec(elements=2)
     beam = _beam(spec)
     free = RotatingFrameModel(beam, Stationary(), clamped=list(REFERENCE_CONDITIONS)).free_mask()
     tip = 6 * spec.elements  # the right end's position vector
-    psi = boundary_modes(beam, free, [tip])
+    psi = static_modes(beam, free, 3 * tip + np.arange(3))
     flex = psi[3 * tip:3 * tip + 3, :]  # tip displacement (rows) per unit tip force (columns)
     area, inertia = np.pi * spec.radius**2, np.pi * spec.radius**4 / 4
     np.testing.assert_allclose(flex[0, 0], spec.length / (spec.E * area), rtol=1e-3)

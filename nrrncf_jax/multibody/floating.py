@@ -135,7 +135,9 @@ class FloatingBody(AbstractBodyKind):
     (``multibody.error_estimate.full_counterpart``). ``modes`` (optional, n_dof × n): the
     vibration modes the basis was built from, whose modal interaction in the mechanism's motion
     chooses modal derivatives (``multibody.modal_interaction``). ``multibody.reduce`` records
-    both."""
+    both. ``awaiting_mds``: reduced with ``mds="mmi"``, its modal derivatives not chosen yet
+    (``modal_interaction.select_modal_derivatives`` chooses them; a model file that runs such a
+    body is refused, ``scenarios.mechanism_file.run_setup``)."""
 
     body: Body
     basis: Float[Array, "ndof k"]
@@ -155,9 +157,10 @@ class FloatingBody(AbstractBodyKind):
     H_trace: Float[Array, "k k"]  # Σ_a H_aa = Ψᵀ (M_b ⊗ I) Ψ
     free: Array | None  # the reference conditions' free coordinates (n_dof booleans), if known
     modes: Array | None  # the vibration modes Φ (n_dof × n) the basis was built from, if known
+    awaiting_mds: bool = eqx.field(static=True)  # mds="mmi": its modal derivatives still to be chosen
 
     def __init__(self, body: Body, basis, tensors: ElasticTensors, R0=(0.0, 0.0, 0.0), A0=None, free=None,
-                 modes=None):
+                 modes=None, awaiting_mds: bool = False):
         basis = jnp.asarray(basis)
         if basis.ndim != 2 or basis.shape[0] != body.n_dof:
             raise ValueError(f"basis must be (n_dof, k) = ({body.n_dof}, k), got {basis.shape}")
@@ -175,7 +178,10 @@ class FloatingBody(AbstractBodyKind):
             modes = jnp.asarray(modes)
             if modes.ndim != 2 or modes.shape[0] != body.n_dof:
                 raise ValueError(f"modes must be (n_dof, n) = ({body.n_dof}, n), got {modes.shape}")
+        if awaiting_mds and modes is None:
+            raise ValueError("a body awaiting its modal derivatives must record the vibration modes that choose them")
         self.body, self.basis, self.tensors, self.free, self.modes = body, basis, tensors, free, modes
+        self.awaiting_mds = bool(awaiting_mds)
         self.R0 = jnp.asarray(R0, dtype=float).reshape(3)
         self.e0 = jnp.asarray(euler_parameters(np.eye(3) if A0 is None else A0))
         self.is_position = jnp.asarray(np.asarray(body.is_position, dtype=float))
@@ -325,6 +331,13 @@ class FloatingBody(AbstractBodyKind):
     @property
     def n_vectors(self) -> int:
         return self.body.n_vectors
+
+    def moved(self, R0, A0=None) -> "FloatingBody":
+        """The same reduced body with its frame's initial origin at ``R0`` (and orientation
+        ``A0``, default as it is): a copy of one reduction placed elsewhere, as the equal beams of
+        a chain are (its basis, tensors and invariants are in the frame, and do not change)."""
+        e0 = self.e0 if A0 is None else jnp.asarray(euler_parameters(np.asarray(A0, dtype=float)))
+        return eqx.tree_at(lambda b: (b.R0, b.e0), self, (jnp.asarray(R0, dtype=float).reshape(3), e0))
 
     def stiffened(self, s) -> "FloatingBody":
         """The elastic force times s: the reduced tensors scaled (exact: the vibration modes and

@@ -17,7 +17,9 @@ The recipe it runs, the one the paper's examples run by hand:
    ``modal_interaction.select_modal_derivatives(system, ts)`` once the body is in its system,
    as maximum modal interaction needs that motion), deflated by SVD (``reduction.modal_basis``);
    ``basis="craig-bampton"``: the extended Craig-Bampton basis instead, the other interfaces'
-   positions its boundary coordinates (``reduction.craig_bampton``); ``basis="full"``: every
+   positions its boundary coordinates (``reduction.craig_bampton``); with ``interface_modes``
+   the free basis holds those positions' static modes too (``reduction.static_modes``);
+   ``basis="full"``: every
    free coordinate kept, the elements' own force (the full-order RNCF reference,
    ``full_order_frame``);
 5. the reduced cubic elastic force's tensors (``reduction.elastic_tensors``, Eq. 24).
@@ -28,7 +30,7 @@ import numpy as np
 from ..bodies.body import Body
 from ..elements.beam import NODAL_VECTORS_PER_NODE, mirror_even
 from ..reduction import craig_bampton as craig_bampton_basis
-from ..reduction import elastic_tensors, modal_basis, vibration_modes
+from ..reduction import elastic_tensors, modal_basis, static_modes, vibration_modes
 from .floating import FloatingBody
 from .full_order_frame import full_floating_body
 from .markers import BodyGeometry, Marker
@@ -40,13 +42,16 @@ def _point(p):
 
 
 def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free", plane_normal=None,
-           deflation_tol: float = 1e-6) -> FloatingBody:
+           interface_modes: bool = False, deflation_tol: float = 1e-6) -> FloatingBody:
     """``body`` (placed in space: its ``q_hat`` the stress-free, initial state) as a floating-frame
     body of a mechanism, its deformation reduced (see the module docstring). ``interfaces``: the
     points (or ``Marker``s) where it is joined, the first one holding its frame.
     ``basis``: ``"free"`` (vibration modes and modal derivatives), ``"craig-bampton"`` or
     ``"full"``. ``plane_normal``: the normal of the plane of a planar mechanism (in-plane modes
-    only), or None."""
+    only), or None. ``interface_modes`` (with ``basis="free"``): the other interfaces' static
+    modes too, the body's static deflections under unit forces on their positions
+    (``reduction.static_modes``), so that a joint's load is carried as Craig-Bampton carries it,
+    without its boundary coordinates."""
     if not isinstance(body, Body):
         raise ValueError(f"reduce takes a flexible bodies.Body, got {type(body).__name__}")
     if basis not in ("free", "craig-bampton", "full"):
@@ -85,26 +90,37 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
         raise ValueError("mds='mmi' goes with basis='free' (the vibration modes whose interaction chooses the pairs)")
     pairs = [(i, j) for i in range(vms) for j in range(i, vms)] if mds == "all" else \
         [] if mds == "mmi" else [tuple(p) for p in mds]
+    if mds == "mmi" and interface_modes:
+        raise ValueError("mds='mmi' rebuilds the body from its vibration modes and chosen pairs: pass interface_modes "
+                         "with an explicit list of pairs")
     if any(not 0 <= i <= j < vms for i, j in pairs):
         raise ValueError(f"mds must be pairs (i, j) with 0 <= i <= j < vms = {vms}")
+    boundary = [3 * v + c for v in nodes[1:] for c in range(3) if free[3 * v + c]]  # the other interfaces
     if basis == "craig-bampton":
-        boundary = [3 * v + c for v in nodes[1:] for c in range(3) if free[3 * v + c]]
+        if interface_modes:
+            raise ValueError("interface_modes goes with basis='free' (Craig-Bampton holds the interfaces' static "
+                             "modes already)")
         if not boundary:
             raise ValueError("a Craig-Bampton basis needs a second interface (its boundary coordinates)")
         Psi = np.asarray(craig_bampton_basis(local, free, boundary, vms, pairs, deflate_tol=deflation_tol).basis)
-    else:
-        return modal_body(local, free, np.asarray(vibration_modes(local, free, vms).phi), pairs, R0, A0,
-                          deflation_tol)
-    return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free)
+        return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free)
+    if interface_modes and not boundary:
+        raise ValueError("interface_modes needs a second interface (the point whose static modes are added)")
+    extra = [static_modes(local, free, boundary)] if interface_modes else []
+    return modal_body(local, free, np.asarray(vibration_modes(local, free, vms).phi), pairs, R0, A0, deflation_tol,
+                      extra, awaiting_mds=mds == "mmi")
 
 
-def modal_body(local: Body, free, phi, pairs, R0, A0, deflation_tol: float = 1e-6) -> FloatingBody:
+def modal_body(local: Body, free, phi, pairs, R0, A0, deflation_tol: float = 1e-6, extra=(),
+               awaiting_mds: bool = False) -> FloatingBody:
     """The NR-RNCF body of ``local`` (in its frame, held on ``free``'s complement) from its
-    vibration modes ``phi`` and the modal derivatives of ``pairs``, deflated by SVD, with its
-    tensors; it records ``free`` and ``phi`` (``reduce`` step 4, and
-    ``modal_interaction.select_modal_derivatives`` when it rebuilds a body with its pairs)."""
-    Psi = np.asarray(modal_basis(local, free, phi, pairs, deflation_tol=deflation_tol).Psi)
-    return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free, modes=phi)
+    vibration modes ``phi``, the modal derivatives of ``pairs`` and the column blocks ``extra``
+    (static modes), deflated by SVD, with its tensors; it records ``free`` and ``phi``
+    (``reduce`` step 4, and ``modal_interaction.select_modal_derivatives`` when it rebuilds a
+    body with its pairs)."""
+    Psi = np.asarray(modal_basis(local, free, phi, pairs, extra=extra, deflation_tol=deflation_tol).Psi)
+    return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free, modes=phi,
+                        awaiting_mds=awaiting_mds)
 
 
 __all__ = ["modal_body", "reduce"]

@@ -28,7 +28,8 @@ the two planes: ``align_degenerate_modes`` turns each pair to the load, and ``ex
 ``plane_loads`` picks the modes a planar motion excites (``elements.beam.mirror_even`` gives them
 exactly). ``craig_bampton`` is the extended Craig-Bampton basis of a jointed body (paper Eqs.
 44-46: the joint's coordinates kept as boundary coordinates with their static constraint modes,
-fixed-interface modes and their modal derivatives), used by ``multibody.floating``. Mode indices
+fixed-interface modes and their modal derivatives), used by ``multibody.floating``; ``static_modes``
+the attachment modes of chosen coordinates, the same span kept as plain basis vectors. Mode indices
 are 0-based everywhere (``Reduction.selection.vms``, ``.pairs``), as in the command line's output.
 
 How good a reduced run is, without the full run: ``error_estimate`` (the static-correction
@@ -43,6 +44,7 @@ from .basis_to_tolerance import greedy_order as greedy_order
 from .basis_to_tolerance import nr_rncf_to_tolerance as nr_rncf_to_tolerance
 from .craig_bampton import CraigBampton as CraigBampton
 from .craig_bampton import craig_bampton as craig_bampton
+from .craig_bampton import static_modes as static_modes
 from .deflation import deflate as deflate
 from .modal_derivatives import ModalDerivatives as ModalDerivatives
 from .modal_derivatives import modal_derivatives as modal_derivatives

@@ -79,4 +79,24 @@ def craig_bampton(body: Body, free, boundary, n_vms: int, pairs="all", q_eq=None
                         omega=modes.omega)
 
 
-__all__ = ["CraigBampton", "craig_bampton"]
+def static_modes(body: Body, free, dofs, q_eq=None) -> np.ndarray:
+    """The static deflections of ``body`` at ``q_eq`` (default its reference), held on its
+    reference conditions (``free``'s complement), under a unit force on each of the free
+    coordinates ``dofs`` (n_dof × len(dofs)): the attachment modes of those coordinates, K_ff⁻¹
+    on unit loads. Kept as basis vectors beside a body's vibration modes (``multibody.reduce``'s
+    ``interface_modes``), they span the same space as the static constraint modes Φ_B of
+    ``craig_bampton`` (Eq. 45) for boundary ``dofs``, without making the boundary coordinates
+    coordinates of the reduced model."""
+    free = np.asarray(free, dtype=bool).reshape(-1)
+    dofs = np.asarray(dofs, dtype=int).reshape(-1)
+    if any(not 0 <= d < body.n_dof or not free[d] for d in dofs):
+        raise ValueError(f"static_modes: the loaded DOFs must be free coordinates of the body, got {dofs.tolist()}")
+    K = np.asarray(body.stiffness_matrix(body.q_hat if q_eq is None else q_eq))[np.ix_(free, free)]
+    F = np.zeros((body.n_dof, len(dofs)))
+    F[dofs, np.arange(len(dofs))] = 1.0
+    psi = np.zeros_like(F)
+    psi[free] = np.linalg.solve(K, F[free])
+    return psi
+
+
+__all__ = ["CraigBampton", "craig_bampton", "static_modes"]

@@ -12,7 +12,7 @@ full-order reference; ``build_rncf_pendulum``, the same beams at full order in f
 (the paper's full RNCF, the ANCF model in other coordinates); and ``build_reduced_pendulum``,
 NR-RNCF: each beam in a floating frame
 (``multibody.floating``) with its deformation reduced to cantilever modes and their modal
-derivatives (optionally with the right-end joint's static modes, ``boundary_modes``), or to the
+derivatives (optionally with the right-end joint's static modes), or to the
 extended Craig-Bampton basis (``reduction.craig_bampton``: the joint's position as boundary
 coordinates, fixed-interface modes and their MDs); ``mmi_per_body`` picks each beam's MDs by
 maximum modal interaction; ``release_sweep`` runs any of them released at a batch of angles in
@@ -32,7 +32,6 @@ from .. import _validate
 from .._validate import positive_int
 from ..bodies.body import beam_body
 from ..bodies.mesh import straight_reference
-from ..elements.beam import mirror_even
 from ..elements.material import Material
 from ..elements.section import TubeSection
 from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate, simulate_batch
@@ -40,7 +39,6 @@ from ..integrate.simulate import simulate_timed
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody import (
     GROUND,
-    FloatingBody,
     FloatingFrameSystem,
     Marker,
     MultibodySystem,
@@ -145,99 +143,74 @@ def build_rncf_pendulum(spec: PendulumSpec = PendulumSpec(), frame=LEFT_END_FRAM
     return FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
 
 
-def boundary_modes(beam, free, vectors) -> np.ndarray:
-    """The static deflections of the beam, held on its reference conditions (``free``), under a
-    unit force on each free component of each position vector in ``vectors`` (n_dof × that many;
-    a held component, such as z in the in-plane pendulum, has no static mode): the joint's static
-    modes. They span the same space as Craig-Bampton's static constraint
-    modes Φ_IB = −K_II⁻¹ K_IB of those boundary coordinates (paper Eq. 45), here kept as basis
-    vectors rather than as the boundary coordinates themselves."""
-    free = np.asarray(free).reshape(-1)
-    K = np.asarray(beam.stiffness_matrix(beam.q_hat))[np.ix_(free, free)]
-    n = free.shape[0]
-    F = np.zeros((n, 3 * len(vectors)))
-    for k, v in enumerate(vectors):
-        F[3 * v + np.arange(3), 3 * k + np.arange(3)] = 1.0
-    F = F[:, free @ F > 0]
-    psi = np.zeros_like(F)
-    psi[free] = np.linalg.solve(K, F[free])
-    return psi
-
-
 def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, pairs="all", joint_modes: bool = False,
                            in_plane: bool = True, craig_bampton: bool = False,
                            body_pairs=None) -> tuple[FloatingFrameSystem, dict]:
-    """NR-RNCF of the pendulum: each beam in its floating frame (``REFERENCE_CONDITIONS``), its
-    deformation reduced to ``n_vms`` vibration modes with those vectors clamped (a cantilever) and
-    their modal derivatives (``pairs``: ``"all"``, the k(k+1)/2 pairs i ≤ j,
-    the paper's 5 VMs + 15 MDs; or a list of (i, j); or ``[]``), and with ``joint_modes`` the
-    static modes of the right-end joint (``boundary_modes``: 3 more a beam, the span of the
-    extended Craig-Bampton's static constraint modes), deflated by SVD. ``craig_bampton``: the
-    extended Craig-Bampton basis instead (``reduction.craig_bampton``): the right end's position
-    (its in-plane components) kept as boundary coordinates with their static constraint modes,
-    and ``n_vms`` fixed-interface modes (both ends held) and their MDs; every beam gets the same
-    basis (the last beam's right end is free, and its boundary coordinates are two more
-    coordinates), so the three are evaluated in one ``vmap``. ``body_pairs``: one list of MD
-    pairs a beam (``mmi_per_body``'s selection), each beam with its own basis (the bodies are then
-    evaluated one by one). Returns the system and the offline record: ``frequencies_hz``,
-    ``pairs``, ``k`` (coordinates a body after deflation; with ``body_pairs`` a list), ``phi``
-    (the VMs), ``offline_s``.
+    """NR-RNCF of the pendulum: each beam reduced by ``multibody.reduce`` at its two joints (its
+    floating frame at the left end, ``REFERENCE_CONDITIONS`` held: a cantilever), to ``n_vms``
+    vibration modes and their modal derivatives (``pairs``: ``"all"``, the k(k+1)/2 pairs i ≤ j,
+    the paper's 5 VMs + 15 MDs; or a list of (i, j); or ``[]``), with ``joint_modes`` the static
+    modes of the right-end joint too (``reduce``'s ``interface_modes``: the span of the extended
+    Craig-Bampton's static constraint modes), deflated by SVD (ϑ = 1e-6). ``craig_bampton``: the
+    extended Craig-Bampton basis instead (``reduce(basis="craig-bampton")``): the right end's
+    position (its in-plane components) kept as boundary coordinates with their static constraint
+    modes, and ``n_vms`` fixed-interface modes (both ends held) and their MDs; every beam gets
+    the same kind of basis (the last beam's right end is free, and its boundary coordinates are
+    two more coordinates), so the three are evaluated in one ``vmap``. ``body_pairs``: one list of
+    MD pairs a beam (``mmi_per_body``'s selection). Returns the system and the offline record:
+    ``frequencies_hz`` (of the vibration modes; None with ``craig_bampton``), ``pairs``, ``k``
+    (coordinates a body after deflation; with ``body_pairs`` a list), ``phi`` (the VMs),
+    ``offline_s``.
 
-    ``in_plane`` (default): the beam's in-plane modes and MDs, computed with its coordinates that
-    are odd under the mirror z → −z held at zero (``elements.beam.mirror_even``), which gives
-    exactly the in-plane ones (``reduction.excited_modes`` finds the same modes by their loads,
-    to the eigensolver's round-off). ``in_plane=False``: the lowest ``n_vms`` overall. A round
-    tube's bending modes come in equal-frequency pairs, and eigh returns any mix of the two
-    planes; the lowest five are two pairs and half of the third, a y–z mix without its partner.
-    The motion couples into it out of the plane, the basis holds only two or three in-plane
-    modes, and the reduced pendulum leaves its plane, where the full one stays in it to round-off.
-
-    The basis of a beam is ``reduction.modal_basis`` of its modes, its MDs of ``pairs`` and the
-    joint's static modes, deflated by SVD (ϑ = 1e-6)."""
+    ``in_plane`` (default): the beam's in-plane modes and MDs (``reduce``'s ``plane_normal``: its
+    coordinates that are odd under the mirror z → −z held at zero, ``elements.beam.mirror_even``,
+    which gives exactly the in-plane ones; ``reduction.excited_modes`` finds the same modes by
+    their loads, to the eigensolver's round-off). ``in_plane=False``: the lowest ``n_vms``
+    overall. A round tube's bending modes come in equal-frequency pairs, and eigh returns any mix
+    of the two planes; the lowest five are two pairs and half of the third, a y–z mix without its
+    partner. The motion couples into it out of the plane, the basis holds only two or three
+    in-plane modes, and the reduced pendulum leaves its plane, where the full one stays in it to
+    round-off."""
     import time
 
-    from ..models import RotatingFrameModel
-    from ..motion import Stationary
-    from ..reduction import craig_bampton as reduction_craig_bampton
-    from ..reduction import elastic_tensors, modal_basis, vibration_modes
+    from ..multibody.reduce import reduce
 
     positive_int("n_vms", n_vms)
     if craig_bampton and joint_modes:
         raise ValueError("craig_bampton already holds the joint's static modes: pass one of craig_bampton, joint_modes")
+    pairs = [(i, j) for i in range(n_vms) for j in range(i, n_vms)] if pairs == "all" else [tuple(p) for p in pairs]
     if body_pairs is not None:
         body_pairs = [[tuple(int(i) for i in pair) for pair in b] for b in body_pairs]
         if len(body_pairs) != spec.beams or craig_bampton or joint_modes:
             raise ValueError(f"body_pairs takes one list of MD pairs for each of the {spec.beams} beams, with the "
                              "cantilever basis (neither craig_bampton nor joint_modes)")
-        if any(not 0 <= i <= j < n_vms for b in body_pairs for i, j in b):
-            raise ValueError(f"body_pairs must be pairs (i, j) with 0 <= i <= j < n_vms = {n_vms}")
     t0 = time.perf_counter()
     beam = _beam(spec)
-    free = RotatingFrameModel(beam, Stationary(), clamped=list(REFERENCE_CONDITIONS)).free_mask()
-    if in_plane:
-        free = free & jnp.asarray(mirror_even(spec.elements + 1, "z"))
-    pairs = [(i, j) for i in range(n_vms) for j in range(i, n_vms)] if pairs == "all" else [tuple(p) for p in pairs]
-    if craig_bampton:
-        tip = 3 * (_PER_NODE * spec.elements + _R) + np.arange(3)
-        cb = reduction_craig_bampton(beam, free, tip[np.asarray(free)[tip]], n_vms, pairs)
-        modes, bases = cb, [cb.basis]
-    else:
-        modes = vibration_modes(beam, free, n_vms)
-        tip_modes = [boundary_modes(beam, free, [_PER_NODE * spec.elements + _R])] if joint_modes else []
-        bases = [modal_basis(beam, free, modes.phi, bp, extra=tip_modes).Psi
-                 for bp in ([pairs] if body_pairs is None else body_pairs)]
-    tensors = [jax.block_until_ready(elastic_tensors(beam, beam.q_hat, Psi)) for Psi in bases]
-    which = [0] * spec.beams if len(bases) == 1 else range(spec.beams)  # one shared basis, or one a beam
-    phi = None if craig_bampton else np.asarray(modes.phi)
-    bodies = [FloatingBody(beam, bases[i], tensors[i], R0=(k * spec.length, 0.0, 0.0), free=np.asarray(free),
-                           modes=phi) for k, i in enumerate(which)]
-    k_out = bodies[0].k if body_pairs is None else [b.k for b in bodies]
-    pairs = pairs if body_pairs is None else body_pairs
+
+    def reduced(mds):  # the beam at the origin, its frame at its left end, its joint at its right end
+        return reduce(beam, [(0.0, 0.0, 0.0), (spec.length, 0.0, 0.0)], vms=n_vms, mds=mds,
+                      basis="craig-bampton" if craig_bampton else "free", interface_modes=joint_modes,
+                      plane_normal=(0.0, 0.0, 1.0) if in_plane else None)
+
+    # equal beams share one reduction, moved along the chain (one offline computation, one vmap)
+    templates = [reduced(pairs)] * spec.beams if body_pairs is None else [reduced(bp) for bp in body_pairs]
+    bodies = [b.moved((k * spec.length, 0.0, 0.0)) for k, b in enumerate(templates)]
     system = FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
-    info = {"frequencies_hz": (np.asarray(modes.omega) / (2 * np.pi)).tolist(), "pairs": pairs,
-            "k": k_out, "phi": np.asarray(modes.phi) if not craig_bampton else None,
+    phi = None if craig_bampton else np.asarray(bodies[0].modes)
+    info = {"frequencies_hz": None if craig_bampton else _frequencies_hz(bodies[0].body, phi).tolist(),
+            "pairs": pairs if body_pairs is None else body_pairs,
+            "k": bodies[0].k if body_pairs is None else [b.k for b in bodies], "phi": phi,
             "offline_s": time.perf_counter() - t0}
     return system, info
+
+
+def _frequencies_hz(body, phi) -> np.ndarray:
+    """The natural frequencies [Hz] of ``body``'s vibration modes ``phi`` (eigenvectors of (K, M)
+    at its reference): the Rayleigh quotients √(φᵀKφ / φᵀMφ) / 2π, exact for eigenvectors."""
+    phi = np.asarray(phi)
+    K = np.asarray(body.stiffness_matrix(body.q_hat))
+    M = np.kron(np.asarray(body.mass_matrix()), np.eye(3))
+    return np.sqrt(np.einsum("ik,ij,jk->k", phi, K, phi) / np.einsum("ik,ij,jk->k", phi, M, phi)) / (2 * np.pi)
 
 
 def mmi_per_body(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, n_mds: int = 8, t_end: float = 2.0,
@@ -489,5 +462,5 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
 
 
 __all__ = ["FORMULATIONS", "LEFT_END_FRAME", "LEFT_SECTION_FRAME", "REFERENCE_CONDITIONS", "SHAPE_TIMES",
-           "PendulumRun", "PendulumSpec", "ReleaseSweep", "boundary_modes", "build_pendulum", "build_reduced_pendulum",
+           "PendulumRun", "PendulumSpec", "ReleaseSweep", "build_pendulum", "build_reduced_pendulum",
            "build_rncf_pendulum", "mmi_per_body", "release_sweep", "run_chain", "run_pendulum", "tip_vectors"]
