@@ -16,7 +16,7 @@ from nrrncf_jax.bodies.rigid import RigidBody, slender_rod
 from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, simulate
 from nrrncf_jax.multibody import Marker, Mechanism, MultibodySystem, PointMass, ball, hinge, slider
 from nrrncf_jax.multibody.rigid import rigid_floating_body
-from nrrncf_jax.multibody.sensors import AngularMomentum, Energy, Position
+from nrrncf_jax.multibody.sensors import AngularMomentum, Energy, Position, Velocity
 from nrrncf_jax.scenarios.mechanism_file import load_setup, run_setup
 
 Z = (0.0, 0.0, 1.0)
@@ -102,6 +102,56 @@ def test_the_rigid_slider_crank_follows_its_kinematics_and_driving_torque(rigid_
     scale = np.abs(tau).max()
     np.testing.assert_allclose(run.series["torque"], tau, atol=1e-6 * scale)
     assert np.abs(run.series["w_mid"]).max() < 1e-12  # a rigid rod does not bend
+
+
+@pytest.mark.slow
+def test_a_motor_with_state_feedback_is_a_damped_oscillator():
+    """A rigid rod hinged at one end (J_O = m L²/3, no gravity), driven by a motor whose law reads
+    the rod's end through sensors (``motor(..., inputs=...)``): τ = τ₀ − k θ̂ − c ω̂, with θ̂ =
+    atan2(y, x) from the end's position and ω̂ = (x v_y − y v_x)/L² from its velocity. The
+    closed loop is J_O θ̈ + c θ̇ + k θ = τ₀, whose step response from rest is
+    θ = τ₀/k [1 − e^(−ζΩt)(cos Ω_d t + ζ/√(1−ζ²) sin Ω_d t)]; the run at rtol 1e-8 follows it to
+    1e-5 of τ₀/k (its own error is ~1e-7 of it). d θ(t_end)/dk by forward mode through the run
+    (``params`` traced) against the closed form's derivative, to 1e-4."""
+    from nrrncf_jax.multibody import motor
+
+    m, L, tau0 = 1.0, 1.0, 0.4
+    J = m * L**2 / 3
+    end = Marker(0, (L, 0.0, 0.0))
+    rod = slender_rod(m, L, (0.0, 0.0, 0.0), (L, 0.0, 0.0))
+
+    def law(t, angle, rate, p, inputs):
+        (x, y, _), (vx, vy, _) = inputs["end"], inputs["end_velocity"]
+        return tau0 - p[0] * jnp.arctan2(y, x) - p[1] * (x * vy - y * vx) / L**2
+
+    def mechanism(p):
+        return Mechanism([rod], [hinge(None, Marker(0, (0.0, 0.0, 0.0)), Z)],
+                         forces=[motor(None, Marker(0, (0.0, 0.0, 0.0)), Z, law, p,
+                                       inputs={"end": Position(end), "end_velocity": Velocity(end)})])
+
+    def exact(t, k, c):
+        Om = jnp.sqrt(k / J)
+        zeta = c / (2 * jnp.sqrt(k * J))
+        Od = Om * jnp.sqrt(1 - zeta**2)
+        return tau0 / k * (1 - jnp.exp(-zeta * Om * t) * (jnp.cos(Od * t) + zeta / jnp.sqrt(1 - zeta**2)
+                                                          * jnp.sin(Od * t)))
+
+    ts = np.linspace(0.0, 2.0, 201)
+
+    def angles(p):
+        mech = mechanism(p)
+        tip = Position(end).resolve(mech)
+        sol = simulate(mech, GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(1e-8, 1e-10), ts,
+                       observe=lambda t, z, v: (lambda x: jnp.arctan2(x[1], x[0]))(tip(mech, t, z, v)))
+        return sol.ys
+
+    k, c = 3.0, 0.4  # Ω = 3 rad/s, ζ = 0.2
+    theta, dtheta_dk = jax.jvp(lambda k: angles(jnp.stack([k, c])), (k,), (1.0,))  # one run, both
+    np.testing.assert_allclose(theta, exact(ts, k, c), atol=1e-5 * tau0 / k)
+    np.testing.assert_allclose(dtheta_dk[-1], jax.grad(exact, argnums=1)(ts[-1], k, c), rtol=1e-4)
+    p0 = (k, c)
+    with pytest.raises(ValueError, match="kinematic sensors"):
+        motor(None, Marker(0, (0.0, 0.0, 0.0)), Z, law, p0, inputs={"energy": Energy()})
 
 
 def test_a_free_rigid_body_keeps_its_angular_momentum():
@@ -200,6 +250,23 @@ def test_model_files_are_checked(tmp_path):
         load_setup(str(wrong), {"b": 2})
     with pytest.raises(ValueError, match="missing.py"):
         load_setup(str(tmp_path / "missing.py"))
+    # a body reduced with mds="mmi" whose pairs were never chosen would run on its VMs alone
+    pending = tmp_path / "pending.py"
+    pending.write_text(
+        "from nrrncf_jax.bodies import Material, TubeSection, beam_body, straight_reference\n"
+        "from nrrncf_jax.multibody import Marker, Mechanism, hinge\n"
+        "from nrrncf_jax.multibody.reduce import reduce\n"
+        "from nrrncf_jax.multibody.sensors import Position\n"
+        "from nrrncf_jax.scenarios.mechanism_file import MechanismSetup\n"
+        "def mechanism():\n"
+        "    beam = beam_body(Material(2e6, 1100.0, 0.3), TubeSection(0.01), straight_reference(1.0, 2))\n"
+        "    body = reduce(beam, [(0.0, 0.0, 0.0)], vms=2, mds='mmi', plane_normal=(0.0, 0.0, 1.0))\n"
+        "    mech = Mechanism([body], [hinge(None, Marker(0, (0.0, 0.0, 0.0)), (0.0, 0.0, 1.0))])\n"
+        "    return MechanismSetup(mech, {'tip': Position(Marker(0, (1.0, 0.0, 0.0)))})\n")
+    setup = load_setup(str(pending))
+    assert setup.system.bodies[0].awaiting_mds
+    with pytest.raises(ValueError, match="never chosen"):
+        run_setup(setup, t_end=0.01)
 
 
 @pytest.fixture(scope="module")
@@ -295,6 +362,44 @@ def test_stiffened_bodies_scale_their_elastic_force():
         np.testing.assert_allclose(part2, 2.5 * part1, atol=1e-12 * scale, err_msg=kind)
 
 
+def test_reduce_keeps_the_interfaces_static_modes_and_refuses_what_it_cannot_build():
+    """``reduce(..., interface_modes=True)``: a cantilever's in-plane basis of 2 VMs gains the two
+    in-plane static modes of its other end, and a static axial tip load's deflection (the body's
+    own stiffness solve) then lies in the basis to the SVD's round-off; without them it does not
+    (the two lowest in-plane modes bend: the stretch is nearly orthogonal to them). Bad
+    combinations are refused before anything is computed."""
+    from nrrncf_jax.multibody.reduce import reduce
+
+    beam = beam_body(Material(1e9, 2700.0, 0.3), TubeSection(0.01), straight_reference(1.0, 2))
+    ends = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)]
+    plain = reduce(beam, ends, vms=2, mds=[], plane_normal=Z)
+    joint = reduce(beam, ends, vms=2, mds=[], plane_normal=Z, interface_modes=True)
+    assert (plain.k, joint.k) == (2, 4)
+    free = np.asarray(joint.free)
+    K = np.asarray(beam.stiffness_matrix(beam.q_hat))[np.ix_(free, free)]
+    tip = 3 * 12  # the right end's position vector (node 2, vector 0), its axial component
+    load = np.zeros(beam.n_dof)
+    load[tip] = 1.0
+    u = np.zeros(beam.n_dof)
+    u[free] = np.linalg.solve(K, load[free])
+
+    def off_span(Psi):
+        Psi = np.asarray(Psi)
+        return np.linalg.norm(u - Psi @ np.linalg.lstsq(Psi, u, rcond=None)[0]) / np.linalg.norm(u)
+
+    assert off_span(joint.basis) < 1e-10 and off_span(plain.basis) > 1e-3
+    for kwargs, match in [({"mds": "mmi", "interface_modes": True}, "explicit list of pairs"),
+                          ({"basis": "craig-bampton", "interface_modes": True}, "goes with basis='free'"),
+                          ({"basis": "modal"}, "basis must be"),
+                          ({"mds": "some"}, "mds must be")]:
+        with pytest.raises(ValueError, match=match):
+            reduce(beam, ends, **kwargs)
+    with pytest.raises(ValueError, match="needs a second interface"):
+        reduce(beam, ends[:1], interface_modes=True)
+    with pytest.raises(ValueError, match="at least one interface"):
+        reduce(beam, [])
+
+
 @pytest.mark.slow
 def test_modal_derivatives_chosen_by_the_mechanisms_own_motion():
     """``reduce(..., mds="mmi")`` then ``select_modal_derivatives``: two soft beams hinged end to
@@ -310,7 +415,7 @@ def test_modal_derivatives_chosen_by_the_mechanisms_own_motion():
     material, section = Material(2e6, 1100.0, 0.3), TubeSection(0.01)
     beams = [placed(beam_body(material, section, straight_reference(1.0, 2)), None, (x, 0.0, 0.0)) for x in (0.0, 1.0)]
     bodies = [reduce(b, [(x, 0.0, 0.0)], vms=3, mds="mmi", plane_normal=Z) for b, x in zip(beams, (0.0, 1.0))]
-    assert [b.k for b in bodies] == [3, 3]
+    assert [b.k for b in bodies] == [3, 3] and all(b.awaiting_mds for b in bodies)
     joints = [hinge(None, Marker(0, (0.0, 0.0, 0.0)), Z),
               hinge(Marker(0, (1.0, 0.0, 0.0)), Marker(1, (1.0, 0.0, 0.0)), Z)]
     mech = Mechanism(bodies, joints, gravity=(0.0, -9.81, 0.0))
@@ -330,10 +435,8 @@ def test_modal_derivatives_chosen_by_the_mechanisms_own_motion():
     setup = load_setup("slider_crank", {"formulation": "nr-rncf", "elements": 2, "vms": 2, "mds": "mmi", "n_mds": 1,
                                         "t_end": 0.005})
     rod = setup.system.bodies[1]
-    assert rod.kind == "nr-rncf" and rod.k == 3 and np.asarray(rod.modes).shape[1] == 2
+    assert rod.kind == "nr-rncf" and rod.k == 3 and np.asarray(rod.modes).shape[1] == 2 and not rod.awaiting_mds
     with pytest.raises(ValueError, match="records its vibration modes"):
         select_modal_derivatives(Mechanism([RigidBody(1.0, [0.1, 0.1, 0.1])]), [0.0, 0.1])
-    with pytest.raises(ValueError, match="mds must be"):
-        reduce(beams[0], [(0.0, 0.0, 0.0)], mds="some")
     with pytest.raises(ValueError, match="basis='free'"):
         reduce(beams[0], [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)], mds="mmi", basis="craig-bampton")

@@ -9,7 +9,8 @@
   force).
 - ``forces``: force elements, ``SpringDamper`` and ``Actuator`` on a measure (``Distance``,
   ``HingeAngle``, ``Travel``), or on markers: ``spring``, ``torsion_spring``, ``motor``,
-  ``actuator``.
+  ``actuator`` (its law a function of time, its own measure and rate, parameters and, with
+  ``inputs``, kinematic sensors anywhere in the mechanism: state feedback).
 - ``mechanism``: ``Mechanism``, bodies of any kind (``kinds``: ``FloatingBody``, a ``RigidBody``
   in its frame, an ANCF ``Body`` in the inertial frame as ``InertialBody``, ``PointMass``) in one
   system, run with ``integrate.GeneralizedAlphaIndex3``.

@@ -21,11 +21,15 @@ differentiation through its bodies' maps (``Mechanism``). The measures (``measur
 
 The laws: ``SpringDamper`` (f = −k (g − g₀) − c ġ, potential ½ k (g − g₀)²) and ``Actuator``
 (f = law(t, g, ġ, params), any differentiable function: a motor's torque profile, a
-controller; ``params`` a pytree, so that ``jax.grad`` reaches it).
+controller; ``params`` a pytree, so that ``jax.grad`` reaches it). An actuator may read the
+whole state through ``inputs``, kinematic sensors on markers (``sensors.Position``,
+``Velocity``, ``ChordDeflection``: a tip's deflection, a link's velocity), for state feedback:
+f = law(t, g, ġ, params, {name: value}).
 
 The iteration matrix takes each element's stiffness and damping on the bodies' diagonal blocks,
 ∂g/∂z_bᵀ (c_K k + c_C c) ∂g/∂z_b with k = −∂f/∂g, c = −∂f/∂ġ (the term f ∂²g/∂z², of the order
-of the force, and the coupling between bodies are left to modified Newton, as the joints' are).
+of the force, the coupling between bodies and a feedback law's dependence on its inputs are
+left to modified Newton, as the joints' Hessian is).
 """
 
 import abc
@@ -39,6 +43,11 @@ import numpy as np
 from .._types import Array, Float, Scalar
 from .markers import BodyGeometry, Marker, hinge_directions
 from .measures import AbstractMeasure, Distance, HingeAngle, Travel
+from .sensors import ChordDeflection, Position, Velocity
+
+KINEMATIC_SENSORS = (Position, Velocity, ChordDeflection)
+"""The sensors an actuator may read: functions of (z, ż) through the bodies' maps alone (a
+reaction or an element's force would make the force depend on itself)."""
 
 
 class AbstractForceElement(eqx.Module):
@@ -47,8 +56,17 @@ class AbstractForceElement(eqx.Module):
     measure: AbstractMeasure
 
     @abc.abstractmethod
-    def force(self, t: Scalar, g, g_dot) -> Float[Array, ""]:
-        """f: positive f does positive work when g grows."""
+    def force(self, t: Scalar, g, g_dot, signals=None) -> Float[Array, ""]:
+        """f: positive f does positive work when g grows. ``signals``: the element's inputs at
+        the state (``signals``), None for an element without inputs."""
+
+    def signals(self, system, t, z, v):
+        """The values of the element's inputs at the state (an ``Actuator``'s ``inputs``), or None."""
+        return None
+
+    def resolved(self, system) -> "AbstractForceElement":
+        """The element with its inputs' markers resolved against ``system`` (``Mechanism``)."""
+        return self
 
     def potential(self, g) -> Float[Array, ""]:
         """The element's potential energy (a spring's), zero for non-conservative elements."""
@@ -70,29 +88,57 @@ class SpringDamper(AbstractForceElement):
         self.measure = measure
         self.k, self.c, self.rest = (jnp.asarray(x, dtype=float) for x in (k, c, rest))
 
-    def force(self, t, g, g_dot):
+    def force(self, t, g, g_dot, signals=None):
         return -self.k * (g - self.rest) - self.c * g_dot
 
     def potential(self, g):
         return 0.5 * self.k * (g - self.rest) ** 2
 
 
+def _check_law(law, inputs) -> None:
+    if not callable(law):
+        raise ValueError("an actuator's law must be callable: law(t, g, g_dot, params) -> force or torque")
+    if inputs is not None:
+        if not isinstance(inputs, dict) or not inputs:
+            raise ValueError("an actuator's inputs must be a non-empty dict {name: sensor}")
+        for name, sensor in inputs.items():
+            if not isinstance(sensor, KINEMATIC_SENSORS):
+                raise ValueError(f"actuator input {name!r}: the inputs are kinematic sensors on markers "
+                                 f"(Position, Velocity, ChordDeflection), got {type(sensor).__name__}")
+
+
 class Actuator(AbstractForceElement):
     """f = law(t, g, ġ, params): a torque at a hinge (``HingeAngle``) or a force along a slider
     (``Travel``) or between points (``Distance``) given by any differentiable ``law``, e.g. a
     motor's torque profile or a feedback law; ``params`` (a pytree of arrays) is its argument,
-    so that gradients reach it."""
+    so that gradients reach it. ``inputs`` ({name: sensor}, kinematic sensors on markers):
+    f = law(t, g, ġ, params, {name: the sensor's value at the state}), state feedback from
+    anywhere in the mechanism (a flexible link's tip deflection and its rate)."""
 
     law: Callable = eqx.field(static=True)
     params: object
+    inputs: dict | None = None
 
-    def __init__(self, measure: AbstractMeasure, law, params=()):
-        if not callable(law):
-            raise ValueError("an actuator's law must be callable: law(t, g, g_dot, params) -> force or torque")
-        self.measure, self.law, self.params = measure, law, params
+    def __init__(self, measure: AbstractMeasure, law, params=(), inputs=None):
+        _check_law(law, inputs)
+        self.measure, self.law, self.params, self.inputs = measure, law, params, inputs
 
-    def force(self, t, g, g_dot):
-        return jnp.asarray(self.law(t, g, g_dot, self.params), dtype=jnp.result_type(g))
+    def resolved(self, system) -> "Actuator":
+        if self.inputs is None:
+            return self
+        return eqx.tree_at(lambda e: e.inputs, self, {k: s.resolve(system) for k, s in self.inputs.items()})
+
+    def signals(self, system, t, z, v):
+        if self.inputs is None:
+            return None
+        return {name: sensor(system, t, z, v) for name, sensor in self.inputs.items()}
+
+    def force(self, t, g, g_dot, signals=None):
+        if self.inputs is None:
+            return jnp.asarray(self.law(t, g, g_dot, self.params), dtype=jnp.result_type(g))
+        if signals is None:
+            raise ValueError("this actuator reads inputs: its force needs their values (signals)")
+        return jnp.asarray(self.law(t, g, g_dot, self.params, signals), dtype=jnp.result_type(g))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -178,22 +224,27 @@ def torsion_spring(a: Marker | None, b: Marker, axis, k, c=0.0, rest_angle=0.0) 
                      lambda m: SpringDamper(m, k, c, rest_angle))
 
 
-def motor(a: Marker | None, b: Marker, axis, law, params=()) -> ForceSpec:
+def motor(a: Marker | None, b: Marker, axis, law, params=(), inputs=None) -> ForceSpec:
     """A torque on b about a hinge's ``axis`` (reacting on a, or the ground):
-    ``law(t, angle, angular_velocity, params)`` [N m], positive about the axis (``Actuator``)."""
-    return ForceSpec("angle", _end(a, "motor"), b, _axis(axis), lambda m: Actuator(m, law, params))
+    ``law(t, angle, angular_velocity, params)`` [N m], positive about the axis (``Actuator``);
+    with ``inputs`` ({name: kinematic sensor}), ``law(t, angle, angular_velocity, params,
+    {name: value})``: state feedback."""
+    _check_law(law, inputs)  # now, not when the system resolves the spec
+    return ForceSpec("angle", _end(a, "motor"), b, _axis(axis), lambda m: Actuator(m, law, params, inputs))
 
 
-def actuator(a, b: Marker, law, params=(), axis=None) -> ForceSpec:
+def actuator(a, b: Marker, law, params=(), axis=None, inputs=None) -> ForceSpec:
     """A force ``law(t, s, ṡ, params)`` [N] on b: with ``axis``, along a slider's axis (s the
     travel from a's point, or from b's reference point with ``a=None``); without, along the
-    line between the two points (s their distance; ``a`` a marker or a fixed point)."""
+    line between the two points (s their distance; ``a`` a marker or a fixed point). With
+    ``inputs`` ({name: kinematic sensor}), ``law(t, s, ṡ, params, {name: value})``."""
     a = _end(a, "actuator")
+    _check_law(law, inputs)
     if axis is None:
         if a is None:
             raise ValueError("actuator: without an axis the first end must be a Marker or a fixed point")
-        return ForceSpec("distance", a, b, None, lambda m: Actuator(m, law, params))
-    return ForceSpec("travel", a, b, _axis(axis), lambda m: Actuator(m, law, params))
+        return ForceSpec("distance", a, b, None, lambda m: Actuator(m, law, params, inputs))
+    return ForceSpec("travel", a, b, _axis(axis), lambda m: Actuator(m, law, params, inputs))
 
 
 def resolve_forces(forces, geometry: tuple[BodyGeometry, ...]) -> tuple[AbstractForceElement, ...]:

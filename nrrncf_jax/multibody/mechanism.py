@@ -103,7 +103,7 @@ class Mechanism(AbstractConstrainedModel):
         forces = tuple(forces)
         # markers need the bodies' concrete reference geometry; resolved force elements do not
         geometry = tuple(b.geometry() for b in self.bodies) if any(isinstance(f, ForceSpec) for f in forces) else ()
-        self.forces = resolve_forces(forces, geometry)
+        self.forces = tuple(f.resolved(self) for f in resolve_forces(forces, geometry))  # actuators' inputs
         for k, element in enumerate(self.forces):
             for b, v in element.measure.references():
                 if not (0 <= b < len(self.bodies) and 0 <= v < self.bodies[b].n_vectors):
@@ -287,12 +287,16 @@ class Mechanism(AbstractConstrainedModel):
     def element_state(self, t, z, v) -> tuple[Float[Array, " e"], Float[Array, " e"], Float[Array, " e"]]:
         """``(g, ġ, f)``: the force elements' measures, their rates ∂g/∂z ż and forces."""
         g, g_dot = jax.jvp(self.measures, (z,), (v,))
-        return g, g_dot, jnp.stack([e.force(t, gi, gd) for e, gi, gd in zip(self.forces, g, g_dot)])
+        return g, g_dot, self._element_forces(t, z, v, g, g_dot)
+
+    def _element_forces(self, t, z, v, g, g_dot) -> Float[Array, " e"]:
+        return jnp.stack([e.force(t, gi, gd, e.signals(self, t, z, v))
+                          for e, gi, gd in zip(self.forces, g, g_dot)])
 
     def applied_force(self, t, z, v) -> Float[Array, " n"]:
         """Σ_e f_e ∂g_e/∂z: the force elements' generalized forces (virtual work f δg)."""
         g, linear = jax.linearize(self.measures, z)
-        f = jnp.stack([e.force(t, gi, gd) for e, gi, gd in zip(self.forces, g, linear(v))])
+        f = self._element_forces(t, z, v, g, linear(v))
         return jax.linear_transpose(linear, z)(f)[0]
 
     def _force_blocks(self, t, z, v, c_K, c_C) -> list:
@@ -300,7 +304,7 @@ class Mechanism(AbstractConstrainedModel):
         G_bᵀ diag(c_K k + c_C c) G_b with G = ∂g/∂z, k = −∂f/∂g, c = −∂f/∂ġ (``forces``)."""
         g, G = self.measures(z), jax.jacfwd(self.measures)(z)
         g_dot = G @ v
-        dfdg = jnp.stack([jnp.stack(jax.grad(e.force, argnums=(1, 2))(t, gi, gd))
+        dfdg = jnp.stack([jnp.stack(jax.grad(e.force, argnums=(1, 2))(t, gi, gd, e.signals(self, t, z, v)))
                           for e, gi, gd in zip(self.forces, g, g_dot)])
         D = -(c_K * dfdg[:, 0] + c_C * dfdg[:, 1])
         return [G[:, o:o + n].T @ (D[:, None] * G[:, o:o + n]) for o, n in zip(self.offsets, self.body_sizes())]

@@ -139,6 +139,11 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     if not t_end > 0 or not 0 < rtol < 1:
         raise ValueError(f"t_end must be > 0 and 0 < rtol < 1, got {t_end}, {rtol}")
     system = setup.system
+    awaiting = [b for b, body in enumerate(getattr(system, "bodies", ())) if getattr(body, "awaiting_mds", False)]
+    if awaiting:  # it would run with its vibration modes alone, which the model did not ask for
+        raise ValueError(f"bodies {awaiting} were reduced with mds='mmi' and their modal derivatives were never "
+                         "chosen: call multibody.modal_interaction.select_modal_derivatives(system, ts) in the model "
+                         "file (or reduce with mds='all', a list of pairs, or [] for vibration modes alone)")
     ts = np.linspace(0.0, t_end, int(n_out))
     fn = observe(system, setup.sensors)
     lines = None
