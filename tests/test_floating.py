@@ -173,7 +173,7 @@ def test_mmi_per_body_ranks_each_beams_pairs():
     assert [b.k for b in system.bodies] == info["k"] and all(3 < k <= 5 for k in info["k"])
     with pytest.raises(ValueError, match="one list of MD pairs"):
         build_reduced_pendulum(spec, 3, body_pairs=[[(0, 0)]])
-    with pytest.raises(ValueError, match="0 <= i <= j < n_vms"):
+    with pytest.raises(ValueError, match="0 <= i <= j < vms"):
         build_reduced_pendulum(spec, 3, body_pairs=[[(0, 3)], [], []])
 
 

@@ -345,7 +345,7 @@ def test_welded_rigid_bodies_hang_still_and_carry_their_weight():
 
 
 def test_section_resultants_of_a_stretched_turned_beam():
-    """``sensors.SectionResultant`` at the root, an interior node and the tip of a beam stretched
+    """``post.stress.SectionResultant`` at the root, an interior node and the tip of a beam stretched
     uniformly by ε along its axis and turned (rotated and moved) as a whole: the section vectors
     keep their length, so E11 = ε + ε²/2 is the only strain, S11 = E E11 (``Material.beam_D``)
     and N = E A (ε + ε²/2) exactly; the shear forces, torque and moments are zero (to the round-off
@@ -355,7 +355,8 @@ def test_section_resultants_of_a_stretched_turned_beam():
 
     from nrrncf_jax.multibody.floating import euler_parameters
     from nrrncf_jax.multibody.reduce import reduce
-    from nrrncf_jax.multibody.sensors import SectionResultant, observe
+    from nrrncf_jax.multibody.sensors import observe
+    from nrrncf_jax.post.stress import SectionResultant
 
     E, r, eps = 1e9, 0.01, 2e-3
     beam = beam_body(Material(E, 2700.0, 0.3), TubeSection(r), straight_reference(1.0, 4))

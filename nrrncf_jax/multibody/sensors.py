@@ -14,10 +14,8 @@ A sensor is a function of the system and its state, ``sensor(system, t, z, v) ->
 - ``ElementForce(index, quantity)``: force element ``index``'s force (torque) f, its measure g
   (a spring's length, a motor's angle), its rate ġ or its power f ġ (``forces``);
 - ``Energy(kind)``: kinetic, potential or total; ``AngularMomentum()`` about the origin;
-- ``SectionResultant(marker, quantity)``: a C1 beam's section force or moment at a marker's node
-  (``post.stress.BEAM_RESULTANTS``: N, V2, V3, T, M2, M3, integrals of the second
-  Piola-Kirchhoff stress over the section, in the beam's local frame), for sizing a part by its
-  loads; at an interior node the mean of its two elements' ends, as ``post.stress.beam_resultants``.
+- ``post.stress.SectionResultant(marker, quantity)``: a C1 beam's section force or moment at a
+  marker's node (it lives with the stresses it reads; ``observe`` takes it like the others).
 
 Markers resolve against the system's bodies in ``observe`` (``resolve``: static node indices,
 before anything is traced), so a sensor is written before the system exists.
@@ -27,7 +25,6 @@ import dataclasses
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 
 from .._types import Array, Float
 from .markers import Marker
@@ -167,63 +164,6 @@ class AngularMomentum(eqx.Module):
         return _component(H, self.component)
 
 
-class SectionResultant(_MarkerSensor):
-    """A C1 beam body's section resultant at the marker's node: ``quantity`` one of
-    ``post.stress.BEAM_RESULTANTS`` ("N", "V2", "V3", "T", "M2", "M3"), or None for all six. The
-    strain is the Green-Lagrange strain of the inertial nodal vectors against the body's
-    stress-free ones (rigid motion of the body or its frame drops out), so full-order (ANCF) and
-    floating-frame (RNCF, NR-RNCF) bodies read alike."""
-
-    marker: Marker = eqx.field(static=True)
-    quantity: str | None = eqx.field(static=True, default=None)
-    stations: tuple[tuple[int, float], ...] | None = eqx.field(static=True, default=None, kw_only=True)
-
-    def __check_init__(self):
-        from ..post.stress import BEAM_RESULTANTS
-
-        if self.quantity is not None and self.quantity not in BEAM_RESULTANTS:
-            raise ValueError(f"quantity must be one of {BEAM_RESULTANTS} or None, got {self.quantity!r}")
-
-    @staticmethod
-    def _beam(system, b):
-        from ..bodies.body import Body
-        from ..elements.beam import C1Beam
-
-        body = system.bodies[b]
-        body = body if isinstance(body, Body) else getattr(body, "body", None)
-        groups = [g for g in getattr(body, "groups", ()) if isinstance(g.element, C1Beam)]
-        if not groups:
-            raise ValueError(f"SectionResultant: body {b} has no C1 beam elements")
-        return body, groups[0]
-
-    def resolve(self, system) -> "SectionResultant":
-        node = _node(system, self.marker)
-        _, g = self._beam(system, self.marker.body)
-        el = g.element
-        ends = np.asarray(g.elements)[:, [el.position_slots[0], (el.nodes - 1) * el.vectors_per_node]]
-        stations = tuple((int(e), float(side)) for side in (0, 1) for e in np.flatnonzero(ends[:, side] == node))
-        if not stations:
-            raise ValueError(f"SectionResultant: the marker's node is not an end of body {self.marker.body}'s beam "
-                             "elements")
-        return dataclasses.replace(self, nodes=(node,), stations=stations)
-
-    def __call__(self, system, t, z, v) -> Float[Array, "..."]:
-        from ..post.stress import BEAM_RESULTANTS, beam_section_resultants
-
-        if self.stations is None:
-            raise ValueError("a sensor on markers must be resolved against its system first (sensors.observe)")
-        body, g = self._beam(system, self.marker.body)
-        x = system.nodal_vectors(z)[self.marker.body]
-        el, idx = g.element, np.asarray(g.elements)
-        first, last = el.position_slots[0], (el.nodes - 1) * el.vectors_per_node
-        out = []
-        for e, s in self.stations:
-            qh = body.q_hat[idx[e]]
-            out.append(beam_section_resultants(el, qh, x[idx[e]], s, jnp.linalg.norm(qh[last] - qh[first])))
-        r = sum(out) / len(out)
-        return r if self.quantity is None else r[BEAM_RESULTANTS.index(self.quantity)]
-
-
 def observe(system, sensors: dict):
     """``observe(t, z, v) -> {name: value}`` for ``simulate``: every sensor at the output times.
     The markers are resolved here, so that a bad one fails before the run."""
@@ -239,4 +179,4 @@ def observe(system, sensors: dict):
 
 
 __all__ = ["AngularMomentum", "ChordDeflection", "DriverEffort", "ElementForce", "Energy", "JointReaction", "Position",
-           "SectionResultant", "Velocity", "observe"]
+           "Velocity", "observe"]

@@ -19,6 +19,7 @@ resultants: a beam's axial force, shear forces, torque and bending moments along
 from .metrics import chi_rel as chi_rel
 from .stress import BEAM_RESULTANTS as BEAM_RESULTANTS
 from .stress import PLATE_RESULTANTS as PLATE_RESULTANTS
+from .stress import SectionResultant as SectionResultant
 from .stress import bar_strain_stress as bar_strain_stress
 from .stress import beam_element_resultants as beam_element_resultants
 from .stress import beam_resultants as beam_resultants

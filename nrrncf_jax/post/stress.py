@@ -50,17 +50,27 @@ beam element) and default to the distance between the element's end positions, a
 ``lengths=reference.lengths``: with another l the Hermite functions interpolate another curve
 between the nodes than the one whose κ the element holds, and the strains inside an element are
 measured from it (at the nodes they do not depend on l).
+
+**In a mechanism's run**, ``SectionResultant(marker, quantity)`` is a sensor
+(``multibody.sensors``): a beam's section resultants at a marker's node, recorded at the output
+times and written by ``nrrncf run --out`` like any other sensor.
 """
+
+import dataclasses
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .._types import Array, Float
+from ..bodies.body import Body
 from ..elements.bar import Bar
 from ..elements.base import local_frame
 from ..elements.beam import C1Beam, beam_shape_functions
 from ..elements.plate import THICKNESS_POINTS, THICKNESS_WEIGHTS, TrianglePlate, plate_D
+from ..multibody.markers import Marker
+from ..multibody.sensors import _MarkerSensor, _node
 
 BEAM_RESULTANTS = ("N", "V2", "V3", "T", "M2", "M3")
 """Columns of the beam section resultants: axial force, shear forces along the section axes 2 and 3,
@@ -273,6 +283,62 @@ def element_vectors(body, q: Float[Array, "n 3"], element: int, kind=None) -> tu
     return body.q_hat[idx], jnp.asarray(q).reshape(body.n_vectors, 3)[idx]
 
 
-__all__ = ["BEAM_RESULTANTS", "PLATE_RESULTANTS", "bar_strain_stress", "beam_element_resultants", "beam_resultants",
-           "beam_section_resultants", "beam_strain_stress", "element_vectors", "plate_resultants",
+# --- as a sensor of a mechanism's run --------------------------------------------------------------
+
+
+class SectionResultant(_MarkerSensor):
+    """A mechanism's sensor (``multibody.sensors``): a C1 beam body's section resultant at the
+    marker's node, at an interior node the mean of its two elements' ends (as
+    ``beam_resultants``): ``quantity`` one of
+    ``post.stress.BEAM_RESULTANTS`` ("N", "V2", "V3", "T", "M2", "M3"), or None for all six. The
+    strain is the Green-Lagrange strain of the inertial nodal vectors against the body's
+    stress-free ones (rigid motion of the body or its frame drops out), so full-order (ANCF) and
+    floating-frame (RNCF, NR-RNCF) bodies read alike. The elements' lengths are their chords
+    (exact on straight beams; see **Element lengths** above)."""
+
+    marker: Marker = eqx.field(static=True)
+    quantity: str | None = eqx.field(static=True, default=None)
+    stations: tuple[tuple[int, float], ...] | None = eqx.field(static=True, default=None, kw_only=True)
+
+    def __check_init__(self):
+        if self.quantity is not None and self.quantity not in BEAM_RESULTANTS:
+            raise ValueError(f"quantity must be one of {BEAM_RESULTANTS} or None, got {self.quantity!r}")
+
+    @staticmethod
+    def _beam(system, b):
+        body = system.bodies[b]
+        body = body if isinstance(body, Body) else getattr(body, "body", None)
+        groups = [g for g in getattr(body, "groups", ()) if isinstance(g.element, C1Beam)]
+        if not groups:
+            raise ValueError(f"SectionResultant: body {b} has no C1 beam elements")
+        return body, groups[0]
+
+    def resolve(self, system) -> "SectionResultant":
+        node = _node(system, self.marker)
+        _, g = self._beam(system, self.marker.body)
+        el = g.element
+        ends = np.asarray(g.elements)[:, [el.position_slots[0], (el.nodes - 1) * el.vectors_per_node]]
+        stations = tuple((int(e), float(side)) for side in (0, 1) for e in np.flatnonzero(ends[:, side] == node))
+        if not stations:
+            raise ValueError(f"SectionResultant: the marker's node is not an end of body {self.marker.body}'s beam "
+                             "elements")
+        return dataclasses.replace(self, nodes=(node,), stations=stations)
+
+    def __call__(self, system, t, z, v) -> Float[Array, "..."]:
+        if self.stations is None:
+            raise ValueError("a sensor on markers must be resolved against its system first (sensors.observe)")
+        body, g = self._beam(system, self.marker.body)
+        x = system.nodal_vectors(z)[self.marker.body]
+        el, idx = g.element, np.asarray(g.elements)
+        first, last = el.position_slots[0], (el.nodes - 1) * el.vectors_per_node
+        out = []
+        for e, s in self.stations:
+            qh = body.q_hat[idx[e]]
+            out.append(beam_section_resultants(el, qh, x[idx[e]], s, jnp.linalg.norm(qh[last] - qh[first])))
+        r = sum(out) / len(out)
+        return r if self.quantity is None else r[BEAM_RESULTANTS.index(self.quantity)]
+
+
+__all__ = ["BEAM_RESULTANTS", "PLATE_RESULTANTS", "SectionResultant", "bar_strain_stress", "beam_element_resultants",
+           "beam_resultants", "beam_section_resultants", "beam_strain_stress", "element_vectors", "plate_resultants",
            "plate_section_resultants", "plate_strain_stress"]
