@@ -3,8 +3,18 @@
 import functools
 import os
 
-import jax
-import numpy as np
+# XLA's LLVM back end at optimisation level 0 (the default is 2): the suite's time is mostly XLA
+# compiling small programs that then run for a fraction of a second, and skipping LLVM's passes
+# cuts that by about a sixth (same float64 arithmetic: LLVM's passes do not reassociate without
+# fast-math, only contract a·b + c into FMAs, a rounding the tolerances allow). Set before JAX
+# starts its backend; an XLA_FLAGS that names the level already wins. The notebooks' run-bound
+# truss keeps level 2 (tests/test_notebooks.py).
+O0_FLAG = "--xla_backend_optimization_level=0"
+if "--xla_backend_optimization_level" not in os.environ.get("XLA_FLAGS", ""):
+    os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {O0_FLAG}".strip()
+
+import jax  # noqa: E402
+import numpy as np  # noqa: E402
 
 # The CLI's persistent compilation cache stays off in the (in-process) CLI tests.
 os.environ["NRRNCF_JAX_CACHE"] = "off"
