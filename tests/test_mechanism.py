@@ -301,6 +301,17 @@ def test_the_rotor_keeps_its_momentum_and_energy_balances(rotor_runs, formulatio
     W = cumulative_simpson(run.series["power"], x=run.ts, initial=0.0)
     np.testing.assert_allclose(run.series["energy"] - run.series["energy"][0], W, atol=1e-3 * W[-1])
     assert run.series["omega"][-1] > 0.5 and np.abs(run.series["tip"]).max() > 0.1  # it spun up and bent
+    # The root's bending moment at the largest tip deflection w, where the beam's deflection rate
+    # is zero: a cantilever under a load of one sign has |M| ≥ 3 EI |w| / L² (all of it at the
+    # tip), and the spin-up's inertial load ρA α r, growing outward, lies between a tip load's 3
+    # and a uniform load's 4 EI |w| / L²; M3's sign is w's (beam_preset("paper"): EI, L).
+    from nrrncf_jax.scenarios import beam_preset
+
+    preset = beam_preset("paper")
+    EI = preset.E * np.pi / 4 * (preset.r_outer**4 - preset.r_inner**4)
+    i = int(np.argmax(np.abs(run.series["tip"])))
+    w, M = run.series["tip"][i], run.series["M_root"][i]
+    assert M * w > 0 and 3.0 <= abs(M) * preset.length**2 / (EI * abs(w)) <= 4.0
 
 
 @pytest.mark.slow

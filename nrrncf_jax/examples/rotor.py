@@ -19,7 +19,9 @@ welded to the hub.
 
 Sensors: ``omega`` the hub's angular velocity, ``torque`` the motor's, ``power`` its power τ ω,
 ``H_z`` the angular momentum about Z, ``energy`` (kinetic plus strain), ``tip`` beam 0's tip
-deflection from the radial line through its root (positive ahead, in the direction of rotation).
+deflection from the radial line through its root (positive ahead, in the direction of rotation),
+``M_root`` beam 0's in-plane bending moment at its root (``post.stress.SectionResultant``'s M3,
+the section's second Piola-Kirchhoff stress integrated: what sizes the hub's clamp).
 """
 
 import numpy as np
@@ -29,6 +31,7 @@ from ..multibody import Marker, Mechanism, clamp, hinge, motor, placed
 from ..multibody.modal_interaction import select_modal_derivatives
 from ..multibody.reduce import reduce
 from ..multibody.sensors import AngularMomentum, ChordDeflection, ElementForce, Energy
+from ..post.stress import SectionResultant
 from ..scenarios.beams import beam_preset
 from ..scenarios.mechanism_file import MechanismSetup
 
@@ -81,7 +84,8 @@ def mechanism(formulation: str = "ancf", elements: int = 8, vms: int = 4, mds="a
     tip = tuple(roots[0] + preset.length * np.array([1.0, 0.0, 0.0]))
     sensors = {"omega": ElementForce(0, "rate"), "torque": ElementForce(0), "power": ElementForce(0, "power"),
                "H_z": AngularMomentum(2), "energy": Energy(),
-               "tip": ChordDeflection(O, Marker(1, tuple(roots[0])), Marker(1, tip))}
+               "tip": ChordDeflection(O, Marker(1, tuple(roots[0])), Marker(1, tip)),
+               "M_root": SectionResultant(Marker(1, tuple(roots[0])), "M3")}
     return MechanismSetup(system, sensors, t_end=t_end, rtol=rtol, rho_inf=rho_inf, compare=("omega", "tip"),
                           info={"formulation": formulation, "elements": int(elements), "torque": float(torque),
                                 "spin_time": float(spin_time)})
