@@ -20,6 +20,8 @@ The three-beam pendulum's NR-RNCF against the full model is ``benchmarks/pendulu
 simulation of it costs about a minute of compilation).
 """
 
+import copy
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -290,7 +292,9 @@ def test_closed_form_kinematics_are_the_maps_derivatives():
     v, a = rng.normal(size=(2, system.n_dof))
     F = rng.normal(size=(system.bodies[1].body.n_vectors, 3))
     lam = rng.normal(size=system.n_constraints)
-    looped = eqx.tree_at(lambda s: s.stacked, system, None, is_leaf=lambda x: x is None)
+    looped = copy.copy(system)  # the same system evaluated body by body: each body a run of its own
+    object.__setattr__(looped, "runs", ((0, 1), (1, 1), (2, 1)))
+    object.__setattr__(looped, "stacks", (None,) * 3)
     got = jax.tree_util.tree_map(np.asarray, _kinematics(system, looped, *map(jnp.asarray, (z, v, a, F, lam))))
     scale = float(np.abs(got["J"][1]).max())
     for name, rel in (("J", 1e-14), ("acceleration", 1e-13), ("mass", 1e-13), ("deformation_tangent", 1e-13),
@@ -488,6 +492,7 @@ def test_a_system_mixes_full_order_and_reduced_bodies():
     reduced, _ = build_reduced_pendulum(spec, n_vms=3, pairs="all")
     mixed = FloatingFrameSystem((full.bodies[0],) + reduced.bodies[1:], full.joints, gravity=full.gravity)
     assert mixed.stacked is None and mixed.formulation == "nr-rncf"
+    assert mixed.runs == ((0, 1), (1, 2)) and mixed.stacks[1] is not None  # the two reduced beams vmapped
     assert mixed.body_sizes() == (full.body_sizes()[0],) + reduced.body_sizes()[1:]
     # A state with every body deformed and moving: the full body's part from the full system's
     # coordinates, the reduced bodies' from the reduced system's.

@@ -18,8 +18,10 @@ factored body by body with the joints' m × m Schur complement (``factor_augment
 Hessian and the inertia terms' derivatives with respect to the frames' coordinates are left to
 Newton's iterations (``preferred_newton = "modified"``).
 
-Bodies of one structure (a chain of equal beams) are evaluated in one ``vmap``: on a CPU the
-time of these small models is per XLA operation.
+Consecutive bodies of one structure (a chain of equal beams, a rotor's blades after its hub) are
+evaluated in one ``vmap`` a run (``runs``, ``stacks``): on a CPU the time of these small models
+is per XLA operation, and XLA's compile time grows with the operations it is handed
+(``benchmarks/results/compile_breakdown.md``).
 """
 
 import equinox as eqx
@@ -54,17 +56,30 @@ def as_body_kind(body) -> AbstractBodyKind:
     raise ValueError(f"a mechanism's bodies are Body, RigidBody, PointMass or FloatingBody; got {type(body).__name__}")
 
 
-def _stack(bodies) -> AbstractBodyKind | None:
-    """The bodies' arrays stacked into one body (leading axis: the body), or None when their
-    kinds, structures or shapes differ."""
-    leaves = [jax.tree_util.tree_flatten(b) for b in bodies]
-    first, treedef = leaves[0]
-    if any(td != treedef or len(ls) != len(first) for ls, td in leaves):
-        return None
-    if any(not all(isinstance(x, jax.Array) and x.shape == y.shape and x.dtype == y.dtype for x, y in zip(ls, first))
-           for ls, _ in leaves):
-        return None
-    return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *bodies)
+def _same_structure(a, b) -> bool:
+    """Whether two bodies have one kind, structure and array shapes (so that they stack)."""
+    (la, ta), (lb, tb) = jax.tree_util.tree_flatten(a), jax.tree_util.tree_flatten(b)
+    return ta == tb and len(la) == len(lb) and all(
+        isinstance(x, jax.Array) and isinstance(y, jax.Array) and x.shape == y.shape and x.dtype == y.dtype
+        for x, y in zip(la, lb))
+
+
+def _runs(bodies) -> tuple[tuple[int, int], ...]:
+    """The maximal runs ``(first, count)`` of consecutive bodies of one structure."""
+    runs = [[0, 1]]
+    for k in range(1, len(bodies)):
+        if _same_structure(bodies[runs[-1][0]], bodies[k]):
+            runs[-1][1] += 1
+        else:
+            runs.append([k, 1])
+    return tuple((first, n) for first, n in runs)
+
+
+def _stacks(bodies, runs) -> tuple:
+    """Each run's bodies' arrays stacked into one body (leading axis: the body); None for a run
+    of one body."""
+    return tuple(None if n == 1 else jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *bodies[first:first + n])
+                 for first, n in runs)
 
 
 class Mechanism(AbstractConstrainedModel):
@@ -82,7 +97,8 @@ class Mechanism(AbstractConstrainedModel):
     joints: tuple[AbstractJoint, ...]
     gravity: Float[Array, " 3"]
     forces: tuple[AbstractForceElement, ...]
-    stacked: AbstractBodyKind | None  # the bodies' arrays stacked, when they have one structure (vmapped)
+    runs: tuple[tuple[int, int], ...] = eqx.field(static=True)  # (first, count): consecutive equal bodies
+    stacks: tuple  # each run's bodies stacked (vmapped), None for a run of one
 
     preferred_newton = "modified"
     project_velocities = True  # GeneralizedAlphaIndex3 projects v onto C_z v = −C_t after each step (floating)
@@ -109,7 +125,8 @@ class Mechanism(AbstractConstrainedModel):
                 if not (0 <= b < len(self.bodies) and 0 <= v < self.bodies[b].n_vectors):
                     raise ValueError(f"force element {k} ({type(element).__name__}) refers to nodal vector {v} of "
                                      f"body {b}, which does not exist")
-        self.stacked = _stack(self.bodies)
+        self.runs = _runs(self.bodies)
+        self.stacks = _stacks(self.bodies, self.runs)
         self.check_joints()
 
     # --- coordinates ------------------------------------------------------------------------------
@@ -139,31 +156,57 @@ class Mechanism(AbstractConstrainedModel):
         """Each body's mass matrix on its nodal vectors (the same for each component)."""
         return tuple(b.mass for b in self.bodies)
 
-    def _map(self, fn, *vectors) -> list:
-        """``[fn(body_b, *(each vector's part b))]``: one vmapped call over the stacked bodies when
-        they share one structure (a chain of equal beams: a third of the operations for three
-        bodies, and XLA's time here is per operation), else a loop. A vector is split by the
-        bodies' coordinates; a tuple holds its parts already (one a body)."""
-        if self.stacked is None:
-            parts = [x if isinstance(x, tuple) else self.split(x) for x in vectors]
-            return [fn(b, *ps) for b, *ps in zip(self.bodies, *parts)]
-        out = self._vmap(fn, *vectors)
-        return [jax.tree_util.tree_map(lambda y, i=i: y[i], out) for i in range(len(self.bodies))]
+    @property
+    def stacked(self) -> AbstractBodyKind | None:
+        """All the bodies stacked, when they are one run (a chain of equal beams), else None."""
+        return self.stacks[0] if len(self.runs) == 1 else None
 
-    def _vmap(self, fn, *vectors):
-        """``fn`` over the stacked bodies (``stacked`` not None), its outputs with the body as
-        their leading axis. Equal bodies have equal coordinate counts, so a vector's parts are a
-        reshape of it, not slices and a stack, whose copies are a noticeable share of a small
-        model's operations (figures: ``benchmarks/results/design_notes.md``)."""
-        nb = len(self.bodies)
-        return jax.vmap(fn)(self.stacked, *(jnp.stack(x) if isinstance(x, tuple) else x.reshape(nb, -1)
-                                            for x in vectors))
+    def _map(self, fn, *vectors) -> list:
+        """``[fn(body_b, *(each vector's part b))]``: one vmapped call a run of equal bodies (a
+        chain of equal beams: a third of the operations for three bodies, and XLA's time here is
+        per operation), a plain call for a body on its own. A vector is split by the bodies'
+        coordinates; a tuple holds its parts already (one a body)."""
+        out = []
+        for run, stack in zip(self.runs, self.stacks):
+            if stack is None:
+                out.append(fn(self.bodies[run[0]], *(self._part(x, run[0]) for x in vectors)))
+            else:
+                y = self._vmap(run, stack, fn, *vectors)
+                out += [jax.tree_util.tree_map(lambda a, i=i: a[i], y) for i in range(run[1])]
+        return out
+
+    def _part(self, x, b):
+        """Body b's part of a vector (or of a tuple of parts)."""
+        if isinstance(x, tuple):
+            return x[b]
+        o, n = self.offsets[b], self.body_sizes()[b]
+        return x[o:o + n]
+
+    def _vmap(self, run, stack, fn, *vectors):
+        """``fn`` over a run's stacked bodies, its outputs with the body as their leading axis.
+        Equal bodies have equal coordinate counts, so a vector's parts are a reshape of its run's
+        slice (of the whole vector for a chain of equal bodies), not slices and a stack, whose
+        copies are a noticeable share of a small model's operations (figures:
+        ``benchmarks/results/design_notes.md``)."""
+        first, n = run
+        o, size = self.offsets[first], self.body_sizes()[first]
+
+        def parts(x):
+            if isinstance(x, tuple):
+                return jnp.stack(x[first:first + n])
+            return (x if x.shape[0] == n * size else x[o:o + n * size]).reshape(n, -1)
+
+        return jax.vmap(fn)(stack, *(parts(x) for x in vectors))
 
     def _concat_map(self, fn, *vectors) -> Float[Array, " n"]:
         """``jnp.concatenate(self._map(fn, *vectors))`` (each part a vector, or flattened)."""
-        if self.stacked is None:
-            return jnp.concatenate([y.reshape(-1) for y in self._map(fn, *vectors)])
-        return self._vmap(fn, *vectors).reshape(-1)
+        pieces = []
+        for run, stack in zip(self.runs, self.stacks):
+            if stack is None:
+                pieces.append(fn(self.bodies[run[0]], *(self._part(x, run[0]) for x in vectors)).reshape(-1))
+            else:
+                pieces.append(self._vmap(run, stack, fn, *vectors).reshape(-1))
+        return pieces[0] if len(pieces) == 1 else jnp.concatenate(pieces)
 
     def nodal_vectors(self, z: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
         """Every body's nodal vectors in the inertial frame."""
@@ -207,7 +250,8 @@ class Mechanism(AbstractConstrainedModel):
         out = eqx.tree_at(lambda s: (s.bodies, s.joints, s.forces), self,
                           (tuple(b.turned(e, A) for b in self.bodies), tuple(j.turned(A) for j in self.joints),
                            tuple(f.turned(A) for f in self.forces)))
-        return out if self.stacked is None else eqx.tree_at(lambda s: s.stacked, out, self.stacked.turned(e, A))
+        stacks = tuple(None if st is None else st.turned(e, A) for st in self.stacks)
+        return eqx.tree_at(lambda s: s.stacks, out, stacks, is_leaf=lambda x: x is None)
 
     def stiffened(self, s, bodies=None) -> "Mechanism":
         """The system with the stiffness of ``bodies`` (indices; all by default) times ``s``
@@ -216,7 +260,7 @@ class Mechanism(AbstractConstrainedModel):
         chosen = set(range(len(self.bodies))) if bodies is None else {int(b) for b in bodies}
         out = eqx.tree_at(lambda m: m.bodies, self,
                           tuple(b.stiffened(s) if i in chosen else b for i, b in enumerate(self.bodies)))
-        return out if out.stacked is None else eqx.tree_at(lambda m: m.stacked, out, _stack(out.bodies))
+        return eqx.tree_at(lambda m: m.stacks, out, _stacks(out.bodies, out.runs), is_leaf=lambda x: x is None)
 
     def error_space(self, z, e):
         """The step error in the inertial nodal vectors (J e), so that a tolerance means what it
@@ -234,14 +278,14 @@ class Mechanism(AbstractConstrainedModel):
         return jnp.concatenate([self.joint_equations(xs, t)] + self._own_equations(z))
 
     def _joint_rows(self) -> tuple[tuple[int, ...], ...]:
-        """Each body's nodal vectors that any joint reads; with stacked bodies one list for all
-        (the union), so that they are evaluated in one vmap."""
-        per_body = [sorted({v for j in self.joints for b, v in j.references() if b == i})
-                    for i in range(len(self.bodies))]
-        if self.stacked is not None:
-            union = tuple(sorted({v for rows in per_body for v in rows}))
-            return tuple(union for _ in self.bodies)
-        return tuple(tuple(rows) for rows in per_body)
+        """Each body's nodal vectors that any joint reads; for a run of equal bodies one list for
+        the run (the union), so that they are evaluated in one vmap."""
+        rows = [tuple(sorted({v for j in self.joints for b, v in j.references() if b == i}))
+                for i in range(len(self.bodies))]
+        for first, n in self.runs:
+            union = tuple(sorted({v for r in rows[first:first + n] for v in r}))
+            rows[first:first + n] = [union] * n
+        return tuple(rows)
 
     def constraint_jacobian(self, z, t: Scalar = 0.0):
         """C_z = ∂C/∂x J: the joints differentiated with respect to the few nodal vectors they
@@ -256,10 +300,14 @@ class Mechanism(AbstractConstrainedModel):
                 return self.joint_equations(tuple(x.at[i].set(xr) for x, i, xr in zip(xs, idx, x_rows)), t)
 
             dC = jax.jacfwd(on_rows)(tuple(x[i] for x, i in zip(xs, idx)))  # per body (m, rows, 3)
-            if self.stacked is not None:
-                Js = self._map(lambda b, zb: b.jacobian(zb, rows[0]), z)
-            else:
-                Js = [b.jacobian(zb, r) for b, zb, r in zip(self.bodies, self.split(z), rows)]
+            Js = []
+            for run, stack in zip(self.runs, self.stacks):
+                r = rows[run[0]]
+                if stack is None:
+                    Js.append(self.bodies[run[0]].jacobian(self._part(z, run[0]), r))
+                else:
+                    J = self._vmap(run, stack, lambda b, zb, r=r: b.jacobian(zb, r), z)
+                    Js += [J[i] for i in range(run[1])]
             C_joints = jnp.concatenate([jnp.einsum("mvi,vik->mk", d, J) for d, J in zip(dC, Js)], axis=1)
         else:
             C_joints = jnp.zeros((0, self.n_dof), z.dtype)
