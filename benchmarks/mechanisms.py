@@ -72,7 +72,8 @@ def rotor(out: str) -> None:
                     f"{run.compile_s:.1f} | {run.run_s:.2f} | {speedup} | {s['omega'][-1]:.5f} | "
                     f"{np.abs(s['tip']).max():.4f} | {dH:.1e} | {dE:.1e} | "
                     f"{float(chi_rel(ref.series['omega'], s['omega'])):.2f} | "
-                    f"{float(chi_rel(ref.series['tip'], s['tip'])):.2f} |")
+                    f"{float(chi_rel(ref.series['tip'], s['tip'])):.2f} | {np.abs(s['M_root']).max():.1f} | "
+                    f"{float(chi_rel(ref.series['M_root'], s['M_root'])):.2f} |")
         print(rows[-1], flush=True)
     text = "\n".join([
         "# Mechanisms: the torque-driven rotor (issue 33)", "", f"Produced by `benchmarks/mechanisms.py --case rotor`. "
@@ -82,10 +83,11 @@ def rotor(out: str) -> None:
         "zero; 0-4 s, generalized-α ρ∞ = 0.9. NR-RNCF: each beam in its frame at the root, 4 in-plane cantilever modes "
         "and their modal derivatives, welded to the hub. ΔH: max |H_z − impulse| / final impulse; ΔE: max |E − E₀ − "
         "W| / final work (W by Simpson's rule on 401 outputs). χ_rel against the first row. Speed-up: ANCF run time "
-        "at the same rtol over the row's.", "",
+        "at the same rtol over the row's. M_root: beam 0's root bending moment "
+        "(`post.stress.SectionResultant`, M3).", "",
         "| beams | rtol | DOFs | steps (rejected) | Newton it. | compile [s] | run [s] | speed-up | ω(4 s) [rad/s] | "
-        "peak abs tip [m] | ΔH | ΔE | χ_rel ω [%] | χ_rel tip [%] |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|", *rows, ""])
+        "peak abs tip [m] | ΔH | ΔE | χ_rel ω [%] | χ_rel tip [%] | peak abs M_root [N m] | χ_rel M_root [%] |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|", *rows, ""])
     _write(out, text, "Reading:")
 
 
