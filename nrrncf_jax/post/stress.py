@@ -329,13 +329,9 @@ class SectionResultant(_MarkerSensor):
             raise ValueError("a sensor on markers must be resolved against its system first (sensors.observe)")
         body, g = self._beam(system, self.marker.body)
         x = system.nodal_vectors(z)[self.marker.body]
-        el, idx = g.element, np.asarray(g.elements)
-        first, last = el.position_slots[0], (el.nodes - 1) * el.vectors_per_node
-        out = []
-        for e, s in self.stations:
-            qh = body.q_hat[idx[e]]
-            out.append(beam_section_resultants(el, qh, x[idx[e]], s, jnp.linalg.norm(qh[last] - qh[first])))
-        r = sum(out) / len(out)
+        idx, lengths = np.asarray(g.elements), _beam_lengths(g, body.q_hat, None)
+        r = sum(beam_section_resultants(g.element, body.q_hat[idx[e]], x[idx[e]], s, lengths[e])
+                for e, s in self.stations) / len(self.stations)
         return r if self.quantity is None else r[BEAM_RESULTANTS.index(self.quantity)]
 
 
