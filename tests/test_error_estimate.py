@@ -12,6 +12,7 @@ from nrrncf_jax import AdaptiveStepSize, GeneralizedAlpha, RotatingFrameModel, S
 from nrrncf_jax.reduction.basis_to_tolerance import greedy_order
 from nrrncf_jax.reduction.error_estimate import RELIABLE_PERCENT, estimate_error, sample_indices
 from nrrncf_jax.reduction.reduced_model import reduce_rotating_model
+from nrrncf_jax.reduction.run_error import estimate_run_error
 
 GA = GeneralizedAlpha(0.9)
 TS = np.arange(0.0, 20.0 + 1e-9, 0.05)
@@ -34,20 +35,25 @@ def _reduced_run(red):
 
 
 @pytest.mark.xdist_group("error_estimate")
-def test_estimate_is_round_off_when_the_basis_spans_every_coordinate(spin):
+@pytest.mark.parametrize("method", ["static", "dynamic"])
+def test_estimate_is_round_off_when_the_basis_spans_every_coordinate(spin, method):
     """Ψ = the free coordinates' unit vectors: the reduced model is the full one, its lifted
     residual is round-off, and so is the correction: |e| ≲ cond(K_T) ε |q| (a residual of a few
-    terms each with a relative error ε, through K_T⁻¹), with a factor 10 for the terms' count."""
+    terms each with a relative error ε, through K_T⁻¹), with a factor 10 for the terms' count.
+    The error equation (``method="dynamic"``) sums such corrections over its outputs: at most
+    one more factor of the outputs' count, a growth no stable linear equation exceeds."""
     full, _ = spin
     free = np.flatnonzero(np.asarray(full.free_mask()))
     Psi = np.eye(full.n_dof)[:, free]
     red = reduce_rotating_model(full, Psi)
     P, V, w = _reduced_run(red)
-    est = estimate_error(full, red, TS, P, V, samples=20)
+    est = estimate_error(full, red, TS, P, V, samples=20, method=method)
     q = np.asarray(red.q_eq).reshape(-1)
     K = np.asarray(jax.jacfwd(lambda x: full.residual(0.0, x, 0 * x, 0 * x))(jnp.asarray(q)))[np.ix_(free, free)]
     bound = 10 * np.linalg.cond(K) * EPS * np.abs(q).max() * np.sqrt(len(est.ts))
+    bound *= len(est.ts) if method == "dynamic" else 1
     assert 0.01 * est.chi_rel_percent * np.sqrt(np.sum(est.displacement_norm**2)) <= bound, (est.chi_rel_percent, bound)
+    assert est.reliable
 
 
 @pytest.mark.xdist_group("error_estimate")
@@ -69,6 +75,48 @@ def test_estimate_tracks_the_measured_error_and_grows_without_mds(spin):
     assert out["vms"][0] > 5 * out["mds"][0], out
 
 
+@pytest.mark.xdist_group("error_estimate")
+def test_error_equation_tracks_the_measured_error_and_knows_where_it_fails(spin):
+    """``method="dynamic"``: on the default basis the integrated error equation is valid over
+    the whole run and within the effectivity band; on the VMs-only basis (χ_rel ≈ 86 %) the
+    linearisation is not small, and the estimate says it stopped being valid before the end."""
+    full, w_ref = spin
+    red = nr_rncf(full, jnp.asarray(TS), n_modes=12)
+    vm_only = nr_rncf(full, jnp.asarray(TS), n_modes=12, vms=red.dofs, mds=0, spin_state=False)
+    P, V, w = _reduced_run(red.model)
+    est = estimate_error(full, red.model, TS, P, V, method="dynamic")
+    measured = float(chi_rel(w_ref, w))
+    assert est.valid_until is None and est.reliable and len(est.ts) == TS.size
+    assert 0.5 <= est.chi_rel_percent / measured <= 2.0, (est.chi_rel_percent, measured)
+    P, V, _ = _reduced_run(vm_only.model)
+    est = estimate_error(full, vm_only.model, TS, P, V, method="dynamic")
+    assert est.valid_until is not None and est.valid_until < TS[-1] and not est.reliable
+
+
+@pytest.mark.xdist_group("error_estimate")
+def test_run_error_splits_basis_and_integration(spin):
+    """``reduction.run_error``: a run at a loose tolerance (rtol 1e-3) has its basis's error
+    estimated on its repetition at rtol 1e-5, and its integration error estimated against that
+    repetition within [0.5, 2] of its distance to a run at rtol 1e-8; its measured χ_rel against
+    the full run is at most the two parts' sum (the triangle inequality), with 10 % for the full
+    run's own integration error."""
+    full, w_ref = spin
+    red = nr_rncf(full, jnp.asarray(TS), n_modes=12).model
+    loose = simulate(red, GA, AdaptiveStepSize(1e-3, 1e-5), jnp.asarray(TS), observe=lambda t, p, v: p)
+    P = np.asarray(loose.ys)
+    est = estimate_run_error(full, red, TS, P, rtol=1e-3, atol=1e-5)
+    P_t, V_t, w_t = _reduced_run(red)  # rtol 1e-5: the repetition's tolerances
+    assert est.chi_rel_percent == pytest.approx(estimate_error(full, red, TS, P_t, V_t).chi_rel_percent, rel=1e-6)
+    tight = simulate(red, GA, AdaptiveStepSize(1e-8, 1e-10), jnp.asarray(TS), observe=lambda t, p, v: p)
+    disp = jax.vmap(lambda p: red.displacements(0.0, p).reshape(-1))
+    w_loose, w_tight = np.asarray(disp(P)), np.asarray(disp(jnp.asarray(tight.ys)))
+    truth = float(chi_rel(w_tight, w_loose))
+    assert 0.5 <= est.integration_percent / truth <= 2.0, (est.integration_percent, truth)
+    assert float(chi_rel(w_ref, w_loose)) <= 1.1 * (est.chi_rel_percent + est.integration_percent)
+    with pytest.raises(ValueError, match="ps must be"):
+        estimate_run_error(full, red, TS, P[:, :2], rtol=1e-3, atol=1e-5)
+
+
 def test_sample_indices_and_bad_input(spin):
     np.testing.assert_array_equal(sample_indices(5, 60), np.arange(5))
     idx = sample_indices(401, 60)
@@ -83,6 +131,8 @@ def test_sample_indices_and_bad_input(spin):
         estimate_error(full, red, TS[:2], np.zeros((2, 3)), np.zeros((2, 3)), output=[full.n_dof])
     with pytest.raises(ValueError, match="norm_rows"):
         estimate_error(full, red, TS[:2], np.zeros((2, 3)), np.zeros((2, 3)), norm_rows=[-1])
+    with pytest.raises(ValueError, match="method"):
+        estimate_error(full, red, TS[:2], np.zeros((2, 3)), np.zeros((2, 3)), method="adjoint")
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(ValueError, match="tol"):
             nr_rncf(full, TS, tol=bad)

@@ -37,7 +37,8 @@ output by output where the linearisation holds. Where the linearised equations a
 (again a soft beam in compression, which buckles, where the nonlinear motion stays bounded) its
 solution grows without bound: the first output where |δx| exceeds ``RELIABLE_PERCENT`` of the
 largest displacement so far ends its validity (``ErrorEstimate.valid_until``; χ_rel is then over
-the outputs before it, and the estimate says it is not reliable). It costs a factorisation of
+the outputs before it, and the estimate says it is not reliable;
+``reduction.error_estimate.valid_outputs``). It costs a factorisation of
 the full model's constrained iteration matrix an output, as much as a few steps of the full
 run: output intervals of the order of the motion's time scale, not of the integrator's steps.
 
@@ -55,7 +56,15 @@ import numpy as np
 from jax import lax
 
 from .._types import Array, Float
-from ..reduction.error_estimate import RELIABLE_PERCENT, ErrorEstimate, sample_indices
+from ..reduction.error_estimate import (
+    METHODS,
+    NEWMARK_BETA,
+    NEWMARK_GAMMA,
+    ErrorEstimate,
+    integrate_error_equation,
+    sample_indices,
+    valid_outputs,
+)
 from .floating import FloatingBody, rotation
 from .full_order_frame import full_floating_body
 from .mechanism import Mechanism
@@ -150,13 +159,6 @@ def _mechanism_corrections(full, reduced, maps, ts, zs, vs, flexible):
     return lax.map(one, (ts, zs, vs))
 
 
-NEWMARK_GAMMA, NEWMARK_BETA = 0.6, 0.3025
-"""The error equation's Newmark parameters: γ = 0.6, β = (γ + 1/2)²/4, unconditionally stable
-with a little numerical damping of the components at the output interval's frequency and above.
-With the trapezoidal rule (γ = 1/2, none) the pendulum's error at 0.01 s outputs spiked where
-the stiff components rang; the slow, mechanism-scale part the estimate is for is barely touched
-(first order in γ − 1/2 times the output interval over its period)."""
-
 REFINEMENTS = 3
 """Corrections a step of the error equation solves with its iteration matrix, each on the exact
 defect (the matrix leaves out the joints' Hessian and the frames' inertia derivatives, as the
@@ -173,87 +175,42 @@ def _error_equation(full, reduced, maps, ts, zs, vs, flexible):
 
         R_z̈ ë + R_ż ė + R_z e + C_zᵀ μ = −r(t),    C_z e = −C(z_f),
 
-    r the lifted residual (the static estimate's), integrated from e = ė = 0 by Newmark's rule
-    (``NEWMARK_GAMMA``) over the output times; each step's linear equations solved by the full
-    model's constrained iteration matrix (``factor_augmented``) with ``REFINEMENTS`` corrections
-    on the exact defect (its products R_z e, ... by forward-mode derivatives). δx = ∂x/∂z e."""
+    r the lifted residual (the static estimate's), integrated from e = ė = 0 over the output
+    times (``reduction.error_estimate.integrate_error_equation``); each step's linear equations
+    solved by the full model's constrained iteration matrix (``factor_augmented``) with
+    ``REFINEMENTS`` corrections on the exact defect (its products R_z e, ... by forward-mode
+    derivatives). δx = ∂x/∂z e."""
     g, b = NEWMARK_GAMMA, NEWMARK_BETA
+    n, m = full.n_dof, full.n_constraints
 
-    def equations(t, zf, vf, af, lam):
+    def linearised(t, h, state):
+        zf, vf, af, lam = _lifted_state(maps, reduced, t, *state)
+
         def F(dz, dv, da, mu):
             return (full.residual(t, zf + dz, vf + dv, af + da) + full.constraint_force(zf + dz, lam, t)
                     + full.constraint_force(zf, mu, t))
 
-        return F
+        zero_n, zero_m = jnp.zeros(n, zf.dtype), jnp.zeros(m, zf.dtype)
+        c_f = full.constraints(zf, t)
+
+        def defect(e, ed, edd, mu):
+            r, lin = jax.jvp(F, (zero_n, zero_n, zero_n, zero_m), (e, ed, edd, mu))
+            c = c_f + jax.jvp(lambda y: full.constraints(y, t), (zf,), (e,))[1]
+            return jnp.concatenate([r + lin, c / (b * h**2)])
+
+        return defect, full.factor_augmented(t, zf, vf, lam, g * h, b * h**2, a=af), zf
 
     def position_error(zf, e):
         return jnp.linalg.norm(jax.jvp(lambda y: _positions(full, y, flexible), (zf,), (e,))[1])
 
-    n, m = full.n_dof, full.n_constraints
-    zero_n, zero_m = jnp.zeros(n, zs.dtype), jnp.zeros(m, zs.dtype)
-
-    def step(carry, args):
-        e, ed, edd, mu = carry
-        t0, t, z, v = args
-        h = t - t0
-        zf, vf, af, lam = _lifted_state(maps, reduced, t, z, v)
-        F = equations(t, zf, vf, af, lam)
-        e_p, ed_p = e + h * ed + (0.5 - b) * h**2 * edd, ed + (1.0 - g) * h * edd
-        c_f = full.constraints(zf, t)
-        fac = full.factor_augmented(t, zf, vf, lam, g * h, b * h**2, a=af)
-
-        def defect(x):
-            a_, mu_ = x[:n], x[n:]
-            r, lin = jax.jvp(F, (zero_n, zero_n, zero_n, zero_m),
-                             (e_p + b * h**2 * a_, ed_p + g * h * a_, a_, mu_))
-            c = c_f + jax.jvp(lambda y: full.constraints(y, t), (zf,), (e_p + b * h**2 * a_,))[1]
-            return jnp.concatenate([r + lin, c / (b * h**2)])
-
-        x = lax.fori_loop(0, REFINEMENTS, lambda _, x: x - fac.solve(defect(x)), jnp.concatenate([edd, mu]))
-        edd1, mu1 = x[:n], x[n:]
-        e1, ed1 = e_p + b * h**2 * edd1, ed_p + g * h * edd1
-        return (e1, ed1, edd1, mu1), position_error(zf, e1)
-
-    # ë(0) = 0 rather than its consistent value (one factorisation less to compile): the first
-    # step's predictor misses (1/2 − β) h² ë(0), second order in the output interval
-    carry0 = (zero_n, zero_n, zero_n, zero_m)
-    _, errors = lax.scan(step, carry0, (ts[:-1], ts[1:], zs[1:], vs[1:]))
-    return jnp.concatenate([jnp.zeros((1,), errors.dtype), errors])
+    return integrate_error_equation(ts, (zs, vs), linearised, position_error, n, m, REFINEMENTS)
 
 
-METHODS = ("static", "dynamic")
-
-BLOWUP_FACTOR = 10.0
-"""The error equation's solution is taken to have left its linearisation's validity where it
-grows by more than this factor within 1/ω_max, ω_max the frames' largest angular speed over the
-run: an exponential rate above ln(10) ω_max ≈ 2.3 ω_max. A reduced run's own error grows with
-the motion, at rates below ω_max; an unstable linearisation (a soft beam in compression, which
-buckles) grows faster, as fast as its buckling modes (on the pendulum, ω_max ≈ 31 rad/s, its
-error at up to 20 /s, the unstable error equation at 90-460 /s:
-``benchmarks/results/error_estimate_mechanism.md``)."""
-
-
-def _valid_outputs(reduced: Mechanism, ts, vs, e, w) -> int:
-    """How many outputs, from the first, the integrated error equation's solution ``e`` (|δx| at
-    each output) is valid for: up to the first output where it exceeds ``RELIABLE_PERCENT`` of
-    the largest displacement so far (the linearisation is then no longer small), or, where it
-    first grows by more than ``BLOWUP_FACTOR`` within 1/ω_max, up to where that growth began.
-    Growth is that of the error relative to the largest displacement so far: at the start of the
-    run both grow from zero together, and the error alone grows infinitely fast."""
-    w_max = np.maximum.accumulate(w)
-    broken = e > RELIABLE_PERCENT / 100.0 * w_max
-    broken[0] = False
-    first = int(np.argmax(broken)) if broken.any() else e.size
+def _frames_speed(reduced: Mechanism, vs) -> float:
+    """The floating frames' largest angular speed over the run, |ω| = 2|ė| (0 without frames)."""
     parts = zip(reduced.bodies, reduced.split(np.asarray(vs).T))  # each body's (n_b, n_out)
     frames = [vb[3:7] for b, vb in parts if isinstance(b, FloatingBody)]
-    omega = max((2.0 * float(np.linalg.norm(f, axis=0).max()) for f in frames), default=0.0)  # |ω| = 2|ė|
-    if omega > 0:
-        k = max(1, int(np.ceil(1.0 / (omega * (ts[-1] - ts[0]) / max(ts.size - 1, 1)))))
-        relative = e / np.where(w_max > 0, w_max, np.inf)
-        for i in range(k + 1, first):
-            if relative[i] > BLOWUP_FACTOR * max(relative[i - k], 1e-6):
-                return i - k + 1
-    return first
+    return max((2.0 * float(np.linalg.norm(f, axis=0).max()) for f in frames), default=0.0)
 
 
 def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, samples: int = 16,
@@ -284,7 +241,7 @@ def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, sa
     w = np.asarray(jax.vmap(lambda z: jnp.linalg.norm(_positions(reduced, z, flexible) - x0))(jnp.asarray(zs[idx])))
     valid_until, upto = None, idx.size
     if method == "dynamic":
-        upto = _valid_outputs(reduced, ts, vs, e, w)
+        upto = valid_outputs(ts, e, w, _frames_speed(reduced, vs))
         if upto < idx.size:
             valid_until = float(ts[upto - 1])
     den = float(np.sqrt(np.sum(w[:upto] ** 2)))

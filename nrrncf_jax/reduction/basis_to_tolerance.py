@@ -22,10 +22,10 @@ failing and the first passing length, which assumes that the estimate falls alon
 every trial is recorded, so where it does not the record shows it. A trial compiles its own
 reduced model (the reduced size is a shape), which is most of its cost.
 
-Where it stops working: the estimate's own limits (``reduction.error_estimate``). Where it
-raises a false alarm (the paper beam's 40 rad/s spin-up, whose violent transient the
-quasi-static correction overestimates), no prefix passes and the result says the tolerance was
-not met, with the largest basis tried. The spinning-state enrichment of ``nr_rncf`` is not part
+The training runs go at tightened tolerances (``reduction.run_error``): the estimate is then of
+the basis, not of a loose run's integration error magnified. Where it stops working: the
+estimate's own limits (``reduction.error_estimate``). Where no prefix passes, the result says
+the tolerance was not met, with the largest basis tried. The spinning-state enrichment of ``nr_rncf`` is not part
 of the order.
 """
 
@@ -43,6 +43,7 @@ from .basis import modal_basis
 from .error_estimate import ErrorEstimate, estimate_error
 from .modal_derivatives import modal_derivatives
 from .pipeline import Reduction, _reduce, modal_interaction
+from .run_error import TIGHTEN
 from .selection import Selection, select
 
 TIE = 1e-9
@@ -142,13 +143,14 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
                          md_method: str = "closed_form", deflation_tol: float = 1e-6, rho_inf: float = 0.9,
                          rtol: float = 1e-4, atol: float = 1e-6, max_steps: int = 500_000,
                          start: int = 2, safety: float = 2.0, error_rows=None, norm_rows=None, output=(),
-                         modes=None) -> Reduction:
+                         modes=None, tighten: float = TIGHTEN) -> Reduction:
     """The NR-RNCF reduced model of ``full`` with the smallest greedy basis whose training run
     over the output times ``ts`` has an error estimate of at most ``tol / safety`` per cent χ_rel
     (module docstring). ``max_dofs`` caps the columns tried (default: every candidate); ``start``
     is the first prefix length tried; ``samples`` the estimate's sample count; ``rho_inf``, ``rtol``,
-    ``atol`` and ``max_steps`` the training run's integrator settings (those of the run the
-    basis is for). ``n_modes``, ``vm_tol``, ``md_method``, ``deflation_tol`` and
+    ``atol`` and ``max_steps`` the integrator settings of the run the basis is for, whose
+    training runs go at ``rtol / tighten``, ``atol / tighten`` (``reduction.run_error``).
+    ``n_modes``, ``vm_tol``, ``md_method``, ``deflation_tol`` and
     ``modes`` are ``nr_rncf``'s (``nr_rncf(..., tol=...)`` calls this). Returns the ``Reduction``
     of the chosen basis, with ``search`` (a ``BasisSearch``) holding every trial; ``search.met``
     is False (and the largest basis tried is kept) when no basis reaches the tolerance."""
@@ -184,8 +186,10 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         model = _reduce(full, basis.Psi, force="auto")
         if error_rows is not None:
             model = model.with_error_rows(error_rows)
-        sol = simulate(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol), jnp.asarray(ts),
-                       observe=_observe_pv, max_steps=max_steps)
+        # At tightened tolerances: the estimate is of the basis, and a loose run's integration
+        # error can make it a false alarm (reduction.run_error).
+        sol = simulate(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol / tighten, atol / tighten),
+                       jnp.asarray(ts), observe=_observe_pv, max_steps=max_steps)
         P, V = (np.asarray(y) for y in sol.ys)
         est = estimate_error(full, model, ts, P, V, samples=samples, output=output, norm_rows=norm_rows)
         runs[n] = (model, est)

@@ -25,16 +25,25 @@ captures the motion (χ_rel below a few per cent) it is first-order accurate, so
 working: when the basis misses a large part of the motion (χ_rel of tens of per cent, e.g. a
 basis of vibration modes only under large deflection) the correction is no longer small, the
 linearisation about the reduced state fails, and the estimate says only that the error is large
-(``reliable`` is False above ``RELIABLE_PERCENT``). The dynamic part of the error is outside
-this model too: in a violent transient (a fast spin-up's large-deflection phase) the part of the
-residual the basis misses is not answered quasi-statically, and the estimate can exceed the true
-error by orders of magnitude (a false alarm, measured in the benchmark's notes); the error
-equation with the correction's inertia is the remedy ERROR_CONTROL.md names, not built here.
-The same blind spot makes it *under*estimate where a small basis lets error accumulate over the
-run (a slightly wrong frequency drifting in phase): a third of the true error on the paper beam's
-11-DOF basis at 20 rad/s, and on the bending-torsion membrane's three VMs (11.8 % for 32.5 %,
-below ``RELIABLE_PERCENT`` and so not flagged; ``benchmarks/results/basis_to_tolerance.md``,
-``error_estimate_large.md``). ``basis_to_tolerance`` asks for half its tolerance for that reason.
+(``reliable`` is False above ``RELIABLE_PERCENT``). Where the tangent is nearly singular (a
+spin-up passing the beam's first bending frequency) K_T⁻¹ magnifies whatever else the residual
+holds, the run's own time-integration error included: the paper beam's 40 rad/s spin-up run at
+rtol 1e-4 gave an estimate of 200 % for a basis error of 0.16 %. ``reduction.run_error`` makes
+the estimate on the run repeated at tightened tolerances for that reason, and the scenarios'
+estimates go through it. The quasi-static model is blind to error that accumulates over the
+run: it *under*estimates where a small basis lets error grow (a slightly wrong frequency
+drifting in phase): a third of the true error on the paper beam's 11-DOF basis at 20 rad/s, and
+on the bending-torsion membrane's three VMs (11.8 % for 32.5 %, below ``RELIABLE_PERCENT`` and
+so not flagged; ``benchmarks/results/basis_to_tolerance.md``, ``error_estimate_large.md``).
+``basis_to_tolerance`` asks for half its tolerance for that reason.
+
+``method="dynamic"`` integrates the linearised error equation M ë + R_q̇ ė + R_q e = −r(t)
+along all the output times instead (``integrate_error_equation``, shared with
+``multibody.error_estimate``), which carries error from one output to the next. Where its
+linearisation holds it follows the measured error output by output; where it grows faster than
+the motion can make it, it stops being valid (``valid_outputs``, ``ErrorEstimate.valid_until``).
+It costs a factorisation of the full iteration matrix per output, not per sample
+(``benchmarks/results/error_estimate.md``).
 """
 
 import dataclasses
@@ -53,6 +62,84 @@ RELIABLE_PERCENT = 20.0
 displacement and the estimate is an order of magnitude, not a figure
 (``benchmarks/results/error_estimate.md``)."""
 
+METHODS = ("static", "dynamic")
+
+NEWMARK_GAMMA, NEWMARK_BETA = 0.6, 0.3025
+"""The error equation's Newmark parameters: γ = 0.6, β = (γ + 1/2)²/4, unconditionally stable
+with a little numerical damping of the components at the output interval's frequency and above.
+With the trapezoidal rule (γ = 1/2, none) the pendulum's error at 0.01 s outputs spiked where
+the stiff components rang; the slow part the estimate is for is barely touched (first order in
+γ − 1/2 times the output interval over its period)."""
+
+BLOWUP_FACTOR = 10.0
+"""The error equation's solution is taken to have left its linearisation's validity where it
+grows by more than this factor within 1/ω_max, ω_max the frames' largest angular speed over the
+run: an exponential rate above ln(10) ω_max ≈ 2.3 ω_max. A reduced run's own error grows with
+the motion, at rates below ω_max; an unstable linearisation (a soft beam in compression, which
+buckles) grows faster, as fast as its buckling modes (on the pendulum, ω_max ≈ 31 rad/s, its
+error at up to 20 /s, the unstable error equation at 90-460 /s:
+``benchmarks/results/error_estimate_mechanism.md``)."""
+
+
+def integrate_error_equation(ts, states, linearised, measure, n: int, m: int = 0, refinements: int = 1):
+    """The linearised error equation of a reduced run integrated along it from e = ė = 0 by
+    Newmark's rule (``NEWMARK_GAMMA``, ``NEWMARK_BETA``) over the output times ``ts``: the
+    ``measure`` of the error at each output, the first (zero error) included.
+
+    ``states``: a pytree of per-output arrays (leading axis len(ts)). ``linearised(t, h, state)``
+    gives ``(defect, factor, lifted)`` at an output: ``defect(e, ė, ë, μ)``, the residual of the
+    linear equations there (n rows for e, m for a constraint's multipliers μ, scaled as the
+    factor's), ``factor.solve`` with their Newmark iteration matrix for (ë, μ), and ``lifted``,
+    what ``measure(lifted, e)`` needs. Each step solves ``refinements`` times on the exact
+    defect: once where the factor is the equations' exact Jacobian, more where it leaves terms
+    out. Shared by the single-body (``estimate_error``) and the mechanism
+    (``multibody.error_estimate``) estimates."""
+    g, b = NEWMARK_GAMMA, NEWMARK_BETA
+
+    def step(carry, args):
+        e, ed, x = carry
+        t0, t, state = args
+        h = t - t0
+        defect, factor, lifted = linearised(t, h, state)
+        e_p, ed_p = e + h * ed + (0.5 - b) * h**2 * x[:n], ed + (1.0 - g) * h * x[:n]
+
+        def refine(_, x):
+            a = x[:n]
+            return x - factor.solve(defect(e_p + b * h**2 * a, ed_p + g * h * a, a, x[n:]))
+
+        x = lax.fori_loop(0, refinements, refine, x)
+        e1, ed1 = e_p + b * h**2 * x[:n], ed_p + g * h * x[:n]
+        return (e1, ed1, x), measure(lifted, e1)
+
+    # ë(0) = 0 rather than its consistent value (one factorisation less to compile): the first
+    # step's predictor misses (1/2 − β) h² ë(0), second order in the output interval
+    zero = jnp.zeros(n, ts.dtype)
+    carry0 = (zero, zero, jnp.zeros(n + m, ts.dtype))
+    _, out = lax.scan(step, carry0, (ts[:-1], ts[1:], jax.tree.map(lambda s: s[1:], states)))
+    return jax.tree.map(lambda o: jnp.concatenate([jnp.zeros_like(o[:1]), o]), out)
+
+
+def valid_outputs(ts, e, w, omega: float) -> int:
+    """How many outputs, from the first, an integrated error equation's solution (``e``: |δx| at
+    each output; ``w``: the displacement's norm there) is valid for: up to the first output where
+    it exceeds ``RELIABLE_PERCENT`` of the largest displacement so far (the linearisation is then
+    no longer small), or, where it first grows by more than ``BLOWUP_FACTOR`` within 1/ω_max
+    (``omega``, the largest angular speed of the run's frames), up to where that growth began.
+    Growth is that of the error relative to the largest displacement so far: at the start of the
+    run both grow from zero together, and the error alone grows infinitely fast."""
+    e, w = np.asarray(e), np.asarray(w)
+    w_max = np.maximum.accumulate(w)
+    broken = e > RELIABLE_PERCENT / 100.0 * w_max
+    broken[0] = False
+    first = int(np.argmax(broken)) if broken.any() else e.size
+    if omega > 0:
+        k = max(1, int(np.ceil(1.0 / (omega * (ts[-1] - ts[0]) / max(ts.size - 1, 1)))))
+        relative = e / np.where(w_max > 0, w_max, np.inf)
+        for i in range(k + 1, first):
+            if relative[i] > BLOWUP_FACTOR * max(relative[i - k], 1e-6):
+                return i - k + 1
+    return first
+
 
 @dataclasses.dataclass
 class ErrorEstimate:
@@ -64,7 +151,10 @@ class ErrorEstimate:
     displacement; shape (samples, rows), empty without one), and the estimate's compile and run
     times [s]. ``valid_until``: for an error equation integrated along the run
     (``multibody.error_estimate``, ``method="dynamic"``), the last output time at which its
-    linearisation held (None: throughout); χ_rel is then over the outputs up to it."""
+    linearisation held (None: throughout); χ_rel is then over the outputs up to it.
+    ``integration_percent``: the run's own time-integration error as χ_rel in per cent, where
+    the estimate was made on a repetition of the run at tightened tolerances
+    (``reduction.run_error``; None otherwise)."""
 
     ts: np.ndarray
     error_norm: np.ndarray
@@ -74,6 +164,7 @@ class ErrorEstimate:
     compile_s: float
     run_s: float
     valid_until: float | None = None  # where an integrated error equation stopped being valid (None: throughout)
+    integration_percent: float | None = None  # the run's own time-integration error (reduction.run_error)
 
     @property
     def reliable(self) -> bool:
@@ -127,6 +218,36 @@ def _corrections(full, ts, q, qd, qdd, norm_rows, rows):
     return lax.map(one, (ts, q, qd, qdd))
 
 
+@eqx.filter_jit
+def _error_equation(full, ts, q, qd, qdd, norm_rows, rows):
+    """``method="dynamic"`` (module docstring): the linearised error equation
+
+        M ë + R_q̇ ė + R_q e = −r(t),    r = R(t, q, q̇, q̈) of the lifted run,
+
+    integrated along the output times (``integrate_error_equation``); |e| on ``norm_rows`` and
+    e[rows] at each output. The Newmark iteration matrix is the full model's own
+    (``factor_iteration_matrix`` with c_M = 1, c_C = γh, c_K = βh²), the residual's exact
+    Jacobian (the elastic tangent and the frame's terms), so one solve a step is exact."""
+    g, b = NEWMARK_GAMMA, NEWMARK_BETA
+    free = full.free_mask()
+
+    def linearised(t, h, state):
+        q, qd, qdd = state
+        zero = jnp.zeros_like(q)
+
+        def defect(e, ed, edd, mu):
+            r, lin = jax.jvp(lambda x, y, z: full.residual(t, q + x, qd + y, qdd + z), (zero, zero, zero), (e, ed, edd))
+            return r + lin
+
+        return defect, full.factor_iteration_matrix(t, q, qd, 1.0, g * h, b * h**2), None
+
+    def measure(_, e):
+        e = jnp.where(free, e, 0.0)
+        return jnp.linalg.norm(e[norm_rows]), e[rows]
+
+    return integrate_error_equation(ts, (q, qd, qdd), linearised, measure, full.n_dof)
+
+
 def sample_indices(n_out: int, samples: int) -> np.ndarray:
     """``samples`` output indices spread evenly over ``n_out`` outputs, the first and last
     included (all of them when there are fewer)."""
@@ -135,10 +256,14 @@ def sample_indices(n_out: int, samples: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n_out - 1, min(samples, n_out))).astype(int))
 
 
-def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=(), norm_rows=None) -> ErrorEstimate:
-    """The static-correction estimate (module docstring) of the reduced run whose coordinates
-    ``ps`` and velocities ``vs`` (each (n_out, k)) were recorded at the output times ``ts``,
-    against the full RNCF model ``full`` it was reduced from, at ``samples`` of the output times.
+def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=(), norm_rows=None,
+                   method: str = "static") -> ErrorEstimate:
+    """The error estimate (module docstring) of the reduced run whose coordinates ``ps`` and
+    velocities ``vs`` (each (n_out, k)) were recorded at the output times ``ts``, against the
+    full RNCF model ``full`` it was reduced from: ``method="static"``, the static correction at
+    ``samples`` of the output times; ``"dynamic"``, the error equation integrated over all of
+    them, its validity in ``valid_until`` (``valid_outputs``, with the motion's largest angular
+    speed).
     ``output``: indices of full coordinates whose error is wanted on its own (a quantity of
     interest: the tip node's position, say), in ``output_error``. ``norm_rows``: the full
     coordinates the χ_rel norm runs over, as in the measured χ_rel it estimates (default all of
@@ -157,8 +282,10 @@ def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=(), norm
     norm_rows = np.arange(full.n_dof) if norm_rows is None else np.asarray(norm_rows, dtype=int).reshape(-1)
     if norm_rows.size == 0 or norm_rows.min() < 0 or norm_rows.max() >= full.n_dof:
         raise ValueError(f"norm_rows must index the full model's {full.n_dof} coordinates")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     norm_rows = jnp.asarray(norm_rows)
-    idx = sample_indices(ts.shape[0], int(samples))
+    idx = sample_indices(ts.shape[0], int(samples)) if method == "static" else np.arange(ts.shape[0])
     t_s = jnp.asarray(ts[idx])
     lifted = (reduced, t_s, jnp.asarray(ps[idx]), jnp.asarray(vs[idx]), norm_rows)
     t0 = time.perf_counter()
@@ -167,15 +294,23 @@ def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=(), norm
     q, qd, qdd, w = jax.block_until_ready(lift_c(*lifted))
     t2 = time.perf_counter()
     args = (full, t_s, q, qd, qdd, norm_rows, jnp.asarray(rows))
-    correct = _corrections.lower(*args).compile()
+    correct = (_corrections if method == "static" else _error_equation).lower(*args).compile()
     t3 = time.perf_counter()
     e, out = jax.block_until_ready(correct(*args))
     t4 = time.perf_counter()
     e, w = np.asarray(e), np.asarray(w)
-    den = float(np.sqrt(np.sum(w**2)))
-    chi = 100.0 * float(np.sqrt(np.sum(e**2))) / den if den > 0 else 0.0
+    valid_until, upto = None, idx.size
+    if method == "dynamic":
+        omega = float(np.linalg.norm(np.asarray(jax.vmap(full.motion.angular_velocity)(t_s)), axis=1).max())
+        upto = valid_outputs(ts, e, w, omega)
+        if upto < idx.size:
+            valid_until = float(ts[upto - 1])
+    den = float(np.sqrt(np.sum(w[:upto] ** 2)))
+    chi = 100.0 * float(np.sqrt(np.sum(e[:upto] ** 2))) / den if den > 0 else 0.0
     return ErrorEstimate(ts=ts[idx], error_norm=e, displacement_norm=w, chi_rel_percent=chi,
-                         output_error=np.asarray(out), compile_s=(t1 - t0) + (t3 - t2), run_s=(t2 - t1) + (t4 - t3))
+                         output_error=np.asarray(out), compile_s=(t1 - t0) + (t3 - t2), run_s=(t2 - t1) + (t4 - t3),
+                         valid_until=valid_until)
 
 
-__all__ = ["RELIABLE_PERCENT", "ErrorEstimate", "estimate_error", "lift", "sample_indices", "static_correction"]
+__all__ = ["METHODS", "RELIABLE_PERCENT", "ErrorEstimate", "estimate_error", "integrate_error_equation", "lift",
+           "sample_indices", "static_correction", "valid_outputs"]

@@ -82,9 +82,10 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     ``nr_rncf``) to the output times
     ``ts``, observing the mean displacement of ``point_vectors``. Returns a ``cls`` (a
     ``ForcedRun``) with ``fields`` added. ``estimate``: an NR-RNCF run's a-posteriori error
-    estimate from the run alone (``reduction.error_estimate``, at ``estimate_samples`` output
-    times, over the position vectors as χ_rel is): one sparse factorisation of the full model per
-    sample, seconds on the 19k-DOF bodies. ``tol``: the basis chosen to a target χ_rel in per cent
+    estimate from reduced runs alone (``reduction.run_error``, at ``estimate_samples`` output
+    times, over the position vectors as χ_rel is): the run repeated at tightened tolerances and
+    one sparse factorisation of the full model per sample, seconds on the 19k-DOF bodies.
+    ``tol``: the basis chosen to a target χ_rel in per cent
     instead (``nr_rncf(..., tol=...)``, the run itself the training manoeuvre; ``vms``, ``mds``
     and ``spin_state`` are then not used)."""
     from ..reduction.pipeline import nr_rncf
@@ -130,9 +131,10 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
             # estimate is this run's, and a second one would cost a sparse factorisation a sample.
             run.estimate = red.search.estimate
         elif estimate:
-            from ..reduction.error_estimate import estimate_error
+            from ..reduction.run_error import estimate_run_error
 
-            run.estimate = estimate_error(full, model, ts, P, V, samples=estimate_samples, norm_rows=rows)
+            run.estimate = estimate_run_error(full, model, ts, P, rho_inf=rho_inf, rtol=rtol, atol=atol,
+                                              max_steps=max_steps, samples=estimate_samples, norm_rows=rows)
     return run
 
 

@@ -89,6 +89,8 @@ class RunRecord(abc.ABC):
         return {"chi_rel_estimate_percent": e.chi_rel_percent, "estimate_reliable": e.reliable,
                 "estimate_samples": int(len(e.ts)), "estimate_run_s": e.run_s, "effectivity": eff,
                 **({} if e.valid_until is None else {"estimate_valid_until_s": e.valid_until}),
+                **({} if e.integration_percent is None else
+                   {"integration_error_estimate_percent": e.integration_percent}),
                 **({} if search is None else search.summary())}
 
 

@@ -14,8 +14,8 @@ from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..integrate.simulate import simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
-from ..reduction.error_estimate import estimate_error
 from ..reduction.pipeline import nr_rncf
+from ..reduction.run_error import estimate_run_error
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
 from .run_record import RunRecord
@@ -168,6 +168,9 @@ class SpinupResult(RunRecord):
             note = "" if s["estimate_reliable"] else "  (above its reliable range: an order of magnitude, not a figure)"
             rows.append(("chi_rel estimate [%] (no full run)", f"{s['chi_rel_estimate_percent']:.4f}  "
                          f"({s['estimate_samples']} samples, {s['estimate_run_s']:.3f} s){note}"))
+            if "integration_error_estimate_percent" in s:
+                rows.append(("integration error estimate [%]", f"{s['integration_error_estimate_percent']:.4f}  "
+                             "(this run against its repetition at rtol/100)"))
             rows.append(("tip error estimate [m]", f"{s['tip_error_estimate_m']:.2e}"
                          + ("" if "tip_error_m" not in s else f"  (measured {s['tip_error_m']:.2e})")))
         rows += [("steps accepted / rejected", f"{s['steps']} / {s['rejected']}"),
@@ -261,9 +264,10 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     χ_rel (Eq. 40, over all nodal displacements q − q̂ and all output times) and the run-time
     ratio full/reduced are filled in.
 
-    ``estimate``: the run's a-posteriori error estimate from the run alone, at
-    ``estimate_samples`` output times (``reduction.error_estimate``: χ_rel estimated without the
-    full run; with a reference also the effectivity, estimate / measured).
+    ``estimate``: the run's a-posteriori error estimate from reduced runs alone, at
+    ``estimate_samples`` output times (``reduction.run_error``: the basis's χ_rel estimated on the
+    run repeated at tightened tolerances, and the run's own integration error against that
+    repetition; with a reference also the effectivity, estimate / measured).
 
     ``tol``: a target χ_rel in per cent. The basis is then the smallest prefix of the MMI ranking
     whose run has an estimate at or below ``tol`` / 2 (``reduction.basis_to_tolerance``, the run itself
@@ -294,7 +298,8 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         offline_s=dict(red.offline_s), reduction=red, spin=red.spin, basis_search=red.search,
         # With tol, the search ran the chosen basis over these output times: its estimate is this run's.
         estimate=red.search.estimate if red.search is not None else
-        estimate_error(full, model, ts, P, V, samples=estimate_samples, output=tip_rows) if estimate else None,
+        estimate_run_error(full, model, ts, P, rho_inf=rho_inf, rtol=rtol, atol=atol, max_steps=max_steps,
+                           samples=estimate_samples, output=tip_rows) if estimate else None,
     )
     if reference is False or reference is None:
         return res
