@@ -161,18 +161,26 @@ class Mechanism(AbstractConstrainedModel):
         """All the bodies stacked, when they are one run (a chain of equal beams), else None."""
         return self.stacks[0] if len(self.runs) == 1 else None
 
-    def _map(self, fn, *vectors) -> list:
+    def _each_run(self, fn, by_run: bool, *vectors):
+        """``(n, out, stacked)`` for each run of n equal bodies: ``fn(body, *parts)`` for a body
+        on its own, vmapped over a run's stacked bodies (its outputs with the body as their
+        leading axis, ``stacked``). With ``by_run``, ``fn(first)`` gives the function for the
+        run that starts at body ``first`` (data that differs from run to run)."""
+        for run, stack in zip(self.runs, self.stacks):
+            f = fn(run[0]) if by_run else fn
+            if stack is None:
+                yield 1, f(self.bodies[run[0]], *(self._part(x, run[0]) for x in vectors)), False
+            else:
+                yield run[1], self._vmap(run, stack, f, *vectors), True
+
+    def _map(self, fn, *vectors, by_run: bool = False) -> list:
         """``[fn(body_b, *(each vector's part b))]``: one vmapped call a run of equal bodies (a
         chain of equal beams: a third of the operations for three bodies, and XLA's time here is
         per operation), a plain call for a body on its own. A vector is split by the bodies'
-        coordinates; a tuple holds its parts already (one a body)."""
+        coordinates; a tuple holds its parts already (one a body). ``by_run``: see ``_each_run``."""
         out = []
-        for run, stack in zip(self.runs, self.stacks):
-            if stack is None:
-                out.append(fn(self.bodies[run[0]], *(self._part(x, run[0]) for x in vectors)))
-            else:
-                y = self._vmap(run, stack, fn, *vectors)
-                out += [jax.tree_util.tree_map(lambda a, i=i: a[i], y) for i in range(run[1])]
+        for n, y, stacked in self._each_run(fn, by_run, *vectors):
+            out += [jax.tree_util.tree_map(lambda a, i=i: a[i], y) for i in range(n)] if stacked else [y]
         return out
 
     def _part(self, x, b):
@@ -200,12 +208,7 @@ class Mechanism(AbstractConstrainedModel):
 
     def _concat_map(self, fn, *vectors) -> Float[Array, " n"]:
         """``jnp.concatenate(self._map(fn, *vectors))`` (each part a vector, or flattened)."""
-        pieces = []
-        for run, stack in zip(self.runs, self.stacks):
-            if stack is None:
-                pieces.append(fn(self.bodies[run[0]], *(self._part(x, run[0]) for x in vectors)).reshape(-1))
-            else:
-                pieces.append(self._vmap(run, stack, fn, *vectors).reshape(-1))
+        pieces = [y.reshape(-1) for _, y, _ in self._each_run(fn, False, *vectors)]
         return pieces[0] if len(pieces) == 1 else jnp.concatenate(pieces)
 
     def nodal_vectors(self, z: Float[Array, " n"]) -> tuple[Float[Array, "nv 3"], ...]:
@@ -300,14 +303,8 @@ class Mechanism(AbstractConstrainedModel):
                 return self.joint_equations(tuple(x.at[i].set(xr) for x, i, xr in zip(xs, idx, x_rows)), t)
 
             dC = jax.jacfwd(on_rows)(tuple(x[i] for x, i in zip(xs, idx)))  # per body (m, rows, 3)
-            Js = []
-            for run, stack in zip(self.runs, self.stacks):
-                r = rows[run[0]]
-                if stack is None:
-                    Js.append(self.bodies[run[0]].jacobian(self._part(z, run[0]), r))
-                else:
-                    J = self._vmap(run, stack, lambda b, zb, r=r: b.jacobian(zb, r), z)
-                    Js += [J[i] for i in range(run[1])]
+            # the rows a run's bodies are read at are the run's (_joint_rows)
+            Js = self._map(lambda first: lambda b, zb: b.jacobian(zb, rows[first]), z, by_run=True)
             C_joints = jnp.concatenate([jnp.einsum("mvi,vik->mk", d, J) for d, J in zip(dC, Js)], axis=1)
         else:
             C_joints = jnp.zeros((0, self.n_dof), z.dtype)
