@@ -91,13 +91,16 @@ def test_compilation_cache_keeps_small_kernels(tmp_path):
 def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):
     png = tmp_path / "tip.png"
     rc = main(["spinup", "--formulation", "nr-rncf", "--beam", "paper", "--elements", "2", "--omega", "4",
-               "--t-end", "3", "--modes", "8", "--reference", "rncf", "--plot", str(png), "--json", "--no-progress"])
+               "--t-end", "3", "--modes", "8", "--reference", "rncf", "--plot", str(png), "--json", "--no-progress",
+               "--estimate-method", "dynamic"])
     assert rc == 0
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     for key in ("vms", "mds", "dofs", "offline_s", "chi_rel_percent", "speedup", "steps", "run_s",
-                "chi_rel_estimate_percent", "effectivity", "estimate_run_s"):
+                "chi_rel_estimate_percent", "effectivity", "estimate_run_s", "integration_error_estimate_percent"):
         assert key in d
     assert d["effectivity"] == pytest.approx(d["chi_rel_estimate_percent"] / d["chi_rel_percent"])
+    assert d["estimate_samples"] == 301  # the error equation runs over every output (0-3 s by 0.01 s)
+    assert d["integration_error_estimate_percent"] >= 0
     assert d["formulation"] == "nr-rncf"
     assert 0 < d["dofs"] <= d["vms"] + d["mds"] and d["vms"] >= 1
     assert len(d["selected_vms"]) == d["vms"] and len(d["selected_mds"]) == d["mds"]
@@ -152,6 +155,8 @@ BAD_INPUT = {
     "tol-negative": (["spinup", "--formulation", "nr-rncf", "--omega", "4", "--tol=-1"],
                      "--tol (target chi_rel in per cent) must be > 0, got -1"),
     "tol-full-order": (["spinup", "--omega", "4", "--tol", "1"], "--tol chooses a reduced basis; use it with"),
+    "estimate-method-full-order": (["spinup", "--omega", "4", "--estimate-method", "dynamic"],
+                                   "--estimate-method estimates a reduced run's error"),
     "truss-tol-full-order": (["truss", "dynamics", "--formulation", "rncf", "--tol", "1"],
                              "--reference and --tol go with --formulation nr-rncf"),
     "membrane-tol-zero": (["membrane", "--tol", "0"], "--tol (target chi_rel in per cent) must be > 0, got 0"),

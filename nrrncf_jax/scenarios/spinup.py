@@ -251,7 +251,8 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
                        spin_state: bool | str = "auto", rho_inf: float = 0.9, rtol: float = 1e-4,
                        atol: float = 1e-6, dt_out: float = 0.01, reference: "bool | SpinupResult" = False,
                        progress: bool = False, max_steps: int = 500_000, estimate: bool = True,
-                       estimate_samples: int = 16, tol: float | None = None) -> SpinupResult:
+                       estimate_samples: int = 16, tol: float | None = None,
+                       estimate_method: str = "static") -> SpinupResult:
     """The spin-up of Eq. 43 with the NR-RNCF reduced model (paper Section 4.1).
 
     The basis is built by ``nr_rncf`` from ``n_modes`` candidate vibration modes, with the MMI
@@ -267,7 +268,9 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     ``estimate``: the run's a-posteriori error estimate from reduced runs alone, at
     ``estimate_samples`` output times (``reduction.run_error``: the basis's χ_rel estimated on the
     run repeated at tightened tolerances, and the run's own integration error against that
-    repetition; with a reference also the effectivity, estimate / measured).
+    repetition; with a reference also the effectivity, estimate / measured). ``estimate_method``:
+    ``"static"`` (the quasi-static correction at the samples) or ``"dynamic"`` (the linearised
+    error equation over every output, ``reduction.error_estimate``).
 
     ``tol``: a target χ_rel in per cent. The basis is then the smallest prefix of the MMI ranking
     whose run has an estimate at or below ``tol`` / 2 (``reduction.basis_to_tolerance``, the run itself
@@ -299,7 +302,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         # With tol, the search ran the chosen basis over these output times: its estimate is this run's.
         estimate=red.search.estimate if red.search is not None else
         estimate_run_error(full, model, ts, P, rho_inf=rho_inf, rtol=rtol, atol=atol, max_steps=max_steps,
-                           samples=estimate_samples, output=tip_rows) if estimate else None,
+                           samples=estimate_samples, output=tip_rows, method=estimate_method) if estimate else None,
     )
     if reference is False or reference is None:
         return res
