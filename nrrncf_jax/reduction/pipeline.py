@@ -95,19 +95,21 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
     a-posteriori error estimate of a training run over ``ts_mmi`` is at most ``tol / safety``
     (``basis_to_tolerance.nr_rncf_to_tolerance``, safety 2 by default; with ``training`` its further keyword
     arguments: the run's ``rho_inf``, ``rtol``, ``atol``, ``samples``, ...); ``max_dofs`` caps
-    the basis tried, ``vms``, ``mds``, ``max_mds``, ``md_tol``, ``band`` and the spinning-state
-    enrichment are not used, and ``search`` of the result records every basis tried.
+    the basis tried, ``vms``, ``mds``, ``max_mds``, ``md_tol`` and ``band`` are not used, the
+    spinning-state enrichment is checked for every basis tried, and ``search`` of the result
+    records every basis tried.
     """
+    if spin_state not in ("auto", True, False):
+        raise ValueError(f"spin_state must be 'auto', True or False, got {spin_state!r}")
     if tol is not None:
         from .basis_to_tolerance import nr_rncf_to_tolerance  # it builds on this module
 
         return nr_rncf_to_tolerance(full, ts_mmi, tol, n_modes=n_modes, vm_tol=vm_tol, max_dofs=max_dofs,
                                     md_method=md_method, deflation_tol=deflation_tol, modes=modes,
-                                    error_rows=error_rows, **(training or {}))
+                                    error_rows=error_rows, spin_state=spin_state, spin_vms=spin_vms,
+                                    spin_mds=spin_mds, spin_tol=spin_tol, **(training or {}))
     if not isinstance(full, RotatingFrameModel):
         raise ValueError("nr_rncf reduces a RotatingFrameModel (RNCF); got " + type(full).__name__)
-    if spin_state not in ("auto", True, False):
-        raise ValueError(f"spin_state must be 'auto', True or False, got {spin_state!r}")
     body, free = full.body, full.free_mask()
     modes, W, spin, times = modal_interaction(full, ts_mmi, n_modes, modes)
     choose = functools.partial(select, W, vms, mds, vm_tol=vm_tol, md_tol=md_tol, max_mds=max_mds,
@@ -182,13 +184,14 @@ def modal_interaction(full: RotatingFrameModel, ts_mmi, n_modes: int = 24, modes
 
 
 def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n_mds, tol, choose, max_dofs,
-                     md_method):
+                     md_method, spinning=None):
     """The spinning-state check and, if it fails (or ``always``), the enrichment: returns the
     (possibly trimmed) rest selection, the spinning-state columns (``n_vms`` spinning modes and
     the modal derivatives of ``n_mds`` pairs of them, ``modal_basis``; None when not enriched)
-    and the ``SpinCheck``."""
+    and the ``SpinCheck``. ``spinning``: ``spinning_modes(full, spin, n_modes)`` when the
+    caller has it (a basis search checks many bases against one spinning state)."""
     body, free = full.body, full.free_mask()
-    q_star, smodes = spinning_modes(full, spin, n_modes)
+    q_star, smodes = spinning_modes(full, spin, n_modes) if spinning is None else spinning
     sphi = np.asarray(smodes.phi)
     match = match_modes(full.body.mass_matrix() if full.M is None else full.M, modes.phi, sphi)
     W = np.asarray(sel.W)
