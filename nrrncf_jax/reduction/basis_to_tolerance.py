@@ -31,11 +31,12 @@ The spinning-state enrichment of ``nr_rncf`` is not part of the order: each basi
 checked as ``nr_rncf`` checks its own, and enriched with the spinning-state columns where the
 check fails (a fast spin whose stiffened first mode the rest basis misses). The quasi-static
 estimate cannot see the drift such a frequency error causes over a run: unenriched, the paper
-beam's 40 rad/s search passed a basis on an estimate six times below its measured error
+beam's 40 rad/s search passed a basis on an estimate several times below its measured error
 (``benchmarks/results/basis_to_tolerance.md``).
 """
 
 import dataclasses
+import functools
 import math
 import time
 
@@ -45,12 +46,11 @@ import numpy as np
 from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha, simulate
 from ..models.full_order import RotatingFrameModel
-from ..motion import AbstractAxisMotion
 from .basis import modal_basis
 from .error_estimate import ErrorEstimate, estimate_error
 from .modal_derivatives import modal_derivatives
-from .pipeline import Reduction, _reduce, _spin_enrichment, modal_interaction
-from .run_error import TIGHTEN
+from .pipeline import Reduction, _reduce, _spin_enrichment, modal_interaction, spin_checked
+from .run_error import TIGHTEN, observe_state
 from .selection import Selection, select
 from .spin_state import spinning_modes
 
@@ -145,10 +145,6 @@ class BasisSearch:
         return "\n".join([head, "  trials, by prefix length:"] + rows)
 
 
-def _observe_pv(t, p, v):
-    return p, v
-
-
 def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: int = 24,
                          vm_tol: float = 1e-6, max_dofs: int | None = None, samples: int = 16,
                          md_method: str = "closed_form", deflation_tol: float = 1e-6, rho_inf: float = 0.9,
@@ -188,19 +184,15 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
     offline["modal_derivatives"] = time.perf_counter() - t0
     phi = np.asarray(modes.phi)
     runs, trials = {}, {}
-    # The spinning-state check, as nr_rncf's: for a steady spin about a fixed axis, bases with MDs.
-    spins = spin_state is True or (spin_state == "auto" and spin > 0.0 and isinstance(full.motion, AbstractAxisMotion))
-    spinning = []  # spinning_modes, computed at the first basis that is checked
+    spinning = functools.cache(lambda: spinning_modes(full, spin, n_modes))  # at the first basis checked
 
     def enriched(basis, vms, pairs, cols):
-        """The basis with the spinning-state columns when its check fails (``_spin_enrichment``)."""
-        if not (spins and pairs):
+        """The basis with the spinning-state columns where ``nr_rncf``'s check fails."""
+        if not spin_checked(full, spin_state, spin, bool(pairs)):
             return basis, False
-        if not spinning:
-            spinning.append(spinning_modes(full, spin, n_modes))
         sel = Selection(W=jnp.asarray(W), vms=vms, pairs=pairs)
         _, extra, _ = _spin_enrichment(full, modes, sel, basis.Psi, spin, n_modes, spin_state is True, spin_vms,
-                                       spin_mds, spin_tol, None, None, md_method, spinning=spinning[0])
+                                       spin_mds, spin_tol, None, None, md_method, spinning=spinning())
         if extra is None:
             return basis, False
         return modal_basis(body, free, phi, pairs, vms=vms, extra=[extra], theta=theta[:, cols],
@@ -221,7 +213,7 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         # At tightened tolerances: the estimate is of the basis, and a loose run's integration
         # error can make it a false alarm (reduction.run_error).
         sol = simulate(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol / tighten, atol / tighten),
-                       jnp.asarray(ts), observe=_observe_pv, max_steps=max_steps)
+                       jnp.asarray(ts), observe=observe_state, max_steps=max_steps)
         P, V = (np.asarray(y) for y in sol.ys)
         est = estimate_error(full, model, ts, P, V, samples=samples, output=output, norm_rows=norm_rows)
         runs[n] = (model, est)

@@ -124,13 +124,7 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
     times["modal_derivatives"] = time.perf_counter() - t0
 
     check = None
-    # The spinning state is that of a steady spin about a fixed axis: "auto" checks it for such
-    # motions only, and only when they spin (a structure excited by loads in a stationary frame
-    # has no spinning state).
-    if spin_state is True or (spin_state == "auto" and sel.pairs and spin > 0.0
-                              and isinstance(full.motion, AbstractAxisMotion)):
-        if spin <= 0.0:
-            raise ValueError("spin_state=True needs a manoeuvre that spins (its largest spin rate is 0)")
+    if spin_checked(full, spin_state, spin, bool(sel.pairs)):
         t0 = time.perf_counter()
         sel, extra, check = _spin_enrichment(full, modes, sel, rest.Psi, spin, n_modes, spin_state is True,
                                              spin_vms, spin_mds, spin_tol, choose, max_dofs, md_method)
@@ -181,6 +175,17 @@ def modal_interaction(full: RotatingFrameModel, ts_mmi, n_modes: int = 24, modes
     W = mmi_matrix(ts_mmi, eta)
     times["mmi"] = time.perf_counter() - t0
     return modes, W, float(spin), times
+
+
+def spin_checked(full, spin_state, spin: float, has_mds: bool) -> bool:
+    """Whether a basis gets the spinning-state check (``nr_rncf``'s ``spin_state``): always with
+    ``True``; with ``"auto"`` for a basis with MDs under a steady spin about a fixed axis that
+    spins (a structure excited by loads in a stationary frame has no spinning state).
+    ``ValueError`` for ``True`` under a manoeuvre that does not spin."""
+    if spin_state is True and spin <= 0.0:
+        raise ValueError("spin_state=True needs a manoeuvre that spins (its largest spin rate is 0)")
+    return spin_state is True or (spin_state == "auto" and has_mds and spin > 0.0
+                                  and isinstance(full.motion, AbstractAxisMotion))
 
 
 def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n_mds, tol, choose, max_dofs,

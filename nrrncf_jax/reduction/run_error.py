@@ -6,13 +6,11 @@ Why the repetition: the estimate of the basis's error evaluates the full model's
 lifted reduced states, and the static correction answers it through the full tangent K_T. The
 states carry the run's own time-integration error δp, and K_T⁻¹ of the residual's change with δp
 is not small where K_T is nearly singular, as in a spin-up passing the beam's first bending
-frequency. There the estimate measures the run's integration error magnified, not its basis:
-on the paper beam's 40 rad/s spin-up (23 DOFs) the estimate of the run at rtol 1e-4 is 200 %,
-of the same run at 1e-5 24 %, at 1e-6 0.159 %, against a basis error of 0.161 % (both runs at
-1e-6); more numerical damping (ρ∞ 0.5, 0) does not remove it
-(``benchmarks/results/error_estimate.md``). A reduced run is cheap, so the estimate repeats it
-at ``rtol / tighten`` (and ``atol / tighten``) and estimates the basis's error on that
-trajectory.
+frequency. There the estimate measures the run's integration error magnified, not its basis
+(the paper beam's 40 rad/s spin-up, at the run's tolerance, at ten and at a hundred times
+tighter; more numerical damping does not remove it: ``benchmarks/results/error_estimate.md``). A
+reduced run is cheap, so the estimate repeats it at ``rtol / tighten`` (and ``atol / tighten``)
+and estimates the basis's error on that trajectory.
 
 The comparison with the repetition is itself an estimate of the run's time-integration error
 (the repetition's own is ``tighten`` times smaller): χ_rel of the run's displacements against
@@ -37,7 +35,9 @@ TIGHTEN = 100.0
 small next to the run's, and next to the basis errors the estimate is asked about."""
 
 
-def _observe_pv(t, p, v):
+def observe_state(t, p, v):
+    """A reduced run's observation of its state (p, ṗ) at each output: the lift and the estimate
+    need both, and nothing larger is carried through the run's loop."""
     return p, v
 
 
@@ -54,7 +54,7 @@ def estimate_run_error(full, reduced, ts, ps=None, *, rho_inf: float = 0.9, rtol
     ts = np.asarray(ts, dtype=float)
     sol, compile_s, run_s = simulate_timed(reduced, GeneralizedAlpha(rho_inf),
                                            AdaptiveStepSize(rtol / tighten, atol / tighten), jnp.asarray(ts),
-                                           observe=_observe_pv, max_steps=max_steps)
+                                           observe=observe_state, max_steps=max_steps)
     P, V = (np.asarray(y) for y in jax.device_get(sol.ys))
     est = estimate_error(full, reduced, ts, P, V, samples=samples, output=output, norm_rows=norm_rows, method=method)
     integration = None
@@ -71,4 +71,4 @@ def estimate_run_error(full, reduced, ts, ps=None, *, rho_inf: float = 0.9, rtol
                                run_s=est.run_s + run_s)
 
 
-__all__ = ["TIGHTEN", "estimate_run_error"]
+__all__ = ["TIGHTEN", "estimate_run_error", "observe_state"]

@@ -15,7 +15,7 @@ from ..integrate.simulate import simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
 from ..reduction.pipeline import nr_rncf
-from ..reduction.run_error import estimate_run_error
+from ..reduction.run_error import estimate_run_error, observe_state
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
 from .run_record import RunRecord
@@ -241,10 +241,6 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
     )
 
 
-def _observe_pv(t, p, v):
-    return p, v
-
-
 def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T_s: float = 15.0,
                        t_end: float = 30.0, elements: int | None = None, vms: int | str = "auto",
                        mds: int | str | list = "auto", n_modes: int = 24, max_dofs: int | None = 25,
@@ -287,7 +283,8 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
                                          max_steps=max_steps, output=tip_rows))
     model = red.model
     sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
-                                           jnp.asarray(ts), observe=_observe_pv, progress=progress, max_steps=max_steps)
+                                           jnp.asarray(ts), observe=observe_state, progress=progress,
+                                           max_steps=max_steps)
     # Observing (p, ṗ) alone keeps the loop's carry small; displacements are rebuilt afterwards.
     P, V = sol.ys
     w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(P))
