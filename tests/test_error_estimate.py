@@ -34,19 +34,26 @@ def _reduced_run(red):
     return P, V, w
 
 
+@pytest.fixture(scope="module")
+def exact(spin):
+    """Ψ = the free coordinates' unit vectors, and the reduced model's run (shared by both
+    methods' test: one compilation)."""
+    full, _ = spin
+    free = np.flatnonzero(np.asarray(full.free_mask()))
+    red = reduce_rotating_model(full, np.eye(full.n_dof)[:, free])
+    return free, red, _reduced_run(red)
+
+
 @pytest.mark.xdist_group("error_estimate")
 @pytest.mark.parametrize("method", ["static", "dynamic"])
-def test_estimate_is_round_off_when_the_basis_spans_every_coordinate(spin, method):
+def test_estimate_is_round_off_when_the_basis_spans_every_coordinate(spin, exact, method):
     """Ψ = the free coordinates' unit vectors: the reduced model is the full one, its lifted
     residual is round-off, and so is the correction: |e| ≲ cond(K_T) ε |q| (a residual of a few
     terms each with a relative error ε, through K_T⁻¹), with a factor 10 for the terms' count.
     The error equation (``method="dynamic"``) sums such corrections over its outputs: at most
     one more factor of the outputs' count, a growth no stable linear equation exceeds."""
     full, _ = spin
-    free = np.flatnonzero(np.asarray(full.free_mask()))
-    Psi = np.eye(full.n_dof)[:, free]
-    red = reduce_rotating_model(full, Psi)
-    P, V, w = _reduced_run(red)
+    free, red, (P, V, _) = exact
     est = estimate_error(full, red, TS, P, V, samples=20, method=method)
     q = np.asarray(red.q_eq).reshape(-1)
     K = np.asarray(jax.jacfwd(lambda x: full.residual(0.0, x, 0 * x, 0 * x))(jnp.asarray(q)))[np.ix_(free, free)]
