@@ -92,8 +92,8 @@ def register(sub) -> None:
     s.add_argument("--max-dofs", type=int, default=25, help="nr-rncf: at most this many VMs + MDs")
     s.add_argument("--tol", type=float, default=None, metavar="P",
                    help="nr-rncf: choose the basis to a target chi_rel of P per cent: the smallest prefix of the MMI "
-                        "ranking whose run's error estimate is <= P/2 (up to --max-dofs columns; --vms, --mds and "
-                        "--spin-state are then not used)")
+                        "ranking whose run's error estimate is <= P/2 (up to --max-dofs columns; --vms and --mds are "
+                        "then not used, --spin-state checks each basis tried)")
     s.add_argument("--spin-state", choices=["auto", "on", "off"], default="auto",
                    help="nr-rncf: spinning-state enrichment (beyond the paper): 'auto' adds the spinning beam's "
                         "first mode and MDs when the rest basis misses its frequency by > 0.2 %%; 'off' is the "

@@ -86,8 +86,8 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     times, over the position vectors as χ_rel is): the run repeated at tightened tolerances and
     one sparse factorisation of the full model per sample, seconds on the 19k-DOF bodies.
     ``tol``: the basis chosen to a target χ_rel in per cent
-    instead (``nr_rncf(..., tol=...)``, the run itself the training manoeuvre; ``vms``, ``mds``
-    and ``spin_state`` are then not used)."""
+    instead (``nr_rncf(..., tol=...)``, the run itself the training manoeuvre; ``vms`` and ``mds``
+    are then not used, and ``spin_state`` governs the spinning-state check of each basis tried)."""
     from ..reduction.pipeline import nr_rncf
 
     if formulation not in FORMULATIONS:

@@ -270,8 +270,9 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
 
     ``tol``: a target χ_rel in per cent. The basis is then the smallest prefix of the MMI ranking
     whose run has an estimate at or below ``tol`` / 2 (``reduction.basis_to_tolerance``, the run itself
-    the training manoeuvre, ``max_dofs`` the largest basis tried); ``vms``, ``mds`` and
-    ``spin_state`` are not used. ``basis_search`` holds every basis tried.
+    the training manoeuvre, ``max_dofs`` the largest basis tried); ``vms`` and ``mds`` are not
+    used, and ``spin_state`` governs the spinning-state check of each basis tried.
+    ``basis_search`` holds every basis tried.
     """
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
