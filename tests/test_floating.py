@@ -177,6 +177,19 @@ def test_mmi_per_body_ranks_each_beams_pairs():
         build_reduced_pendulum(spec, 3, body_pairs=[[(0, 0)]])
     with pytest.raises(ValueError, match="0 <= i <= j < vms"):
         build_reduced_pendulum(spec, 3, body_pairs=[[(0, 3)], [], []])
+    # the candidates of a basis chosen to a tolerance: W summed over the beams ranks them, the
+    # joint's static modes right after the first VM (the same run: compiled once)
+    from nrrncf_jax.reduction.basis_to_tolerance import greedy_order
+    from nrrncf_jax.scenarios.pendulum import JOINT_MODES, build_from_candidates, candidate_order
+
+    order = candidate_order(spec, 3, t_end=0.4, n_samples=81)
+    ranked = greedy_order(sum(np.asarray(s.W) for s in sels), range(3))
+    assert order == ranked[:1] + [JOINT_MODES] + ranked[1:] and len(order) == 1 + 3 + 6
+    assert isinstance(order[0], int) and candidate_order(spec, 3, t_end=0.4, n_samples=81) == order
+    assert build_from_candidates(spec, [0]).n_dof == 3 * (7 + 1)  # frame + one VM a beam
+    assert build_from_candidates(spec, [0, JOINT_MODES, (0, 0)]).n_dof == 3 * (7 + 1 + 2 + 1)  # + in-plane joint modes
+    with pytest.raises(ValueError, match="at least one vibration mode"):
+        build_from_candidates(spec, [JOINT_MODES])
 
 
 def test_floating_system_refuses_bad_input():

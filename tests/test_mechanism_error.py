@@ -116,3 +116,46 @@ def test_bad_input_is_refused():
         estimate_mechanism_error(full, reduced, TS[:3], zs[:, :-1], zs[:, :-1])
     with pytest.raises(ValueError, match="method"):
         estimate_mechanism_error(full, reduced, TS[:3], zs, zs, method="adjoint")
+
+
+
+GROWTH = [dict(vms=2, mds=()), dict(vms=2, mds="all"), dict(vms=3, mds="all"), dict(vms=4, mds="all"),
+          dict(vms=5, mds="all")]
+"""The swinging beam's candidates for a basis search, as groups (a candidate is whatever the
+builder understands): two VMs, their MDs, then each next VM with its MDs."""
+
+
+def _from_prefix(prefix) -> FloatingFrameSystem:
+    return _swing(**GROWTH[len(prefix) - 1])
+
+
+@pytest.mark.slow
+def test_a_basis_chosen_to_a_tolerance_meets_it_measured(full_swing):
+    """``mechanism_to_tolerance`` on the swinging beam: the chosen prefix's estimate is reliable
+    and within tol / safety, every shorter prefix tried failed, and the chosen basis's χ_rel
+    measured against the full counterpart's run is below the tolerance. With a tolerance no
+    basis can reach, the search says so and keeps the longest prefix."""
+    from nrrncf_jax.multibody.basis_to_tolerance import mechanism_to_tolerance
+
+    full, x_full = full_swing
+    order = ["2 VMs", "their MDs", "VM 3 and its MDs", "VM 4 and its MDs", "VM 5 and its MDs"]
+    tol = 0.5
+    search = mechanism_to_tolerance(_from_prefix, order, TS, tol, rtol=1e-5, atol=1e-7, start=3)
+    chosen = search.chosen
+    assert search.met and chosen.reliable and chosen.chi_rel_estimate_percent <= tol / search.safety
+    assert chosen.columns > 3 and any(t.columns == chosen.columns - 1 for t in search.trials)  # it grew, then bisected
+    assert all(t.chi_rel_estimate_percent > tol / search.safety or not t.reliable
+               for t in search.trials if t.columns < chosen.columns)
+    zs, _ = _run(search.system)
+    x = _positions(search.system, zs)
+    measured = 100 * np.sqrt(np.sum((x - x_full) ** 2) / np.sum((x_full - x_full[0]) ** 2))
+    assert measured <= tol, (measured, search.describe())
+    summary = search.summary()
+    assert summary["tol_met"] and summary["basis_chosen"] == order[:chosen.columns]
+
+    unreachable = mechanism_to_tolerance(_from_prefix, order[:1], TS, 1e-9, rtol=1e-5, atol=1e-7)
+    assert not unreachable.met and unreachable.chosen.columns == 1 and "NOT MET" in unreachable.describe()
+    with pytest.raises(ValueError, match="candidate"):
+        mechanism_to_tolerance(_from_prefix, [], TS, 1.0)
+    with pytest.raises(ValueError, match="tol"):
+        mechanism_to_tolerance(_from_prefix, order, TS, 0.0)

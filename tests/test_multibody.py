@@ -220,6 +220,39 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     assert "go with --formulation nr-rncf" in capsys.readouterr().err
     assert main(["pendulum", "--vms", "3"]) == 2
     assert "go with --formulation nr-rncf" in capsys.readouterr().err
+    # --tol: the basis search's choice is what runs, and its record reaches the JSON
+    from nrrncf_jax.multibody.basis_to_tolerance import MechanismSearch, MechanismTrial
+
+    trial = MechanismTrial(columns=2, items=(0, pendulum.JOINT_MODES), dofs=30, chi_rel_estimate_percent=0.2,
+                           valid_until=None, reliable=True, steps=100, seconds=1.0)
+    searches, chains = [], []
+
+    def fake_search(spec, tol, **kw):
+        searches.append((spec, tol, kw))
+        return MechanismSearch(tol=tol, safety=2.0, met=True, trials=[trial], chosen=trial, order=[0, "joint modes"],
+                               system="the chosen system", estimate=None)
+
+    def fake_chain(system, *args, **kw):
+        chains.append((system, args, kw))
+        return dataclasses.replace(pendulum_run, formulation="nr-rncf")
+
+    monkeypatch.setattr(pendulum, "pendulum_to_tolerance", fake_search)
+    monkeypatch.setattr(pendulum, "run_chain", fake_chain)
+    calls.clear()
+    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--tol", "0.5", "--train-t", "0.3", "--vms", "4",
+                             "--reference", "ancf", "--json"]) == 0
+    (spec, tol, kw), = searches
+    assert tol == 0.5 and kw["n_vms"] == 4 and kw["t_train"] == 0.3 and kw["t_end"] == 0.4
+    assert chains[0][0] == "the chosen system" and [c[1].get("formulation", "ancf") for c in calls] == ["ancf"]
+    d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert d["tol_met"] and d["basis_chosen"] == ["φ1", "joint modes"] and d["basis_trials"][0]["dofs"] == 30
+    assert "chi_rel_percent" in d
+    for bad, says in ((["--tol", "0.5"], "use it with --formulation nr-rncf"),
+                      (["--formulation", "nr-rncf", "--tol", "0.5", "--joint-modes"], "leave out --mds"),
+                      (["--formulation", "nr-rncf", "--tol", "-1"], "--tol"),
+                      (["--formulation", "nr-rncf", "--train-t", "0.3"], "give --tol too")):
+        assert main(["pendulum"] + bad) == 2
+        assert says in capsys.readouterr().err
 
 
 def test_multipliers_are_the_reactions():

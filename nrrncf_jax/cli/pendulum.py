@@ -33,6 +33,8 @@ frame of its beam's left end (Fig. 18). ``--json`` prints one JSON object as the
 from .. import _validate
 from . import _common
 
+TRAIN_T = 0.5
+
 
 def _run(args) -> int:
     import numpy as np
@@ -54,6 +56,18 @@ def _run(args) -> int:
                            **({} if args.reference == "ancf" else {"formulation": "rncf"}))
     if full:
         run = ref
+    elif args.tol is not None:
+        from ..scenarios.pendulum import pendulum_to_tolerance, run_chain
+
+        _common.say(args, f"basis to chi_rel <= {args.tol:g} %: trials over 0-{args.train_t:g} s ...")
+        search = pendulum_to_tolerance(spec, args.tol, n_vms=args.vms, t_train=args.train_t, t_end=args.t_end,
+                                       rho_inf=args.rho_inf, rtol=args.rtol, atol=args.atol)
+        _common.say(args, search.describe())
+        run = run_chain(search.system, args.t_end, args.dt_out, args.rho_inf, args.rtol, args.atol,
+                        kw["progress"], estimate=not args.no_estimate, estimate_method=args.estimate_method)
+        run.search = search
+        if ref is not None:
+            run.compare(ref)
     else:
         run = run_pendulum(spec, formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
                            joint_modes=args.joint_modes, craig_bampton=args.craig_bampton,
@@ -77,8 +91,7 @@ def _run(args) -> int:
         beams, nodes = run.nodes.shape[1:3]
         lines = [(b * nodes + i, b * nodes + i + 1) for b in range(beams) for i in range(nodes - 1)]
         write_polyline_series(args.vtk, run.nodes[::every].reshape(-1, beams * nodes, 3), lines, run.ts[::every])
-    out = run.summary()
-    return _common.emit(args, out)
+    return _common.emit(args, run.summary())
 
 
 def _check(args) -> None:
@@ -88,6 +101,16 @@ def _check(args) -> None:
                                        or args.joint_modes or args.craig_bampton or args.no_estimate):
         raise ValueError("--reference, --vms, --mds, --joint-modes, --craig-bampton and --no-estimate go with "
                          "--formulation nr-rncf")
+    if args.tol is not None:
+        if args.formulation != "nr-rncf":
+            raise ValueError("--tol chooses a reduced basis; use it with --formulation nr-rncf")
+        _validate.positive("--tol (target chi_rel in per cent)", args.tol)
+        if args.mds is not None or args.joint_modes or args.craig_bampton:
+            raise ValueError("--tol chooses the modal derivatives and the joint modes itself: leave out --mds, "
+                             "--joint-modes and --craig-bampton (--vms sets the candidate vibration modes)")
+        _common.output_times(args.train_t, 0.01)
+    elif args.train_t != TRAIN_T:
+        raise ValueError("--train-t is the training window of --tol; give --tol too")
     if args.joint_modes and args.craig_bampton:
         raise ValueError("--craig-bampton already holds the joint's static modes: pass one of --joint-modes, "
                          "--craig-bampton")
@@ -126,6 +149,13 @@ def register(sub) -> None:
     t.add_argument("--craig-bampton", action="store_true",
                    help="nr-rncf: the extended Craig-Bampton basis: the right end's position as boundary coordinates, "
                         "fixed-interface VMs and their MDs")
+    t.add_argument("--tol", type=float, default=None, metavar="P",
+                   help="nr-rncf: choose the beams' basis to a target chi_rel of P per cent: the smallest prefix of "
+                        "the candidates (the first VM, the joint's static modes, then VMs and MDs by modal "
+                        "interaction) whose training run's dynamic error estimate is <= P/2")
+    t.add_argument("--train-t", type=float, default=TRAIN_T, metavar="T",
+                   help="nr-rncf with --tol: the training run's end time [s] (the error equation holds on this "
+                        "chain for its first 0.6-0.7 s)")
     t.add_argument("--reference", choices=("ancf", "rncf"), default=None,
                    help="nr-rncf: also run this full model and report chi_rel, the speed-up and the error "
                         "estimate's effectivity")

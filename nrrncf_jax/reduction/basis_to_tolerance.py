@@ -86,6 +86,29 @@ def greedy_order(W, candidates) -> list[tuple[int, int] | int]:
     return order
 
 
+def shortest_passing(trial, length: int, start: int = 1) -> int | None:
+    """The shortest prefix length n ≤ ``length`` with ``trial(n)`` true, searched by growth
+    (``start``, then ×1.5, at least one more each time) and bisection between the last length
+    that failed and the first that passed; None when even ``length`` fails. Assumes that a
+    longer prefix passes once a shorter one does (the estimate falls along the order); where it
+    does not, the search still returns a passing length, not necessarily the shortest."""
+    failed, passed, n = 0, None, min(max(1, int(start)), length)
+    while passed is None:  # grow by half until a prefix passes or the candidates run out
+        if trial(n):
+            passed = n
+        elif n == length:
+            break
+        else:
+            failed, n = n, min(length, max(n + 1, math.ceil(1.5 * n)))
+    while passed is not None and passed - failed > 1:  # bisect between the last failure and the pass
+        mid = (failed + passed) // 2
+        if trial(mid):
+            passed = mid
+        else:
+            failed = mid
+    return passed
+
+
 @dataclasses.dataclass(frozen=True)
 class Trial:
     """One basis tried: the prefix length ``columns`` of the greedy order, its DOFs after
@@ -223,20 +246,7 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         return est.chi_rel_percent <= tol / safety
 
     t0 = time.perf_counter()
-    failed, passed, n = 0, None, min(max(1, int(start)), length)
-    while passed is None:  # grow by half until a prefix passes or the candidates run out
-        if trial(n):
-            passed = n
-        elif n == length:
-            break
-        else:
-            failed, n = n, min(length, max(n + 1, math.ceil(1.5 * n)))
-    while passed is not None and passed - failed > 1:  # bisect between the last failure and the pass
-        mid = (failed + passed) // 2
-        if trial(mid):
-            passed = mid
-        else:
-            failed = mid
+    passed = shortest_passing(trial, length, start)
     offline["greedy"] = time.perf_counter() - t0
     chosen = passed if passed is not None else length
     model, est = runs[chosen]
@@ -249,4 +259,4 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
                      search=search)
 
 
-__all__ = ["TIE", "BasisSearch", "Trial", "greedy_order", "nr_rncf_to_tolerance"]
+__all__ = ["TIE", "BasisSearch", "Trial", "greedy_order", "nr_rncf_to_tolerance", "shortest_passing"]

@@ -15,8 +15,10 @@ NR-RNCF: each beam in a floating frame
 derivatives (optionally with the right-end joint's static modes), or to the
 extended Craig-Bampton basis (``reduction.craig_bampton``: the joint's position as boundary
 coordinates, fixed-interface modes and their MDs); ``mmi_per_body`` picks each beam's MDs by
-maximum modal interaction; ``release_sweep`` runs any of them released at a batch of angles in
-one compiled, vmapped loop. ``run_pendulum``/``run_chain`` record a run (``PendulumRun``), and
+maximum modal interaction; ``pendulum_to_tolerance`` grows the beams' basis along
+``candidate_order`` until the error estimate of a training run meets a target χ_rel
+(``multibody.basis_to_tolerance``); ``release_sweep`` runs any of them released at a batch of
+angles in one compiled, vmapped loop. ``run_pendulum``/``run_chain`` record a run (``PendulumRun``), and
 ``PendulumRun.compare`` its χ_rel and speed-up against a full-order one
 (``benchmarks/results/pendulum.md``).
 """
@@ -231,6 +233,62 @@ def mmi_per_body(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, n_mds: int
     return modal_interaction(system, ts, np.asarray(sol.ys), n_mds)
 
 
+JOINT_MODES = "joint modes"
+"""The candidate of ``candidate_order`` that stands for each beam's right-end joint's static modes
+(``build_reduced_pendulum(joint_modes=True)``)."""
+
+
+def candidate_order(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, t_end: float = 2.0, rtol: float = 1e-3,
+                    joint_modes: bool = True, n_samples: int = 401) -> list:
+    """The pendulum's candidates for a basis chosen to a tolerance (``pendulum_to_tolerance``),
+    in greedy order: the ``n_vms`` in-plane cantilever modes (ints) and the MDs of their pairs
+    (``(i, j)``) ranked by maximum modal interaction (``reduction.greedy_order`` on W summed over
+    the beams, from the VMs-only pendulum's run over 0-``t_end`` at ``rtol``, ``n_samples``
+    outputs, ``mmi_per_body``; ties broken by index), with ``JOINT_MODES`` second, right after
+    the first VM: a joint's static modes carry its load as Craig-Bampton's constraint modes do
+    (two columns a beam, in-plane), which the free cantilever's modes and MDs approach only
+    slowly (the paper's basis with and without them: ``benchmarks/results/pendulum.md``)."""
+    from ..reduction.basis_to_tolerance import greedy_order
+
+    selections = mmi_per_body(spec, n_vms, n_mds=1, t_end=t_end, rtol=rtol, n_samples=n_samples)
+    order = greedy_order(sum(np.asarray(s.W) for s in selections), range(n_vms))
+    return order[:1] + [JOINT_MODES] + order[1:] if joint_modes else order
+
+
+def build_from_candidates(spec: PendulumSpec, prefix) -> FloatingFrameSystem:
+    """The NR-RNCF pendulum whose beams hold the candidates ``prefix`` of ``candidate_order``:
+    the lowest vibration modes up to the highest one named (``reduce`` takes the lowest k), the
+    MDs named, and the joint's static modes if named."""
+    prefix = list(prefix)
+    vms = [c for c in prefix if isinstance(c, int)]
+    if not vms:
+        raise ValueError("a pendulum basis needs at least one vibration mode among its candidates")
+    pairs = [tuple(c) for c in prefix if isinstance(c, tuple)]
+    system, _ = build_reduced_pendulum(spec, max(vms) + 1, pairs, joint_modes=JOINT_MODES in prefix)
+    return system
+
+
+def pendulum_to_tolerance(spec: PendulumSpec = PendulumSpec(), tol: float = 0.5, n_vms: int = 5,
+                          t_train: float = 0.5, dt_out: float = 0.01, t_end: float = 2.0, rho_inf: float = 0.9,
+                          rtol: float = 1e-4, atol: float = 1e-5, safety: float = 2.0, joint_modes: bool = True,
+                          method: str = "dynamic", newton_tol: float = 1e-2):
+    """The NR-RNCF pendulum with the smallest basis (a prefix of ``candidate_order``, W from a run
+    over 0-``t_end``) whose training run, released from rest over 0-``t_train`` with outputs
+    every ``dt_out``, has an error estimate of at most ``tol / safety`` per cent χ_rel
+    (``multibody.basis_to_tolerance.mechanism_to_tolerance``: the linearised error equation by
+    default, which holds on this chain for its first 0.6-0.7 s only, so the training window is
+    shorter than the run; ``safety`` covers the error's growth after it). ``rho_inf``, ``rtol``,
+    ``atol``: the settings of the run the basis is for. Returns the ``MechanismSearch``."""
+    from ..multibody.basis_to_tolerance import mechanism_to_tolerance
+
+    positive_int("n_vms", n_vms)
+    ts = _validate.run_options(t_train, dt_out, rho_inf, rtol, atol)
+    order = candidate_order(spec, n_vms, t_end, joint_modes=joint_modes)
+    return mechanism_to_tolerance(lambda prefix: build_from_candidates(spec, prefix), order, ts, tol,
+                                  rho_inf=rho_inf, rtol=rtol, atol=atol, safety=safety, method=method,
+                                  newton_tol=newton_tol)
+
+
 def tip_vectors(spec: PendulumSpec) -> list[tuple[int, int]]:
     """``(body, position vector)`` of each beam's right end."""
     return [(k, _PER_NODE * spec.elements + _R) for k in range(spec.beams)]
@@ -254,6 +312,7 @@ class PendulumRun(RunRecord):
     kinetic: np.ndarray
     violation: np.ndarray
     offline: dict | None = None  # NR-RNCF: build_reduced_pendulum's record
+    search: object = None  # NR-RNCF to a tolerance: the basis search (multibody.basis_to_tolerance.MechanismSearch)
 
     REFERENCE: ClassVar[str] = "a run of the same pendulum and output times"
 
@@ -299,7 +358,8 @@ class PendulumRun(RunRecord):
                 "kinetic_max": float(self.kinetic.max()),
                 "tips_final_m": self.tips[-1, :, :2].round(6).tolist(),
                 **({} if self.offline is None else {"offline_s": round(self.offline["offline_s"], 3)}),
-                **self.comparison(), **self.estimate_summary()}
+                **self.comparison(), **self.estimate_summary(),
+                **({} if self.search is None else self.search.summary())}
 
 
 FORMULATIONS = ("ancf", "rncf", "nr-rncf")
