@@ -110,6 +110,42 @@ def test_max_steps_is_an_error():
         simulate(_oscillator(), GA, AdaptiveStepSize(1e-8, 1e-8), jnp.array([10.0]), observe=_first, max_steps=20)
 
 
+def test_observing_after_the_loop_equals_observing_in_it(monkeypatch):
+    """A forward run records (q, v) at the output times and observes them after the loop where
+    that buffer is small (``simulate._Config.after``), else in the loop step by step: the same
+    observations (to round-off: the same steps, the same interpolated states), the output times
+    passed as each observation's t, and, for a run that stops early, zeros in the slots it did not
+    reach either way; alone and batched."""
+    import importlib
+
+    simulate_module = importlib.import_module("nrrncf_jax.integrate.simulate")  # the module, not the function
+
+    def small(t, q, v):  # smaller than the state (q, v): observed after the loop only by the size rule
+        return q[0] + 10.0 * t
+
+    ts = jnp.linspace(0.0, 1.0, 11)
+    ks = jnp.array([1.0, 4.0]) * OMEGA**2
+    runs, modes = {}, []
+    for limit in (simulate_module.STATE_OUTPUTS_MAX_BYTES, 0):
+        monkeypatch.setattr(simulate_module, "STATE_OUTPUTS_MAX_BYTES", limit)
+        config = simulate_module._prepare(_oscillator(), GA, AdaptiveStepSize(), ts, small, None, 0.0, None, "forward",
+                                          100, False)[-1]
+        modes.append(config.after)
+        runs[limit] = (simulate(_oscillator(_nan_after_half), GA, AdaptiveStepSize(1e-6, 1e-8), ts, observe=small,
+                                throw=False),
+                       simulate_batch(_oscillator_of, ks, GA, AdaptiveStepSize(1e-6, 1e-8), ts, observe=small))
+    assert modes == [True, False]
+    (after, batch_after), (inside, batch_inside) = runs.values()
+    for a, b in ((after, inside), (batch_after, batch_inside)):
+        np.testing.assert_array_equal(np.asarray(a.num_steps), np.asarray(b.num_steps))
+        np.testing.assert_allclose(np.asarray(a.ys), np.asarray(b.ys), rtol=0, atol=1e-12)
+    reached = np.asarray(ts) <= float(after.t_final)
+    assert 0 < reached.sum() < ts.size
+    np.testing.assert_array_equal(np.asarray(after.ys[~reached]), 0.0)
+    q = [simulate(_oscillator_of(k), GA, AdaptiveStepSize(1e-6, 1e-8), ts, observe=_first).ys for k in ks]
+    np.testing.assert_allclose(np.asarray(batch_after.ys) - 10.0 * np.asarray(ts), np.asarray(q), rtol=0, atol=1e-12)
+
+
 def _oscillator_of(k):
     """The oscillator with stiffness k (a traced scalar under ``simulate_batch``)."""
     return LinearModel(M=[[1.0]], K=k, q0=[1.0], v0=[0.0])

@@ -42,6 +42,12 @@ if TYPE_CHECKING:  # the models import the integrator's users; annotations only
 
 _WINDOW = 8  # outputs that one step may cover; a step never crosses more than this many
 
+STATE_OUTPUTS_MAX_BYTES = 64 * 2**20
+"""A forward-mode run records its state (q, v) at the output times and observes them all after
+the loop, in one vectorised call, where that buffer is at most this size (or no larger than the
+observations'): see ``_Config.after``. Above it (a large body with many outputs) it observes in
+the loop, step by step."""
+
 
 class Solution(eqx.Module):
     """Output of ``simulate``: observations at ``ts`` and the integrator's statistics."""
@@ -73,12 +79,54 @@ class Solution(eqx.Module):
 
 class _Config(eqx.Module):
     """What the loop needs besides the model, solver and controller. ``observe`` is a pytree (a
-    function, or a module such as ``TipObserver`` whose arrays are traced)."""
+    function, or a module such as ``TipObserver`` whose arrays are traced).
+
+    ``after``: the loop records (q, v) at the output times and ``observe`` runs once over all of
+    them after it (``_observe_after``), instead of in the loop. A step that covers output times
+    observes its whole window of ``_WINDOW`` slots (one vectorised call, the slots past its end
+    included), so in the loop each output costs up to ``_WINDOW`` observations, each a few small
+    operations, in a program whose time is per operation; an observation with energies (a
+    mechanism's) then costs as much as the step. After the loop it is one call over every output.
+    Forward mode only (the reverse-mode loop checkpoints its output buffers), and only where the
+    state buffer is small (``STATE_OUTPUTS_MAX_BYTES``)."""
 
     observe: Callable
     max_steps: int = eqx.field(static=True)
     adjoint: str = eqx.field(static=True)
     progress: bool = eqx.field(static=True)
+    after: bool = eqx.field(static=True, default=False)
+
+    def recording(self) -> "_Config":
+        """The loop's config: with ``after``, observing the state itself."""
+        return eqx.tree_at(lambda c: c.observe, self, _observe_state) if self.after else self
+
+    def with_after(self, n_dof: int, n_out: int, members: int = 1) -> "_Config":
+        """``after`` set for a forward-mode run of ``members`` models of ``n_dof`` coordinates over
+        ``n_out`` outputs (see the class docstring)."""
+        if self.adjoint != "forward":
+            return self
+        q = jax.ShapeDtypeStruct((n_dof,), jnp.float64 if jax.config.jax_enable_x64 else jnp.float32)
+        obs = jax.eval_shape(self.observe, jax.ShapeDtypeStruct((), q.dtype), q, q)
+        obs_bytes = sum(int(np.prod(x.shape)) * np.dtype(x.dtype).itemsize for x in jtu.tree_leaves(obs))
+        state_bytes = 2 * n_dof * q.dtype.itemsize
+        small = members * (n_out + _WINDOW) * state_bytes <= STATE_OUTPUTS_MAX_BYTES
+        return dataclasses.replace(self, after=small or state_bytes <= obs_bytes)
+
+
+def _observe_state(t, q, v):
+    return q, v
+
+
+def _observe_after(observe, ts, t0, k, states):
+    """``observe`` at every output time from the recorded states (q, v) (``_Config.after``): the
+    times at or before t0 observed at t0, as the loop's first observation is; slots the run did
+    not reach (at index k and after: a run that stopped early) zero, as ``finish`` leaves them."""
+    Q, V = states
+    n_out = ts.shape[0]
+    written = jnp.arange(n_out) < k
+    Q, V = (jnp.where(written[:, None], x[:n_out], x[0]) for x in (Q, V))  # unreached slots: a state observable
+    obs = jax.vmap(observe)(jnp.where(ts <= t0, t0, ts), Q, V)
+    return jtu.tree_map(lambda y: jnp.where(written.reshape((-1,) + (1,) * (y.ndim - 1)), y, 0), obs)
 
 
 def _default_observe(t, q, v):
@@ -154,6 +202,7 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
     member = model_fn(jtu.tree_map(lambda x: x[0], params))  # one member, for the checks
     _, solver, controller, ts_, t0_, _, options, config = _prepare(member, solver, controller, ts, observe, newton,
                                                                    t0, None, "forward", max_steps, False)
+    config = config.with_after(member.n_dof, ts_.shape[0], n)
     sol = _simulate_batch(model_fn, params, solver, controller, ts_, t0_, options, config, width=min(int(width), n))
     return _check(sol, throw)
 
@@ -212,7 +261,8 @@ def _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, ma
         if len(y0) != 2 or any(x.shape != (model.n_dof,) for x in y0):
             raise ValueError(f"y0 must be (q0, v0), each of shape ({model.n_dof},)")
     f = jnp.asarray
-    return model, solver, controller, f(ts, dtype=float), f(t0, dtype=float), y0, options, config
+    ts = f(ts, dtype=float)
+    return model, solver, controller, ts, f(t0, dtype=float), y0, options, config.with_after(model.n_dof, ts.shape[0])
 
 
 def _check(sol: Solution, throw: bool) -> Solution:
@@ -455,8 +505,12 @@ class _AdaptiveLoop(eqx.Module):
         for i, item in enumerate(ENDINGS[1:], start=1):
             result = SimulationResult.where(code == i, item, result)
         n_out = self.ts.shape[0]
+        # A run that stopped early: its last window's slots past the time it reached hold
+        # observations at that time; zero them, as the slots no step reached are.
+        reached = jnp.arange(n_out) < final.k
+        ys = jtu.tree_map(lambda y: jnp.where(reached.reshape((-1,) + (1,) * (jnp.ndim(y) - 1)), y[:n_out], 0), ys)
         return Solution(
-            ts=self.ts, ys=jtu.tree_map(lambda y: y[:n_out], ys), t_final=final.t, result=result,
+            ts=self.ts, ys=ys, t_final=final.t, result=result,
             num_steps=final.counts[0], num_rejected=final.counts[1], num_newton=final.counts[2],
             num_factorizations=final.counts[3],
         )
@@ -464,7 +518,7 @@ class _AdaptiveLoop(eqx.Module):
 
 @eqx.filter_jit
 def _simulate(model, solver, controller, ts, t0, y0, newton: NewtonOptions, config: _Config) -> Solution:
-    loop = _AdaptiveLoop(model, solver, controller, ts, t0, y0, newton, config)
+    loop = _AdaptiveLoop(model, solver, controller, ts, t0, y0, newton, config.recording())
     final = eqxi.while_loop(
         loop.cond, lambda c: loop.step(c)[0], loop.init(), max_steps=config.max_steps,
         buffers=(lambda c: c.ys) if config.adjoint == "reverse" else None,
@@ -472,7 +526,10 @@ def _simulate(model, solver, controller, ts, t0, y0, newton: NewtonOptions, conf
     )
     if config.progress:
         jax.debug.callback(_print_progress, final.t, ts[-1], final.counts[0], True)
-    return loop.finish(final)
+    sol = loop.finish(final)
+    if config.after:
+        sol = eqx.tree_at(lambda s: s.ys, sol, _observe_after(config.observe, ts, t0, final.k, sol.ys))
+    return sol
 
 
 @eqx.filter_jit
@@ -497,7 +554,7 @@ def _simulate_batch(model_fn, params, solver, controller, ts, t0, newton: Newton
     n = jtu.tree_leaves(params)[0].shape[0]
 
     def loop(p):
-        return _AdaptiveLoop(model_fn(p), solver, controller, ts, t0, None, newton, config)
+        return _AdaptiveLoop(model_fn(p), solver, controller, ts, t0, None, newton, config.recording())
 
     def running(p, c):
         return loop(p).cond(c) & (c.counts[0] + c.counts[1] < config.max_steps)
@@ -536,7 +593,11 @@ def _simulate_batch(model_fn, params, solver, controller, ts, t0, newton: Newton
 
     state = (take(first, lane), take(params, lane), lane, jnp.array(width), first, ys)
     _, _, _, _, final, ys = lax.while_loop(lambda s: jnp.any(s[2] < n), body, state)
-    return jax.vmap(lambda p, c, y: loop(p).finish(c, ys=y))(params, final, ys)
+    sol = jax.vmap(lambda p, c, y: loop(p).finish(c, ys=y))(params, final, ys)
+    if config.after:
+        ys = jax.vmap(lambda k, y: _observe_after(config.observe, ts, t0, k, y))(final.k, sol.ys)
+        sol = eqx.tree_at(lambda s: s.ys, sol, ys)
+    return sol
 
 
 def _print_progress(t, t_end, steps, last=False):
