@@ -164,6 +164,11 @@ def simulate(
 
     ``jax.vmap`` works through it; for a batch of models in forward mode, ``simulate_batch``
     gives the same results for less (see there).
+
+    Where ``observe`` runs: in forward mode with a small state, once over all the output times
+    after the loop, on the states recorded there (``_Config.after``: the loop then costs no
+    observation); otherwise inside the loop, in the steps that reach output times. The values
+    are the same either way; a slot the run did not reach (it stopped early) is zero.
     """
     args = _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, max_steps, progress)
     return _check(_simulate(*args), throw)
