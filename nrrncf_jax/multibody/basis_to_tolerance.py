@@ -19,7 +19,7 @@ and the error equation holds only as long as its linearisation does (a soft chai
 past its buckling load makes it grow without bound: ``error_estimate``). A training window
 short enough for the estimate to hold is therefore shorter than the run the basis is for, and
 its χ_rel reads lower than that run's: ``safety`` is the margin for it, and the measured ratio
-for the paper's pendulum is in ``benchmarks/results/basis_to_tolerance.md``.
+for the paper's pendulum is in ``benchmarks/results/pendulum_to_tolerance.md``.
 """
 
 import dataclasses

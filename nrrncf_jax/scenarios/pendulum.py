@@ -276,8 +276,9 @@ def pendulum_to_tolerance(spec: PendulumSpec = PendulumSpec(), tol: float = 0.5,
     over 0-``t_end``) whose training run, released from rest over 0-``t_train`` with outputs
     every ``dt_out``, has an error estimate of at most ``tol / safety`` per cent χ_rel
     (``multibody.basis_to_tolerance.mechanism_to_tolerance``: the linearised error equation by
-    default, which holds on this chain for its first 0.6-0.7 s only, so the training window is
-    shorter than the run; ``safety`` covers the error's growth after it). ``rho_inf``, ``rtol``,
+    default, which holds on this soft chain only until its beams buckle in compression, so the
+    training window is shorter than the run; ``safety`` covers the error's growth after it;
+    ``benchmarks/results/pendulum_to_tolerance.md``). ``rho_inf``, ``rtol``,
     ``atol``: the settings of the run the basis is for. Returns the ``MechanismSearch``."""
     from ..multibody.basis_to_tolerance import mechanism_to_tolerance
 
