@@ -105,7 +105,7 @@ class _Config(eqx.Module):
         ``n_out`` outputs (see the class docstring)."""
         if self.adjoint != "forward":
             return self
-        q = jax.ShapeDtypeStruct((n_dof,), jnp.float64 if jax.config.jax_enable_x64 else jnp.float32)
+        q = jax.ShapeDtypeStruct((n_dof,), jnp.result_type(float))
         obs = jax.eval_shape(self.observe, jax.ShapeDtypeStruct((), q.dtype), q, q)
         obs_bytes = sum(int(np.prod(x.shape)) * np.dtype(x.dtype).itemsize for x in jtu.tree_leaves(obs))
         state_bytes = 2 * n_dof * q.dtype.itemsize
@@ -121,10 +121,9 @@ def _observe_after(observe, ts, t0, k, states):
     """``observe`` at every output time from the recorded states (q, v) (``_Config.after``): the
     times at or before t0 observed at t0, as the loop's first observation is; slots the run did
     not reach (at index k and after: a run that stopped early) zero, as ``finish`` leaves them."""
-    Q, V = states
-    n_out = ts.shape[0]
-    written = jnp.arange(n_out) < k
-    Q, V = (jnp.where(written[:, None], x[:n_out], x[0]) for x in (Q, V))  # unreached slots: a state observable
+    Q, V = states  # n_out rows each (``finish`` has cut the window's padding)
+    written = jnp.arange(ts.shape[0]) < k
+    Q, V = (jnp.where(written[:, None], x, x[0]) for x in (Q, V))  # unreached slots: a state observable
     obs = jax.vmap(observe)(jnp.where(ts <= t0, t0, ts), Q, V)
     return jtu.tree_map(lambda y: jnp.where(written.reshape((-1,) + (1,) * (y.ndim - 1)), y, 0), obs)
 
