@@ -15,6 +15,7 @@ import textwrap
 import jax
 import numpy as np
 import pytest
+from conftest import FAST_COMPILE_FLAGS
 
 from nrrncf_jax.cli import main
 from nrrncf_jax.scenarios.spinup import sweep_reduction
@@ -132,7 +133,7 @@ def test_two_processes_gather_the_single_process_results_case_by_case(single, tm
     out = tmp_path / "two.json"
     code = _WORKER.format(omega=OMEGA, ts=TS, e=E_SCALE, kw=KW)
     launch_local([str(model), str(out)], 2, timeout_s=600, code=code,
-                 env={"JAX_PLATFORMS": "cpu", "XLA_FLAGS": "--xla_backend_optimization_level=0"})
+                 env={"JAX_PLATFORMS": "cpu", "XLA_FLAGS": " ".join(FAST_COMPILE_FLAGS)})
     two = json.loads(out.read_text())
     assert two["processes"] == 2 and two["devices"] == 2 and grid.cases == 16
     scale = float(np.abs(one.tip).max())

@@ -14,6 +14,7 @@ import time
 import nbclient
 import nbformat
 import pytest
+from conftest import FAST_COMPILE_FLAGS
 from ipykernel import kernelspec
 
 NOTEBOOKS = sorted((pathlib.Path(__file__).resolve().parent.parent / "notebooks").glob("*.ipynb"))
@@ -31,10 +32,10 @@ def python3_kernel(tmp_path, monkeypatch):
 
 RUN_BOUND = {"06_truss.ipynb"}
 """Notebooks whose small run is dominated by the run itself, not by XLA compilation. The others
-compile with LLVM's optimisation passes skipped (as the whole suite does: conftest), which cuts
-their CPU time by about a quarter (same float64 results, slower loops); the truss's full run
-(1,278 DOFs, 680 steps) takes 70 s instead of 27 s that way, more than the 5 s of compilation it
-saves."""
+compile with the suite's compile-speed flags (``conftest.FAST_COMPILE_FLAGS``), which cut their
+CPU time by about a quarter (same float64 results, slower loops); the truss's full run (1,278 DOFs,
+680 steps) takes 70 s instead of 27 s at LLVM's optimisation level 0 alone, more than the 5 s of
+compilation it saves."""
 
 
 def test_notebooks_exist():
@@ -44,11 +45,10 @@ def test_notebooks_exist():
 @pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
 def test_notebook_runs(path, python3_kernel, monkeypatch):
-    if path.name in RUN_BOUND:  # conftest's optimisation level 0 off for this kernel
-        flags = os.environ.get("XLA_FLAGS", "").replace("--xla_backend_optimization_level=0", "")
-    else:
-        flags = os.environ.get("XLA_FLAGS", "")
-        flags += "" if "--xla_backend_optimization_level" in flags else " --xla_backend_optimization_level=0"
+    flags = os.environ.get("XLA_FLAGS", "")
+    if path.name in RUN_BOUND:  # conftest's compile-speed flags off for this kernel
+        for flag in FAST_COMPILE_FLAGS:
+            flags = flags.replace(flag, "")
     monkeypatch.setenv("XLA_FLAGS", flags.strip())
     nb = nbformat.read(path, as_version=4)
     for cell in nb.cells:  # the file is kept with outputs stripped

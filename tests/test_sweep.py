@@ -17,7 +17,7 @@ import equinox as eqx
 import jax
 import numpy as np
 import pytest
-from conftest import paper_body
+from conftest import FAST_COMPILE_FLAGS, paper_body
 
 from nrrncf_jax.cli import main
 from nrrncf_jax.scenarios.spinup import sweep_reduction
@@ -109,7 +109,7 @@ def test_sharded_sweep_equals_unsharded_on_4_host_devices(red, tmp_path):
     # and unsharded programs are fused differently by XLA, and adaptive steps would carry that
     # round-off further (to well below the tolerance, but beyond 1e-12).
     env = dict(os.environ, JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu",
-               XLA_FLAGS="--xla_force_host_platform_device_count=4 --xla_backend_optimization_level=0")
+               XLA_FLAGS=" ".join(("--xla_force_host_platform_device_count=4",) + FAST_COMPILE_FLAGS))
     out = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, env=env,
                          timeout=300)
     assert out.returncode == 0, out.stderr[-3000:]
