@@ -15,12 +15,16 @@ from nrrncf_jax.linalg import (
     CACHE_SIZE,
     DENSE_MAX_DOFS,
     BlockTridiagonalLU,
+    DenseInverse,
     DenseLU,
     SparseLU,
     SparsityPattern,
     assemble_and_factor,
     assemble_sparse,
     choose_solver,
+    dense_augmented,
+    factor_block,
+    schur_factor,
     sparse_modes,
 )
 
@@ -81,6 +85,36 @@ def test_solvers_agree_on_a_chain():
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("sizes", [(5, 7, 4), (6, 6, 6)], ids=["unequal bodies", "equal bodies"])
+def test_augmented_factors_solve_the_saddle_point_system_and_its_constraint_rows(sizes):
+    """Every form of the constrained iteration matrix (the bodies' LU factors or inverses with the
+    joints' Schur complement, their inverses stacked when the bodies are equal, one dense LU)
+    solves [[S, Bᵀ], [B, 0]] like a dense solve of the whole matrix, and
+    ``solve_constraint_rows(c)`` is ``solve([0; c])`` (the velocity projection's right-hand side)."""
+    rng = np.random.default_rng(3)
+    m = 6
+    blocks = [rng.standard_normal((n, n)) + 3 * n * np.eye(n) for n in sizes]
+    n = sum(sizes)
+    S = np.zeros((n, n))
+    offsets = tuple(int(o) for o in np.concatenate([[0], np.cumsum(sizes)[:-1]]))
+    for o, b in zip(offsets, blocks):
+        S[o:o + len(b), o:o + len(b)] = b
+    B = rng.standard_normal((m, n))
+    A = np.block([[S, B.T], [B, np.zeros((m, m))]])
+    F, c = rng.standard_normal(n + m), rng.standard_normal(m)
+    tol = roundoff_tol(A)
+    by_inverse = schur_factor([factor_block(jnp.asarray(b)) for b in blocks], offsets, sizes, jnp.asarray(B))
+    assert all(isinstance(f, DenseInverse) for f in by_inverse.bodies)
+    assert (by_inverse.stacked is not None) == (len(set(sizes)) == 1)
+    forms = (schur_factor([DenseLU.factor(jnp.asarray(b)) for b in blocks], offsets, sizes, jnp.asarray(B)),
+             by_inverse, dense_augmented(jnp.asarray(S), jnp.asarray(B)))
+    for fac in forms:
+        for rhs, got in ((F, fac.solve(jnp.asarray(F))),
+                         (np.concatenate([np.zeros(n), c]), fac.solve_constraint_rows(jnp.asarray(c)))):
+            want = np.linalg.solve(A, rhs)
+            np.testing.assert_allclose(np.asarray(got), want, rtol=0, atol=tol * np.abs(want).max())
+
+
 def test_pivoted_lu_forms_agree_and_need_no_permutation_loop():
     """``DenseLU`` keeps (U, L⁻¹P): its CPU form (one getrf of [A | I]) and the other platforms'
     (the square LU and its permutation) agree with NumPy on a matrix whose first pivot comes from

@@ -9,7 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import RTOL_ROUNDOFF
+from conftest import RTOL_RESIDUAL, RTOL_ROUNDOFF
 
 from nrrncf_jax.bodies import Material, TubeSection, beam_body, straight_reference
 from nrrncf_jax.bodies.rigid import RigidBody, slender_rod
@@ -489,3 +489,27 @@ def test_modal_derivatives_chosen_by_the_mechanisms_own_motion():
         select_modal_derivatives(Mechanism([RigidBody(1.0, [0.1, 0.1, 0.1])]), [0.0, 0.1])
     with pytest.raises(ValueError, match="basis='free'"):
         reduce(beams[0], [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)], mds="mmi", basis="craig-bampton")
+
+
+@pytest.mark.parametrize("example", ["slider_crank", "rotor"])
+def test_the_fused_dae_residual_is_the_residual_with_the_joints_forces(example):
+    """``Mechanism.dae_residual`` (the index-3 step's Newton evaluation: the joints' forces added to
+    each body's nodal forces before its J ᵀ) equals ``residual + constraint_force`` (C_zᵀλ by
+    reverse mode through every body's map) and ``constraints``, at a state off the motion: rigid and
+    reduced bodies, a driver (the slider-crank), a motor and welds (the rotor)."""
+    from nrrncf_jax.examples import rotor, slider_crank
+
+    module = {"slider_crank": slider_crank, "rotor": rotor}[example]
+    system = module.mechanism(formulation="nr-rncf", elements=4, vms=2).system
+    rng = np.random.default_rng(7)
+    # turned out of its reference (a strain-free state: the elastic forces, large for these stiff
+    # bodies, would hide the joints' share of r)
+    z = system.turned((0.3, -0.2, 1.0), 0.4).reference()
+    v, a = (jnp.asarray(rng.standard_normal(system.n_dof)) for _ in range(2))
+    lam = jnp.asarray(rng.standard_normal(system.n_constraints))
+    t = 0.3
+    r, C = jax.jit(lambda *s: system.dae_residual(t, *s))(z, v, a, lam)
+    r_ref = system.residual(t, z, v, a) + system.constraint_force(z, lam, t)
+    np.testing.assert_allclose(r, r_ref, rtol=0, atol=RTOL_RESIDUAL * np.abs(r_ref).max())
+    C_ref = system.constraints(z, t)
+    np.testing.assert_allclose(C, C_ref, rtol=0, atol=RTOL_RESIDUAL * max(np.abs(C_ref).max(), 1.0))

@@ -104,8 +104,8 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
         def equations(z):
             a1, lam = z[:n], z[n:]
             q1, v1, a1, _ = stage(a1)
-            r = model.residual(t1, q1, v1, a1) + model.constraint_force(q1, lam, t1)
-            return jnp.concatenate([r, model.constraints(q1, t1) / c_K]), q1, v1, a1
+            r, C = model.dae_residual(t1, q1, v1, a1, lam)
+            return jnp.concatenate([r, C / c_K]), q1, v1, a1
 
         z0 = jnp.concatenate([state.a, state.lam])
 
@@ -152,7 +152,7 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
             B = getattr(fac, "B", None)
             B = model.constraint_jacobian(q1, t1) if B is None else B
         violation = B @ v1 + model.constraint_rate(q1, t1) if model.rheonomic else B @ v1
-        return fac.solve(jnp.concatenate([jnp.zeros_like(v1), violation]))[:v1.shape[0]], kept
+        return fac.solve_constraint_rows(violation)[:v1.shape[0]], kept
 
 
 __all__ = ["GeneralizedAlphaIndex3"]

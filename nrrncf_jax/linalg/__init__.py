@@ -35,8 +35,8 @@ from .assembly import (
 )
 from .base import AbstractFactorization, Parts
 from .block_tridiagonal import BlockTridiagonalLU, assemble_block_tridiagonal, factor_block_tridiagonal
-from .dense import DenseLU, _solve_augmented, _solve_factored, assemble_dense, solve_once
-from .schur import AugmentedFactor, dense_augmented, schur_factor, solve_blocks
+from .dense import DenseInverse, DenseLU, _solve_augmented, _solve_factored, assemble_dense, solve_once
+from .schur import AugmentedFactor, dense_augmented, factor_block, schur_factor, solve_blocks
 from .sparse import CACHE_SIZE, ScaledSuperLU, SparseLU, SparsityPattern, assemble_sparse, factor_sparse, sparse_modes
 
 __all__ = [
@@ -48,6 +48,7 @@ __all__ = [
     "uses_sparse",
     "AugmentedFactor",
     "dense_augmented",
+    "factor_block",
     "schur_factor",
     "solve_blocks",
     "CACHE_SIZE",
@@ -56,6 +57,7 @@ __all__ = [
     "ScaledSuperLU",
     "AbstractFactorization",
     "BlockTridiagonalLU",
+    "DenseInverse",
     "DenseLU",
     "Parts",
     "SparseLU",

@@ -153,6 +153,12 @@ class AbstractConstrainedModel(AbstractModel):
         every iteration and the matrix once a step."""
         return jax.vjp(lambda y: self.constraints(y, t), q)[1](lam)[0]
 
+    def dae_residual(self, t: Scalar, x, v, a, lam) -> tuple[Float[Array, " n"], Float[Array, " m"]]:
+        """``(r(x, v, a) + C_xᵀ λ, C(x))``: what the index-3 step's Newton iteration evaluates
+        (``integrate.index3``). A system may compute both from one evaluation of its nodal
+        vectors (``multibody.Mechanism``)."""
+        return self.residual(t, x, v, a) + self.constraint_force(x, lam, t), self.constraints(x, t)
+
     def constraint_rate(self, x, t: Scalar) -> Float[Array, " m"]:
         """C_t = ∂C/∂t (zero without drivers): velocities on the constraint satisfy C_x v = −C_t."""
         if not self.rheonomic:

@@ -359,8 +359,13 @@ class FloatingBody(AbstractBodyKind):
 
     def residual(self, z, v, a, gravity) -> Float[Array, " nz"]:
         """J ᵀ(M ẍ − Q) + ∂U/∂z, the elastic force the reduced cubic one (or the elements')."""
-        F = self.nodal_force(z, v, a, gravity)
-        return self.generalized(z, F).at[7:].add(self.tensors.force(z[7:]))
+        return self.loaded_residual(z, v, a, gravity, None)
+
+    def loaded_residual(self, z, v, a, gravity, F) -> Float[Array, " nz"]:
+        """J ᵀ(M ẍ − Q + F) + ∂U/∂z: the nodal forces ``F`` (None: none) with the inertia and
+        weight, one J ᵀ."""
+        F_all = self.nodal_force(z, v, a, gravity) + (0.0 if F is None else F)
+        return self.generalized(z, F_all).at[7:].add(self.tensors.force(z[7:]))
 
     def block(self, z, c_M, c_K, gravity, state=None, c_C=0.0) -> Float[Array, "nz nz"]:
         """c_M M_z and the elastic stiffness c_K (K + 2Lp + 3Npp); with ``state`` = (v, a, the

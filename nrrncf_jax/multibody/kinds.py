@@ -74,6 +74,11 @@ class AbstractBodyKind(eqx.Module):
     def residual(self, z, v, a, gravity) -> Float[Array, " nz"]:
         """J ᵀ(M ẍ − Q) + ∂U/∂z: inertia, weight and elastic force, without the joints'."""
 
+    def loaded_residual(self, z, v, a, gravity, F: Float[Array, "nv 3"]) -> Float[Array, " nz"]:
+        """``residual`` with the nodal forces ``F`` (the joints' reactions) added as J ᵀF. A
+        kind whose residual is itself J ᵀ of nodal forces adds F to them instead: one J ᵀ."""
+        return self.residual(z, v, a, gravity) + self.generalized(z, F)
+
     @abc.abstractmethod
     def mass_matrix(self, z) -> Float[Array, "nz nz"]:
         """J ᵀM J."""

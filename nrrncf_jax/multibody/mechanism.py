@@ -32,7 +32,7 @@ import numpy as np
 from .._types import Array, Float, Scalar
 from ..bodies.body import Body
 from ..bodies.rigid import RigidBody
-from ..linalg import AugmentedFactor, DenseLU, schur_factor
+from ..linalg import AugmentedFactor, DenseLU, factor_block, schur_factor
 from ..models.constrained import AbstractConstrainedModel
 from ..motion import unit_axis
 from .floating import FloatingBody, axis_angle, rotation
@@ -290,6 +290,18 @@ class Mechanism(AbstractConstrainedModel):
             rows[first:first + n] = [union] * n
         return tuple(rows)
 
+    def _rows_of(self, xs) -> tuple:
+        """Each body's nodal vectors that the joints read (``_joint_rows``), (rows, 3) a body."""
+        return tuple(x[np.asarray(r, dtype=int)] for x, r in zip(xs, self._joint_rows()))
+
+    def _joints_on_rows(self, x_rows, t: Scalar = 0.0) -> Float[Array, " mj"]:
+        """The joints' equations on those rows alone: the joints read ``xs[body][vector]``, so a
+        dict a body of the rows they read stands for the whole nodal arrays. Differentiated with
+        respect to the rows, nothing is scattered into the whole arrays (about half the operations
+        of the constraint Jacobian, which a step computes twice)."""
+        return self.joint_equations(tuple({v: xr[k] for k, v in enumerate(r)}
+                                          for r, xr in zip(self._joint_rows(), x_rows)), t)
+
     def constraint_jacobian(self, z, t: Scalar = 0.0):
         """C_z = ∂C/∂x J: the joints differentiated with respect to the few nodal vectors they
         read, times those rows of each body's J; then the bodies' own rows (2 e_bᵀ of
@@ -297,12 +309,7 @@ class Mechanism(AbstractConstrainedModel):
         xs = self.nodal_vectors(z)
         rows = self._joint_rows()
         if self.joints:
-            idx = [jnp.asarray(r, dtype=int) for r in rows]
-
-            def on_rows(x_rows):
-                return self.joint_equations(tuple(x.at[i].set(xr) for x, i, xr in zip(xs, idx, x_rows)), t)
-
-            dC = jax.jacfwd(on_rows)(tuple(x[i] for x, i in zip(xs, idx)))  # per body (m, rows, 3)
+            dC = jax.jacfwd(lambda x_rows: self._joints_on_rows(x_rows, t))(self._rows_of(xs))  # (m, rows, 3)
             # the rows a run's bodies are read at are the run's (_joint_rows)
             Js = self._map(lambda first: lambda b, zb: b.jacobian(zb, rows[first]), z, by_run=True)
             C_joints = jnp.concatenate([jnp.einsum("mvi,vik->mk", d, J) for d, J in zip(dC, Js)], axis=1)
@@ -322,6 +329,28 @@ class Mechanism(AbstractConstrainedModel):
         operation (figures: ``benchmarks/results/design_notes.md``)."""
         r = self._concat_map(lambda b, zb, vb, ab: b.residual(zb, vb, ab, self.gravity), z, v, a)
         return r if not self.forces else r - self.applied_force(t, z, v)
+
+    def dae_residual(self, t: Scalar, z, v, a, lam) -> tuple[Float[Array, " n"], Float[Array, " m"]]:
+        """``(r + C_zᵀ λ, C)`` from one evaluation of the nodal vectors: the joints' equations and
+        their forces on the nodal vectors (one pullback), each body's share added to its own
+        nodal forces before its J ᵀ (``AbstractBodyKind.loaded_residual``), and the bodies' own
+        equations with their forces. Equal to ``residual + constraint_force`` and ``constraints``
+        to round-off, in fewer operations than the pullback of C through every body's map."""
+        mj = self.n_joint_equations
+        xs = self.nodal_vectors(z)
+        if self.joints:
+            C_joints, pullback = jax.vjp(lambda y: self.joint_equations(y, t), xs)
+            reactions = pullback(lam[:mj])[0]
+        else:
+            C_joints, reactions = jnp.zeros((0,), z.dtype), tuple(jnp.zeros_like(x) for x in xs)
+        r = self._concat_map(lambda b, zb, vb, ab, fb: b.loaded_residual(zb, vb, ab, self.gravity, fb),
+                             z, v, a, reactions)
+        if self.forces:
+            r = r - self.applied_force(t, z, v)
+        if not self.n_body_equations:
+            return r, C_joints
+        C_own, own_pullback = jax.vjp(lambda y: jnp.concatenate(self._own_equations(y)), z)
+        return r + own_pullback(lam[mj:])[0], jnp.concatenate([C_joints, C_own])
 
     # --- force elements ---------------------------------------------------------------------------
     def measures(self, z) -> Float[Array, " e"]:
@@ -406,12 +435,14 @@ class Mechanism(AbstractConstrainedModel):
         The joints' Hessian c_K H_λ is left out: of the order of the reactions times c_K. Small
         LU factorisations of the bodies' blocks instead of one of the whole matrix: a small
         fraction of its arithmetic, and on a CPU one LU of the whole matrix can cost more than
-        the rest of the step (figures: ``benchmarks/results/design_notes.md``)."""
+        the rest of the step (figures: ``benchmarks/results/design_notes.md``). A small block's
+        inverse is formed from its LU (``linalg.factor_block``), so that each Newton iteration's
+        solve is a product, one for a chain of equal bodies."""
         B = self.constraint_jacobian(z, t)
         blocks = self._blocks(z, 1.0, c_K, v, a, lam, c_C)
         if self.forces:
             blocks = [S + F for S, F in zip(blocks, self._force_blocks(t, z, v, c_K, c_C))]
-        factors = tuple(DenseLU.factor(S_b) for S_b in blocks)
+        factors = tuple(factor_block(S_b) for S_b in blocks)
         return schur_factor(factors, self.offsets, self.body_sizes(), B)
 
     def kinetic_energy(self, z, v) -> Float[Array, ""]:
