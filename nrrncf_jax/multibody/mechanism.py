@@ -297,8 +297,8 @@ class Mechanism(AbstractConstrainedModel):
     def _joints_on_rows(self, x_rows, t: Scalar = 0.0) -> Float[Array, " mj"]:
         """The joints' equations on those rows alone: the joints read ``xs[body][vector]``, so a
         dict a body of the rows they read stands for the whole nodal arrays. Differentiated with
-        respect to the rows, nothing is scattered into the whole arrays (about half the operations
-        of the constraint Jacobian, which a step computes twice)."""
+        respect to the rows, nothing is scattered into the whole arrays: fewer operations in the
+        constraint Jacobian, which a step computes twice (``benchmarks/results/hlo_ops.md``)."""
         return self.joint_equations(tuple({v: xr[k] for k, v in enumerate(r)}
                                           for r, xr in zip(self._joint_rows(), x_rows)), t)
 
