@@ -76,18 +76,23 @@ def _called(comps, name, kind):
     return out
 
 
+def loop_bodies(comps, entry) -> tuple[str, str]:
+    """``(step, newton)``: the adaptive loop's body (the entry's largest ``while`` body) and the
+    Newton loop's body inside it."""
+    step = max(_called(comps, entry, "while"), key=lambda b: sum(counts(comps, b).values()))
+    newton = _called(comps, step, "while")
+    if len(newton) != 1:
+        raise RuntimeError(f"expected one Newton loop in the step, found {len(newton)}")
+    return step, newton[0]
+
+
 def step_operations(hlo: str) -> dict:
     """``{step, newton, output, dots, custom_calls}``: the operations of the adaptive loop's body
     outside the Newton loop and the output branch, of the Newton loop's body, of the output
     branch (the larger of the conditional's branches), and the dots and LAPACK custom calls among
     the step's and the iteration's operations."""
     comps, entry = computations(hlo)
-    loops = _called(comps, entry, "while")
-    step = max(loops, key=lambda b: sum(counts(comps, b).values()))
-    newton = _called(comps, step, "while")
-    if len(newton) != 1:
-        raise RuntimeError(f"expected one Newton loop in the step, found {len(newton)}")
-    newton = newton[0]
+    step, newton = loop_bodies(comps, entry)
     c_step, c_newton = counts(comps, step), counts(comps, newton)
     output = 0
     for branches in _called(comps, step, "branches"):

@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
 from _machine import machine, pin_to_one_core, report  # noqa: E402
-from hlo_ops import _called, computations, counts  # noqa: E402
+from hlo_ops import computations, counts, loop_bodies  # noqa: E402
 
 from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum  # noqa: E402
@@ -87,8 +87,7 @@ def arithmetic(hlo: str) -> dict:
     counts (``hlo_ops.step_operations``' computations)."""
     comps, entry = computations(hlo)
     shapes = _shapes(hlo)
-    step = max(_called(comps, entry, "while"), key=lambda b: sum(counts(comps, b).values()))
-    newton = _called(comps, step, "while")[0]
+    step, newton = loop_bodies(comps, entry)
     out = {}
     for part, name in (("step", step), ("newton", newton)):
         kinds = {"dot": 0.0, "lu": 0.0, "trsm": 0.0}

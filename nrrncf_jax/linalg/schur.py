@@ -56,6 +56,8 @@ class AugmentedFactor(eqx.Module):
     B: Float[Array, "m n"] | None = None
     S_inv_Bt: Float[Array, "n m"] | None = None
     schur: DenseLU | None = None
+    # the bodies' inverses stacked (``_stacked_inverses``), formed once with the factor rather
+    # than in every Newton iteration's solve
     stacked: Float[Array, "nb k k"] | None = None
 
     def with_constraints(self, B: Float[Array, "m n"]) -> "AugmentedFactor":

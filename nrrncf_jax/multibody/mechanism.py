@@ -327,30 +327,30 @@ class Mechanism(AbstractConstrainedModel):
         Through the nodal vectors, not the inertia invariants: written with the invariants it
         takes a dozen 3 × 3 × k × k contractions, more operations, and XLA's time here is per
         operation (figures: ``benchmarks/results/design_notes.md``)."""
-        r = self._concat_map(lambda b, zb, vb, ab: b.residual(zb, vb, ab, self.gravity), z, v, a)
+        return self._bodies_residual(t, z, v, a)
+
+    def _bodies_residual(self, t, z, v, a, reactions=None) -> Float[Array, " n"]:
+        """``residual``, with the nodal forces ``reactions`` (one array a body) added inside each
+        body's J ᵀ (``AbstractBodyKind.loaded_residual``) when given."""
+        if reactions is None:
+            r = self._concat_map(lambda b, zb, vb, ab: b.residual(zb, vb, ab, self.gravity), z, v, a)
+        else:
+            r = self._concat_map(lambda b, zb, vb, ab, fb: b.loaded_residual(zb, vb, ab, self.gravity, fb),
+                                 z, v, a, reactions)
         return r if not self.forces else r - self.applied_force(t, z, v)
 
     def dae_residual(self, t: Scalar, z, v, a, lam) -> tuple[Float[Array, " n"], Float[Array, " m"]]:
         """``(r + C_zᵀ λ, C)`` from one evaluation of the nodal vectors: the joints' equations and
-        their forces on the nodal vectors (one pullback), each body's share added to its own
-        nodal forces before its J ᵀ (``AbstractBodyKind.loaded_residual``), and the bodies' own
-        equations with their forces. Equal to ``residual + constraint_force`` and ``constraints``
-        to round-off, in fewer operations than the pullback of C through every body's map."""
-        mj = self.n_joint_equations
-        xs = self.nodal_vectors(z)
-        if self.joints:
-            C_joints, pullback = jax.vjp(lambda y: self.joint_equations(y, t), xs)
-            reactions = pullback(lam[:mj])[0]
-        else:
-            C_joints, reactions = jnp.zeros((0,), z.dtype), tuple(jnp.zeros_like(x) for x in xs)
-        r = self._concat_map(lambda b, zb, vb, ab, fb: b.loaded_residual(zb, vb, ab, self.gravity, fb),
-                             z, v, a, reactions)
-        if self.forces:
-            r = r - self.applied_force(t, z, v)
+        their forces on the nodal vectors (``_joint_reactions``), each body's share added to its
+        own nodal forces before its J ᵀ, and the bodies' own equations with their forces. Equal to
+        ``residual + constraint_force`` and ``constraints`` to round-off, in fewer operations than
+        the pullback of C through every body's map."""
+        C_joints, reactions = self._joint_reactions(self.nodal_vectors(z), lam, t)
+        r = self._bodies_residual(t, z, v, a, reactions)
         if not self.n_body_equations:
             return r, C_joints
         C_own, own_pullback = jax.vjp(lambda y: jnp.concatenate(self._own_equations(y)), z)
-        return r + own_pullback(lam[mj:])[0], jnp.concatenate([C_joints, C_own])
+        return r + own_pullback(lam[self.n_joint_equations:])[0], jnp.concatenate([C_joints, C_own])
 
     # --- force elements ---------------------------------------------------------------------------
     def measures(self, z) -> Float[Array, " e"]:
@@ -416,14 +416,17 @@ class Mechanism(AbstractConstrainedModel):
             blocks = [S + F for S, F in zip(blocks, self._force_blocks(t, z, v, 1.0, 0.0))]
         return blocks
 
+    def _joint_reactions(self, xs, lam, t: Scalar = 0.0) -> tuple:
+        """``(C_joints, forces)``: the joints' equations at the nodal vectors ``xs`` and their
+        forces on each body's nodal vectors, C_xᵀλ (zero without joints), by one pullback."""
+        if not self.joints:
+            return jnp.zeros((0,), lam.dtype), tuple(jnp.zeros_like(x) for x in xs)
+        C, pullback = jax.vjp(lambda y: self.joint_equations(y, t), xs)
+        return C, pullback(lam[:self.n_joint_equations])[0]
+
     def _nodal_reactions(self, z, lam, t: Scalar = 0.0) -> tuple:
         """The joints' forces on each body's nodal vectors, C_xᵀλ (zero without joints)."""
-        xs = self.nodal_vectors(z)
-        if not self.joints:
-            return tuple(jnp.zeros_like(x) for x in xs)
-        m = self.n_joint_equations
-        _, pullback = jax.vjp(lambda y: self.joint_equations(y, t), xs)
-        return pullback(lam[:m])[0]
+        return self._joint_reactions(self.nodal_vectors(z), lam, t)[1]
 
     def factor_iteration_matrix(self, t, z, v, c_M, c_C, c_K):
         return DenseLU.factor(self.iteration_matrix(t, z, v, c_M, c_C, c_K))
