@@ -1,4 +1,4 @@
-"""A batch of small dense solves on the CPU: LAPACK one member at a time, jaxlib's batched LAPACK
+"""A batch of small dense solves: LAPACK one member at a time, jaxlib's batched LAPACK
 call, and an LU written in XLA operations whose ``vmap`` is one batched computation (issue 35's
 third item, measured before it is built into the integrator).
 
@@ -11,7 +11,9 @@ joints) and batch size b: b random well-conditioned systems A x = r solved by
 - ``vmap`` of the same (jaxlib's batched getrf: one call, members looped inside it);
 - ``vmap`` of an LU with partial pivoting written as an XLA loop over the n columns (each step a
   pivot search, a row swap and a rank-1 update of the whole masked matrix), then two triangular
-  solves: one batched computation, no LAPACK.
+  solves: one batched computation, no LAPACK;
+- on a GPU also ``vmap`` of ``solve_once`` itself, whose GPU form is the square batched getrf
+  and ``lu_solve`` (there the first two rows call cuSOLVER, not LAPACK).
 
 Each is compiled first, then timed as the best of 5 repeats of 20 calls (``block_until_ready``);
 the table gives µs a member. The in-graph LU's residual |A x − r| / (|A| |x|) is checked against
@@ -34,6 +36,8 @@ from jax import lax  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
 from _machine import machine, pin_to_one_core, report  # noqa: E402
+
+from nrrncf_jax.linalg.dense import solve_once  # noqa: E402
 
 
 def lapack_solve(A, r):
@@ -92,6 +96,9 @@ def main():
         "LAPACK, batched call (vmap)": jax.jit(jax.vmap(lapack_solve)),
         "XLA loop LU (vmap)": jax.jit(jax.vmap(graph_solve)),
     }
+    platform = jax.devices()[0].platform
+    if platform != "cpu":  # on a CPU the library's solve is the lax.map row; elsewhere its own batched form
+        methods["library solve_once (vmap)"] = jax.jit(jax.vmap(solve_once))
     rows = []
     for n in args.sizes:
         for b in args.batches:
@@ -107,7 +114,7 @@ def main():
                 t = timed(f, A, r)
                 rows.append((n, b, name, 1e6 * t / b, res, float(np.max(np.abs(x - ref)) / np.max(np.abs(ref)))))
                 print(rows[-1], flush=True)
-    lines = ["# A batch of small dense solves on the CPU (issue 35)", "",
+    lines = [f"# A batch of small dense solves on the {platform.upper()} (issue 35)", "",
              f"Produced by `benchmarks/batched_lu.py`. Machine: {machine()}.", "",
              "b random systems of order n, each solved by LU with partial pivoting; µs a member (best of 5 "
              "repeats of 20 calls, compiled first). Residual: max over members of |A x − r| / (|A| |x|); "
