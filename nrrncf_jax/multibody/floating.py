@@ -213,7 +213,7 @@ class FloatingBody(AbstractBodyKind):
         """x = f(z) = R (on position vectors) + Â(e) (q̂ + Ψ p): the nodal vectors in the inertial
         frame."""
         R, e, p = z[:3], z[3:7], z[7:]
-        return self._local(p) @ _A_hat(e).T + self.is_position[:, None] * R[None, :]
+        return _times_transpose(self._local(p), _A_hat(e)) + self.is_position[:, None] * R[None, :]
 
     def jacobian(self, z: Float[Array, " nz"], rows=None) -> Float[Array, "nv 3 nz"]:
         """J = ∂x/∂z in closed form (of the nodal vectors ``rows``, all by default): the columns
@@ -235,15 +235,16 @@ class FloatingBody(AbstractBodyKind):
         """J dz (J not formed): dR on the position vectors, Σ_k ∂Â/∂e_k de_k u + Â Ψ dp."""
         e, p = z[3:7], z[7:]
         A_de = jnp.einsum("k,kij->ij", dz[3:7], _dA_hat(e))
-        return (self.is_position[:, None] * dz[None, :3] + self._local(p) @ A_de.T
-                + (self.basis @ dz[7:]).reshape(-1, 3) @ _A_hat(e).T)
+        return (self.is_position[:, None] * dz[None, :3] + _times_transpose(self._local(p), A_de)
+                + _times_transpose((self.basis @ dz[7:]).reshape(-1, 3), _A_hat(e)))
 
     def acceleration(self, z, v, a) -> Float[Array, "nv 3"]:
         """ẍ = J z̈ + J̇ ż, with J̇ ż = Ä u + 2 Ȧ u̇, Ä = ∂²Â(ė, ė), Ȧ = ∂Â ė, u̇ = Ψ ṗ."""
         e, p, de, dp = z[3:7], z[7:], v[3:7], v[7:]
         A_dd = 2.0 * jnp.einsum("k,l,klij->ij", de, de, jnp.asarray(_B))
         A_d = jnp.einsum("k,kij->ij", de, _dA_hat(e))
-        return self.tangent(z, a) + self._local(p) @ A_dd.T + 2.0 * (self.basis @ dp).reshape(-1, 3) @ A_d.T
+        return (self.tangent(z, a) + _times_transpose(self._local(p), A_dd)
+                + 2.0 * _times_transpose((self.basis @ dp).reshape(-1, 3), A_d))
 
     def generalized(self, z, F: Float[Array, "nv 3"]) -> Float[Array, " nz"]:
         """J ᵀF (J not formed): Σ F_α over the position vectors, Σ_α u_αᵀ ∂Â/∂e_kᵀ F_α, and
@@ -251,7 +252,7 @@ class FloatingBody(AbstractBodyKind):
         e, p = z[3:7], z[7:]
         F_R = self.is_position @ F
         F_e = jnp.einsum("kij,ij->k", _dA_hat(e), F.T @ self._local(p))
-        F_p = self.basis.T @ (F @ _A_hat(e)).reshape(-1)
+        F_p = self.basis.T @ _times_transpose(F, _A_hat(e).T).reshape(-1)
         return jnp.concatenate([F_R, F_e, F_p])
 
     def mass_matrix(self, z: Float[Array, " nz"]) -> Float[Array, "nz nz"]:
@@ -411,6 +412,16 @@ class FloatingBody(AbstractBodyKind):
 def _compose_last(a, b):
     """``_compose(a, b)`` over b's leading axes (a stacked body's e0 is (bodies, 4))."""
     return _compose(a, b) if b.ndim == 1 else jax.vmap(lambda y: _compose(a, y))(b)
+
+
+def _times_transpose(X: Float[Array, "nv 3"], A: Float[Array, "3 3"]) -> Float[Array, "nv 3"]:
+    """X Aᵀ (each row of X turned by A) as three scaled columns added, not as a product. On a CPU,
+    XLA hands a 3-wide product to a matrix-multiply library call (a batched one for a run of
+    equal bodies, and more so under ``vmap`` over a batch of runs), which costs far more than its
+    arithmetic; the added columns fuse with the operations around them. A (a few flops) is
+    formed once by a product and shared: as a sum of terms it would be fused into every
+    consumer and recomputed for each of X's rows, which was slower (``benchmarks/results/hlo_ops.md``)."""
+    return X[:, 0:1] * A[None, :, 0] + X[:, 1:2] * A[None, :, 1] + X[:, 2:3] * A[None, :, 2]
 
 
 def _A_hat(e):
