@@ -5,7 +5,7 @@
 #
 #   1. the sweep benchmark (benchmarks/sweep.py): its CPU row on one device first (the ratio
 #      "sweep / single run" of every row uses its own platform's single run), then its GPU row;
-#   2. the batch of 256 NR-RNCF pendulums released at different angles and the single pendulum
+#   2. batches of 16 and 256 NR-RNCF pendulums released at different angles, and the single pendulum,
 #      on the GPU (benchmarks/pendulum_batch.py);
 #   3. the single pendulum on this machine's CPU, one core, for the per-member cost against it;
 #   4. the reduced cubic force's kernels (benchmarks/kernels.py) and the batched small solves
