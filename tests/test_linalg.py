@@ -84,7 +84,6 @@ def test_solvers_agree_on_a_chain():
     np.testing.assert_allclose(assemble_sparse([(Ge, dofs)], n, free).toarray(), A, rtol=0, atol=1e-14)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("sizes", [(5, 7, 4), (6, 6, 6)], ids=["unequal bodies", "equal bodies"])
 def test_augmented_factors_solve_the_saddle_point_system_and_its_constraint_rows(sizes):
     """Every form of the constrained iteration matrix (the bodies' LU factors or inverses with the
@@ -115,6 +114,7 @@ def test_augmented_factors_solve_the_saddle_point_system_and_its_constraint_rows
             np.testing.assert_allclose(np.asarray(got), want, rtol=0, atol=tol * np.abs(want).max())
 
 
+@pytest.mark.slow
 def test_pivoted_lu_forms_agree_and_need_no_permutation_loop():
     """``DenseLU`` keeps (U, L⁻¹P): its CPU form (one getrf of [A | I]) and the other platforms'
     (the square LU and its permutation) agree with NumPy on a matrix whose first pivot comes from
