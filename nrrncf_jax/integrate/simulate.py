@@ -323,6 +323,7 @@ class _LoopState(eqx.Module):
     result: Int[Array, ""]  # 0 while running, else the code of the ending (results.ENDINGS)
     ys: Any = None  # output buffer (n_out + K slots per leaf); None in batched runs (see step)
     matrix: Any = None  # the kept iteration matrix (``Newton(reuse=True)``), else None
+    err_prev: Any = None  # the last accepted step's error norm (the PI controller's memory)
 
 
 class _AdaptiveLoop(eqx.Module):
@@ -381,7 +382,7 @@ class _AdaptiveLoop(eqx.Module):
             matrix = IterationMatrix(jtu.tree_map(lambda x: jnp.zeros(x.shape, x.dtype), shapes), h0,
                                      jnp.asarray(False))
         c = _LoopState(t=t0, h=h0, state=_Stacked.of(state), k=k0, counts=jnp.zeros(4, int), result=jnp.array(0),
-                       matrix=matrix)
+                       matrix=matrix, err_prev=jnp.ones((), jnp.result_type(float)))
         return dataclasses.replace(c, ys=self.outputs(c)) if outputs else c
 
     def outputs(self, c: _LoopState):
@@ -429,7 +430,7 @@ class _AdaptiveLoop(eqx.Module):
         err = lax.stop_gradient(self.rms(ex, controller.scale(x0, x1), mask))
         finite = jnp.isfinite(err) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(v1))
         ok = done & finite
-        accept, h_new = controller.adapt(h, err, ok)
+        accept, h_new = controller.adapt(h, err, ok, c.err_prev)
         matrix = None
         if c.matrix is not None:
             # A growth too small to pay for a new factorisation is not taken (``Newton``).
@@ -486,7 +487,7 @@ class _AdaptiveLoop(eqx.Module):
         new = _LoopState(
             t=t_new, h=h_new, state=jtu.tree_map(pick, _Stacked.of(st1), c.state), k=k_new,
             counts=c.counts + jnp.stack([accept, ~accept, iters, newton_sol.factorizations]).astype(int),
-            result=result, matrix=matrix,
+            result=result, matrix=matrix, err_prev=jnp.where(accept, err, c.err_prev),
         )
         if active is not None:
             new = jtu.tree_map(lambda val, old: jnp.where(active, val, old), new, c)

@@ -5,6 +5,11 @@ of the next one.
 - ``AdaptiveStepSize``: the step follows the local error estimate of the stepping method (RMS over
   the model's error space, weighted by ``atol + rtol |x|``), grown or shrunk by
   ``0.9 err^(-1/3)`` within [0.2, 5] (generalized-α is second order: the error of q goes as h³).
+  With ``pcoeff``/``icoeff`` (diffrax's ``PIDController`` names) it is a PI controller
+  (Gustafsson): an accepted step's growth also looks at the last accepted step's error,
+  ``0.9 err^(-(pcoeff + icoeff)/3) err_prev^(pcoeff/3)``, which damps the step size's oscillation
+  between accepted and rejected steps (Hairer & Wanner, Solving ODEs II, IV.2). The default,
+  ``pcoeff = 0, icoeff = 1``, is the plain controller above.
 - ``ConstantStepSize``: every step of size ``dt`` (shortened only to land on output times); a
   step whose Newton fails is split (h/4, then growing back by factors of 2 to ``dt``).
 
@@ -58,38 +63,57 @@ class AbstractStepSizeController(eqx.Module):
         return self.atol + self.rtol * x
 
     @abc.abstractmethod
-    def adapt(self, h: Scalar, err: Scalar, ok) -> tuple:
+    def adapt(self, h: Scalar, err: Scalar, ok, err_prev: Scalar = 1.0) -> tuple:
         """``(accept, h_next)`` after a step of size ``h`` whose error norm is ``err`` (in units
         of the tolerance) and whose solve succeeded (``ok``); ``h_next`` before the loop limits
-        it by ``dt_max`` and the output times."""
+        it by ``dt_max`` and the output times. ``err_prev``: the error norm of the last accepted
+        step (the loop carries it; 1 before the first)."""
 
 
 class AdaptiveStepSize(AbstractStepSizeController):
     """Error-controlled steps: ``rtol``, ``atol`` (in the model's error space), the first step
     ``dt0`` (default 1e-3 of the run's span), the smallest step ``dt_min`` below which a failing
-    run stops, and the largest ``dt_max``."""
+    run stops, and the largest ``dt_max``. ``pcoeff``, ``icoeff``: the PI controller's
+    coefficients (module docstring; diffrax's names and meaning, for an error of order 3);
+    ``pcoeff=0.4, icoeff=0.3`` is Gustafsson's choice (``benchmarks/results/step_control.md``)."""
 
     rtol: Float[Array, ""]
     atol: Float[Array, ""]
     dt0: Float[Array, ""] | None
     dt_min: Float[Array, ""]
     dt_max: Float[Array, ""]
+    pcoeff: float = eqx.field(static=True, default=0.0)
+    icoeff: float = eqx.field(static=True, default=1.0)
 
     adaptive: ClassVar[bool] = True
 
-    def __init__(self, rtol=1e-4, atol=1e-6, *, dt0=None, dt_min=1e-10, dt_max=np.inf):
+    def __init__(self, rtol=1e-4, atol=1e-6, *, dt0=None, dt_min=1e-10, dt_max=np.inf, pcoeff=0.0, icoeff=1.0):
         self.rtol = _positive("rtol", rtol)
         self.atol = _positive("atol", atol)
         self.dt0 = None if dt0 is None else _positive("dt0", dt0)
         self.dt_min = _positive("dt_min", dt_min)
         self.dt_max = _positive("dt_max", dt_max)
+        pcoeff, icoeff = float(pcoeff), float(icoeff)
+        if not (np.isfinite(pcoeff) and np.isfinite(icoeff) and pcoeff >= 0.0 and pcoeff + icoeff > 0.0):
+            raise ValueError(f"the PI coefficients need pcoeff >= 0 and pcoeff + icoeff > 0, got "
+                             f"pcoeff={pcoeff!r}, icoeff={icoeff!r}")
+        self.pcoeff, self.icoeff = pcoeff, icoeff
 
     def first_step(self, t0, t_end):
         return 1e-3 * (t_end - t0) if self.dt0 is None else self.dt0
 
-    def adapt(self, h, err, ok):
+    def adapt(self, h, err, ok, err_prev=1.0):
         accept = ok & (err <= 1.0)
-        grow = jnp.clip(0.9 * jnp.where(err > 0, err, 1e-10) ** (-1.0 / 3.0), 0.2, 5.0)
+        err = jnp.where(err > 0, err, 1e-10)
+        # The step's error is O(h³): the plain controller's exponent is 1/3 (icoeff = 1).
+        grow = 0.9 * err ** (-(self.pcoeff + self.icoeff) / 3.0)
+        if self.pcoeff:
+            # The last accepted step's error, floored as diffrax floors it: a step far inside
+            # the tolerance should not let the next one grow without bound.
+            grow = grow * jnp.maximum(err_prev, 1e-4) ** (self.pcoeff / 3.0)
+            # A rejected step shrinks as the plain controller shrinks it.
+            grow = jnp.where(accept, grow, jnp.minimum(0.9 * err ** (-1.0 / 3.0), 1.0))
+        grow = jnp.clip(grow, 0.2, 5.0)
         return accept, jnp.where(ok, h * grow, 0.25 * h)
 
 
@@ -116,7 +140,7 @@ class ConstantStepSize(AbstractStepSizeController):
     def first_step(self, t0, t_end):
         return self.dt
 
-    def adapt(self, h, err, ok):
+    def adapt(self, h, err, ok, err_prev=1.0):
         return ok, jnp.where(ok, jnp.minimum(2.0 * h, self.dt), 0.25 * h)
 
 
