@@ -267,9 +267,12 @@ class Mechanism(AbstractConstrainedModel):
 
     def error_space(self, z, e):
         """The step error in the inertial nodal vectors (J e), so that a tolerance means what it
-        means for the full system."""
-        x = self._concat_map(lambda b, zb: b.nodal_vectors(zb), z)
-        dx = self._concat_map(lambda b, zb, eb: b.tangent(zb, eb), z, e)
+        means for the full system. Each body's vectors are taken component by component (3 × nv,
+        not nv × 3): the loop only forms norms of these, which do not depend on the order, and
+        with the nodal vectors innermost XLA computes them in rows as long as the body's vectors
+        instead of rows of three (``benchmarks/results/hlo_ops.md``)."""
+        x = self._concat_map(lambda b, zb: b.nodal_vectors(zb).T, z)
+        dx = self._concat_map(lambda b, zb, eb: b.tangent(zb, eb).T, z, e)
         return x, dx, jnp.ones(x.shape[0], bool)
 
     # --- the equations ----------------------------------------------------------------------------
