@@ -8,7 +8,8 @@ of the next one.
   With ``pcoeff``/``icoeff`` (diffrax's ``PIDController`` names) it is a PI controller
   (Gustafsson): an accepted step's growth also looks at the last accepted step's error,
   ``0.9 err^(-(pcoeff + icoeff)/3) err_prev^(pcoeff/3)``, which damps the step size's oscillation
-  between accepted and rejected steps (Hairer & Wanner, Solving ODEs II, IV.2). The default,
+  between accepted and rejected steps (Gustafsson's stabilised control: Hairer, Nørsett & Wanner,
+  Solving ODEs I, Sec. II.4). The default,
   ``pcoeff = 0, icoeff = 1``, is the plain controller above.
 - ``ConstantStepSize``: every step of size ``dt`` (shortened only to land on output times); a
   step whose Newton fails is split (h/4, then growing back by factors of 2 to ``dt``).
@@ -108,8 +109,8 @@ class AdaptiveStepSize(AbstractStepSizeController):
         # The step's error is O(h³): the plain controller's exponent is 1/3 (icoeff = 1).
         grow = 0.9 * err ** (-(self.pcoeff + self.icoeff) / 3.0)
         if self.pcoeff:
-            # The last accepted step's error, floored as diffrax floors it: a step far inside
-            # the tolerance should not let the next one grow without bound.
+            # The last accepted step's error, floored at 1e-4: a step far inside the tolerance
+            # should not let the next one grow without bound (the clip below bounds it too).
             grow = grow * jnp.maximum(err_prev, 1e-4) ** (self.pcoeff / 3.0)
             # A rejected step shrinks as the plain controller shrinks it.
             grow = jnp.where(accept, grow, jnp.minimum(0.9 * err ** (-1.0 / 3.0), 1.0))
