@@ -38,6 +38,23 @@ def test_spinup_json_csv_plot(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+def test_spinup_step_control_is_recorded_and_reaches_the_same_motion(capsys):
+    """``--step-control pi``: the run's record names its controller and it follows the plain controller's
+    motion, each run within its own error: at most the sum of the steps' error tolerances,
+    atol + rtol·max|u| a step."""
+    argv = ["spinup", "--formulation", "rncf", "--beam", "paper", "--omega", "4", "--t-end", "2", "--elements", "2",
+            "--json", "--no-progress"]
+    runs = {}
+    for control in ("plain", "pi"):
+        assert main(argv + ["--step-control", control]) == 0
+        runs[control] = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert "step_control" not in runs["plain"] and runs["pi"]["step_control"] == "pi"  # named where not the default
+    steps = sum(runs[c]["steps"] + runs[c]["rejected"] for c in runs)
+    bound = steps * (1e-6 + 1e-4 * abs(runs["plain"]["tip_uy_min"]))  # the CLI's rtol 1e-4, atol 1e-6
+    assert abs(runs["pi"]["tip_uy_min"] - runs["plain"]["tip_uy_min"]) <= bound
+    assert abs(runs["pi"]["tip_ux_min"] - runs["plain"]["tip_ux_min"]) <= bound
+
+
 @pytest.mark.slow
 @pytest.mark.xdist_group("cli_paper2_nr_rncf")
 def test_spinup_nr_rncf_to_a_tolerance_json(capsys):
@@ -144,6 +161,8 @@ def test_modes_mmi_needs_omega(capsys):
 
 MISSING = "/nonexistent/dir/"
 BAD_INPUT = {
+    "step-control-unknown": (["spinup", "--omega", "10", "--step-control", "fast"],
+                             "argument --step-control: invalid choice: 'fast'"),
     "vms-zero": (["spinup", "--formulation", "nr-rncf", "--omega", "10", "--vms", "0"],
                  "argument --vms: must be 'auto' or an integer >= 1, got '0'"),
     "mds-nonsense": (["spinup", "--formulation", "nr-rncf", "--omega", "10", "--mds", "many"],

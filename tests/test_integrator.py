@@ -22,6 +22,7 @@ from nrrncf_jax import (
     simulate_batch,
     vibration_modes,
 )
+from nrrncf_jax.integrate import STEP_CONTROLS, adaptive_step_size
 
 OMEGA = 2.0 * np.pi  # oscillator: period 1 s
 GA = GeneralizedAlpha(0.9)
@@ -290,6 +291,9 @@ def test_bad_integrator_input():
         AdaptiveStepSize(pcoeff=-0.1)
     with pytest.raises(ValueError, match="PI coefficients"):
         AdaptiveStepSize(pcoeff=0.0, icoeff=0.0)
+    with pytest.raises(ValueError, match="step_control"):
+        adaptive_step_size(1e-4, 1e-6, "fast")
+    assert adaptive_step_size(1e-4, 1e-6, "pi").pcoeff == STEP_CONTROLS["pi"]["pcoeff"]
     with pytest.raises(ValueError, match="dt"):
         ConstantStepSize(-1.0)
     with pytest.raises(ValueError, match="y0"):

@@ -168,7 +168,7 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
             str(tmp_path / "p.gif"), "--vtk", str(tmp_path / "vtk"), "--json"]
     assert main(argv) == 0
     (spec, kw), = calls
-    assert spec == PendulumSpec(elements=2) and kw == dict(PENDULUM_RUN, progress=False)
+    assert spec == PendulumSpec(elements=2) and kw == dict(PENDULUM_RUN, progress=False, step_control="plain")
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     for key in ("dofs", "steps", "newton_iters", "compile_s", "run_s"):
         assert d[key] == pendulum_run.summary()[key]

@@ -50,7 +50,7 @@ def _run(args) -> int:
     _common.say(args, f"three-beam pendulum, {spec.elements} elements a beam, {args.formulation}, "
                       f"0-{args.t_end:g} s ...")
     kw = dict(t_end=args.t_end, dt_out=args.dt_out, rho_inf=args.rho_inf, rtol=args.rtol, atol=args.atol,
-              progress=not (args.json or args.no_progress))
+              progress=not (args.json or args.no_progress), step_control=args.step_control)
     ref = None
     full = args.formulation in ("ancf", "rncf")
     if full:
@@ -69,7 +69,8 @@ def _run(args) -> int:
                                        rho_inf=args.rho_inf, rtol=args.rtol, atol=args.atol)
         _common.say(args, search.describe())
         run = run_chain(search.system, args.t_end, args.dt_out, args.rho_inf, args.rtol, args.atol,
-                        kw["progress"], estimate=not args.no_estimate, estimate_method=args.estimate_method)
+                        kw["progress"], estimate=not args.no_estimate, estimate_method=args.estimate_method,
+                        step_control=args.step_control)
         run.search = search
         if ref is not None:
             run.compare(ref)
@@ -179,6 +180,9 @@ def register(sub) -> None:
     t.add_argument("--rtol", type=float, default=1e-4, help="the step error's relative tolerance")
     t.add_argument("--atol", type=float, default=1e-5, help="the step error's absolute tolerance")
     t.add_argument("--rho-inf", type=float, default=0.9, help="generalized-alpha spectral radius at infinity")
+    t.add_argument("--step-control", choices=("plain", "pi"), default="plain",
+                   help="the adaptive step-size controller: plain, or Gustafsson's PI controller (at twice the "
+                        "tolerance as accurate as plain, in fewer steps; benchmarks/results/step_control.md)")
     t.add_argument("--out", help="write the right ends' positions (t, x1, y1, x2, y2, x3, y3) to this CSV file")
     t.add_argument("--plot", help="write the shapes (Fig. 17) and the right ends' motion (Fig. 18) as a PNG here")
     t.add_argument("--animate", help="write an animated GIF of the motion here")

@@ -45,7 +45,7 @@ def _spinup(args) -> int:
         print(f"nrrncf spinup: {args.formulation.upper()} {args.beam} beam, omega_s = {args.omega:g} rad/s, "
               f"T_s = {args.ts:g} s, t = 0..{args.t_end:g} s, {args.elements} elements{basis}", flush=True)
     common = dict(T_s=args.ts, t_end=args.t_end, elements=args.elements, rho_inf=args.rho_inf, rtol=args.rtol,
-                  dt_out=args.dt_out, progress=not args.no_progress)
+                  dt_out=args.dt_out, progress=not args.no_progress, step_control=args.step_control)
     if reduced:
         res = run_nr_rncf_spinup(args.beam, args.omega, vms=args.vms, mds=args.mds, n_modes=args.modes,
                                  max_dofs=args.max_dofs, tol=args.tol,
@@ -83,6 +83,9 @@ def register(sub) -> None:
                    help="beam elements (default: the paper's Table 2 mesh for omega_s)")
     s.add_argument("--rho-inf", type=float, default=0.9, help="generalized-alpha spectral radius, in [0, 1]")
     s.add_argument("--rtol", type=float, default=1e-4, help="relative tolerance of the step control, in (0, 1)")
+    s.add_argument("--step-control", choices=("plain", "pi"), default="plain",
+                   help="the adaptive step-size controller: plain, or Gustafsson's PI controller (fewer rejected "
+                        "steps; benchmarks/results/step_control.md)")
     s.add_argument("--dt-out", type=float, default=0.01, help="output interval [s]")
     s.add_argument("--vms", type=_common.count_or_auto(1), default="auto",
                    help="nr-rncf: vibration modes kept, 'auto' (MMI, Eq. 39) or a count >= 1")

@@ -3,7 +3,8 @@
 - solvers (``base.AbstractSolver``): ``GeneralizedAlpha`` (THEORY §8, Arnold-Brüls form) for
   models with prescribed coordinates, ``GeneralizedAlphaIndex3`` for constrained systems (joints,
   Lagrange multipliers in the state);
-- step-size controllers (``step_size``): ``AdaptiveStepSize`` (error control), ``ConstantStepSize``;
+- step-size controllers (``step_size``): ``AdaptiveStepSize`` (error control; plain or PI,
+  ``adaptive_step_size`` by name), ``ConstantStepSize``;
 - ``Newton``: each step's implicit solve (modified or full Newton, ``newton``; ``reuse=True`` keeps
   the iteration matrix across steps, ``base.IterationMatrix``);
 - ``simulate``, ``simulate_batch`` (a batch of models in one loop, each with its own steps),
@@ -42,6 +43,8 @@ from .simulate import simulate as simulate
 from .simulate import simulate_batch as simulate_batch
 from .simulate import simulate_timed as simulate_timed
 from .static import static_equilibrium as static_equilibrium
+from .step_size import STEP_CONTROLS as STEP_CONTROLS
 from .step_size import AbstractStepSizeController as AbstractStepSizeController
 from .step_size import AdaptiveStepSize as AdaptiveStepSize
 from .step_size import ConstantStepSize as ConstantStepSize
+from .step_size import adaptive_step_size as adaptive_step_size

@@ -118,6 +118,20 @@ class AdaptiveStepSize(AbstractStepSizeController):
         return accept, jnp.where(ok, h * grow, 0.25 * h)
 
 
+STEP_CONTROLS = {"plain": {}, "pi": {"pcoeff": 0.4, "icoeff": 0.3}}
+"""The adaptive controllers the scenario runners and the command line offer by name: ``"plain"``
+(``AdaptiveStepSize``'s default) and ``"pi"``, Gustafsson's PI controller
+(``benchmarks/results/step_control.md``)."""
+
+
+def adaptive_step_size(rtol, atol, step_control: str = "plain", **kw) -> AdaptiveStepSize:
+    """``AdaptiveStepSize(rtol, atol, **kw)`` with the coefficients of the controller named
+    ``step_control`` (``STEP_CONTROLS``)."""
+    if step_control not in STEP_CONTROLS:
+        raise ValueError(f"step_control must be one of {tuple(STEP_CONTROLS)}, got {step_control!r}")
+    return AdaptiveStepSize(rtol, atol, **STEP_CONTROLS[step_control], **kw)
+
+
 class ConstantStepSize(AbstractStepSizeController):
     """Steps of size ``dt``. ``rtol``/``atol`` scale Newton's stopping test only. A run whose
     Newton converges in every step is a smooth function of its parameters; ``num_rejected > 0``
@@ -145,4 +159,4 @@ class ConstantStepSize(AbstractStepSizeController):
         return ok, jnp.where(ok, jnp.minimum(2.0 * h, self.dt), 0.25 * h)
 
 
-__all__ = ["AbstractStepSizeController", "AdaptiveStepSize", "ConstantStepSize"]
+__all__ = ["STEP_CONTROLS", "AbstractStepSizeController", "AdaptiveStepSize", "ConstantStepSize", "adaptive_step_size"]

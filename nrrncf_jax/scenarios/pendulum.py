@@ -36,7 +36,7 @@ from ..bodies.body import beam_body
 from ..bodies.mesh import straight_reference
 from ..elements.material import Material
 from ..elements.section import TubeSection
-from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate, simulate_batch
+from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, adaptive_step_size, simulate, simulate_batch
 from ..integrate.simulate import simulate_timed
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody import (
@@ -371,12 +371,13 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
                  max_steps: int = 500_000, formulation: str = "ancf", n_vms: int = 5, pairs="all",
                  joint_modes: bool = False, newton_tol: float = 1e-2, craig_bampton: bool = False,
                  body_pairs=None, estimate: bool = False, estimate_samples: int = 16,
-                 estimate_method: str = "static") -> PendulumRun:
+                 estimate_method: str = "static", step_control: str = "plain") -> PendulumRun:
     """The pendulum released from rest: full order (``"ancf"``: ANCF bodies, ``build_pendulum``;
     ``"rncf"``: floating frames, ``build_rncf_pendulum``) or NR-RNCF (``"nr-rncf"``:
     ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=...,
     body_pairs=...)``), index-3 generalized-α. ``estimate`` (NR-RNCF): the run's error estimate
-    from the run alone (``run_chain``)."""
+    from the run alone (``run_chain``). ``step_control``: the adaptive controller by name
+    (``run_chain``)."""
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     info = None
@@ -390,7 +391,7 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
     if estimate and formulation != "nr-rncf":
         raise ValueError("estimate goes with formulation='nr-rncf' (a full model has no reduction error to estimate)")
     run = run_chain(system, t_end, dt_out, rho_inf, rtol, atol, progress, max_steps, newton_tol, estimate=estimate,
-                    estimate_samples=estimate_samples, estimate_method=estimate_method)
+                    estimate_samples=estimate_samples, estimate_method=estimate_method, step_control=step_control)
     run.offline = info
     return run
 
@@ -409,7 +410,7 @@ def _chain(system: AbstractConstrainedModel) -> tuple[str, object, np.ndarray]:
 def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0, dt_out: float = 0.001,
               rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
               max_steps: int = 500_000, newton_tol: float = 1e-2, estimate: bool = False,
-              estimate_samples: int = 16, estimate_method: str = "static") -> PendulumRun:
+              estimate_samples: int = 16, estimate_method: str = "static", step_control: str = "plain") -> PendulumRun:
     """Any chain of C1 beams joined into a ``MultibodySystem`` (``"ancf"``) or a
     ``FloatingFrameSystem`` (``"rncf"`` with full-order bodies, else ``"nr-rncf"``), from its
     reference state at rest, index-3 generalized-α: the ``PendulumRun`` record (every node's
@@ -427,9 +428,14 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     ``estimate`` (a reduced system): the run's a-posteriori error estimate from the run alone, at
     ``estimate_samples`` output times (``multibody.error_estimate``, against the system's
     full-order counterpart), in ``PendulumRun.estimate``; the run then also records its
-    coordinates and velocities at the output times."""
+    coordinates and velocities at the output times.
+
+    ``step_control``: the adaptive controller by name (``integrate.STEP_CONTROLS``): ``"plain"``, or
+    ``"pi"``, which at twice the tolerance reaches the plain controller's accuracy in fewer steps on
+    this pendulum (``benchmarks/results/step_control.md``)."""
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
+    controller = adaptive_step_size(rtol, atol, step_control)
     formulation, vectors, nodes = _chain(system)
 
     def observe(t, x, v):
@@ -442,14 +448,14 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
         from ..multibody.error_estimate import full_counterpart
 
         full = full_counterpart(system)  # checks that the system has reduced bodies, before the run
-    sol, compile_s, run_s = simulate_timed(system, GeneralizedAlphaIndex3(rho_inf), AdaptiveStepSize(rtol, atol),
+    sol, compile_s, run_s = simulate_timed(system, GeneralizedAlphaIndex3(rho_inf), controller,
                                            jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps,
                                            newton=Newton(newton_tol))
     pos, slopes, energy, kinetic, cmax, *state = (np.asarray(y) for y in jax.device_get(sol.ys))
     run = PendulumRun(formulation=formulation, dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes,
                       energy=energy, kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
                       rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton), compile_s=compile_s,
-                      run_s=run_s)
+                      run_s=run_s, step_control=step_control)
     if estimate:
         from ..multibody.error_estimate import estimate_mechanism_error
 

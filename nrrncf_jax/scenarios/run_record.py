@@ -22,7 +22,8 @@ from ..post.metrics import chi_rel
 class RunRecord(abc.ABC):
     """One run: its ``formulation`` (e.g. ``"rncf"``, ``"nr-rncf"``), coordinates ``dofs``, output
     times ``ts``, the integrator's accepted and rejected ``steps``/``rejected`` and Newton
-    iterations ``newton_iters``, the compile and run times [s] (measured apart); after ``compare``
+    iterations ``newton_iters``, the compile and run times [s] (measured apart), the adaptive
+    controller's name ``step_control`` (``integrate.STEP_CONTROLS``); after ``compare``
     the reference's DOFs and run time, χ_rel [%] and the speed-up; for a reduced run, where it
     was made, the error estimate from the run alone (``reduction.error_estimate``,
     ``multibody.error_estimate``). Keyword-only: each scenario's record adds fields of its own."""
@@ -40,6 +41,7 @@ class RunRecord(abc.ABC):
     chi_rel_percent: float | None = None
     speedup: float | None = None  # reference_run_s / run_s
     estimate: object = None  # an NR-RNCF run's a-posteriori ``ErrorEstimate`` (None: not made)
+    step_control: str = "plain"  # the adaptive controller (integrate.STEP_CONTROLS)
 
     REFERENCE: ClassVar[str] = "a run of the same model and output times"
     """What ``compare`` accepts as the reference, for its error message."""
@@ -65,9 +67,12 @@ class RunRecord(abc.ABC):
 
     def statistics(self, newton_key: str = "newton_iters") -> dict:
         """The integrator's record for ``--json``: ``steps, rejected``, the Newton iterations
-        (under ``newton_key``), ``compile_s`` (to the millisecond) and ``run_s`` (to 0.1 ms)."""
-        return {"steps": self.steps, "rejected": self.rejected, newton_key: self.newton_iters,
-                "compile_s": round(self.compile_s, 3), "run_s": round(self.run_s, 4)}
+        (under ``newton_key``), ``compile_s`` (to the millisecond), ``run_s`` (to 0.1 ms), and
+        ``step_control`` where it is not the default plain controller (so that a default run's
+        record keeps its fields)."""
+        out = {"steps": self.steps, "rejected": self.rejected, newton_key: self.newton_iters,
+               "compile_s": round(self.compile_s, 3), "run_s": round(self.run_s, 4)}
+        return out if self.step_control == "plain" else out | {"step_control": self.step_control}
 
     def comparison(self) -> dict:
         """After ``compare``: ``reference_dofs, reference_run_s`` (to the millisecond),

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..integrate import AdaptiveStepSize, GeneralizedAlpha
+from ..integrate import GeneralizedAlpha, adaptive_step_size
 from ..integrate.simulate import simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
@@ -214,10 +214,12 @@ output_times = _validate.output_times  # the scenarios' and the CLI's name for i
 def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omega_s: float = 4.0,
                T_s: float = 15.0, t_end: float = 30.0, elements: int | None = None, rho_inf: float = 0.9,
                rtol: float = 1e-4, atol: float = 1e-6, dt_out: float = 0.01, save_displacements: bool = False,
-               progress: bool = False, max_steps: int = 500_000) -> SpinupResult:
+               progress: bool = False, max_steps: int = 500_000, step_control: str = "plain") -> SpinupResult:
     """Run the spin-up of Eq. 43 with the full-order ``formulation`` and report tip motion in the
-    rotating frame, step counts, and compile/run times (measured apart)."""
+    rotating frame, step counts, and compile/run times (measured apart). ``step_control``: the
+    adaptive controller by name (``integrate.STEP_CONTROLS``: ``"plain"`` or ``"pi"``)."""
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
+    controller = adaptive_step_size(rtol, atol, step_control)
     model = build_spinup_model(formulation, beam, omega_s, T_s, elements)
     body = model.body
     tip = body.n_vectors - body.vectors_per_node
@@ -229,7 +231,7 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
             out["w"] = w
         return out
 
-    sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
+    sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), controller,
                                            jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps)
     ys = jax.tree_util.tree_map(np.asarray, sol.ys)
     name = beam if isinstance(beam, str) else beam.name
@@ -237,7 +239,7 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
         formulation=formulation, beam=name, omega_s=float(omega_s), T_s=float(T_s), elements=body.n_elements,
         dofs=int(np.sum(np.asarray(model.free_mask()))), ts=ts, theta=ys["theta"], tip=ys["tip"],
         steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
-        compile_s=compile_s, run_s=run_s, displacements=ys.get("w"),
+        compile_s=compile_s, run_s=run_s, displacements=ys.get("w"), step_control=step_control,
     )
 
 
@@ -248,7 +250,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
                        atol: float = 1e-6, dt_out: float = 0.01, reference: "bool | SpinupResult" = False,
                        progress: bool = False, max_steps: int = 500_000, estimate: bool = True,
                        estimate_samples: int = 16, tol: float | None = None,
-                       estimate_method: str = "static") -> SpinupResult:
+                       estimate_method: str = "static", step_control: str = "plain") -> SpinupResult:
     """The spin-up of Eq. 43 with the NR-RNCF reduced model (paper Section 4.1).
 
     The basis is built by ``nr_rncf`` from ``n_modes`` candidate vibration modes, with the MMI
@@ -273,9 +275,13 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     the training manoeuvre, ``max_dofs`` the largest basis tried); ``vms`` and ``mds`` are not
     used, and ``spin_state`` governs the spinning-state check of each basis tried.
     ``basis_search`` holds every basis tried.
+
+    ``step_control``: the run's adaptive controller by name (``integrate.STEP_CONTROLS``), and the
+    reference run's; the estimate's repetition and the basis search keep the plain one.
     """
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
+    controller = adaptive_step_size(rtol, atol, step_control)
     full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
     body = full.body
     tip_rows = 3 * (body.n_vectors - body.vectors_per_node) + np.arange(3)  # the tip node's position
@@ -283,7 +289,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
                   tol=tol, training=dict(samples=estimate_samples, rho_inf=rho_inf, rtol=rtol, atol=atol,
                                          max_steps=max_steps, output=tip_rows))
     model = red.model
-    sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
+    sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), controller,
                                            jnp.asarray(ts), observe=observe_state, progress=progress,
                                            max_steps=max_steps)
     # Observing (p, ṗ) alone keeps the loop's carry small; displacements are rebuilt afterwards.
@@ -296,6 +302,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         dofs=red.dofs, ts=ts, theta=theta, tip=w[:, body.n_vectors - body.vectors_per_node],
         steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
         compile_s=compile_s, run_s=run_s, displacements=w, vms=red.selection.vms, mds=red.selection.pairs,
+        step_control=step_control,
         offline_s=dict(red.offline_s), reduction=red, spin=red.spin, basis_search=red.search,
         # With tol, the search ran the chosen basis over these output times: its estimate is this run's.
         estimate=red.search.estimate if red.search is not None else
@@ -307,7 +314,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     if reference is True:
         reference = run_spinup("rncf", beam, omega_s, T_s=T_s, t_end=t_end, elements=body.n_elements,
                                rho_inf=rho_inf, rtol=rtol, atol=atol, dt_out=dt_out, save_displacements=True,
-                               progress=progress, max_steps=max_steps)
+                               progress=progress, max_steps=max_steps, step_control=step_control)
     return res.compare(reference)
 
 
