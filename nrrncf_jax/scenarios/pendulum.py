@@ -431,8 +431,8 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     coordinates and velocities at the output times.
 
     ``step_control``: the adaptive controller by name (``integrate.STEP_CONTROLS``): ``"plain"``, or
-    ``"pi"``, which at twice the tolerance reaches the plain controller's accuracy in fewer steps on
-    this pendulum (``benchmarks/results/step_control.md``)."""
+    ``"pi"``, whose runs are more accurate at the same tolerance and reject fewer steps, so that it
+    can be run at a looser one (``benchmarks/results/step_control.md``)."""
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     controller = adaptive_step_size(rtol, atol, step_control)
