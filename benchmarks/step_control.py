@@ -24,13 +24,13 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from nrrncf_jax.integrate import AdaptiveStepSize, Newton  # noqa: E402
+from nrrncf_jax.integrate import STEP_CONTROLS, AdaptiveStepSize, Newton  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 from jacobian_reuse import _cases, _run  # noqa: E402
 
-PI = dict(pcoeff=0.4, icoeff=0.3)
+PI = STEP_CONTROLS["pi"]
 
 
 def main():

@@ -68,7 +68,7 @@ def test_adaptive_error_falls_with_tolerance():
     assert steps[0] < steps[1] < steps[2]
 
 
-PI = dict(pcoeff=0.4, icoeff=0.3)  # Gustafsson's PI controller, in diffrax's terms
+PI = STEP_CONTROLS["pi"]  # Gustafsson's PI controller, in diffrax's terms
 
 
 def test_pi_controller_follows_the_tolerance_and_rejects_fewer_steps():

@@ -17,6 +17,10 @@ BEAM_NAMES = ("classic", "curved-downwind", "curved-out-of-plane", "curved-upwin
 """``sorted(nrrncf_jax.scenarios.BEAMS)``, spelt out so that building the parser imports no JAX
 (a test checks that the two agree)."""
 
+STEP_CONTROL_NAMES = ("plain", "pi")
+"""``tuple(nrrncf_jax.integrate.STEP_CONTROLS)``, spelt out so that building the parser imports no
+JAX."""
+
 MODE_INDICES = "Mode indices are 0-based (mode 0 is the lowest), as in the Python API"
 """The one convention for mode numbers in the command line's tables and JSON."""
 
@@ -85,6 +89,14 @@ def output_times(t_end: float, dt_out: float) -> None:
         raise ValueError(f"--dt-out (output interval) must not exceed --t-end, got {dt_out:g} > {t_end:g}")
 
 
+
+
+def add_step_control(parser) -> None:
+    """``--step-control``: the adaptive controller by name, as the scenario runners take it."""
+    parser.add_argument("--step-control", choices=STEP_CONTROL_NAMES, default="plain",
+                        help="the adaptive step-size controller: plain, or Gustafsson's PI controller (fewer "
+                             "rejected steps, more accurate at the same tolerance; "
+                             "benchmarks/results/step_control.md)")
 
 
 def at_least(flag: str, value: int | None, minimum: int) -> None:

@@ -180,9 +180,7 @@ def register(sub) -> None:
     t.add_argument("--rtol", type=float, default=1e-4, help="the step error's relative tolerance")
     t.add_argument("--atol", type=float, default=1e-5, help="the step error's absolute tolerance")
     t.add_argument("--rho-inf", type=float, default=0.9, help="generalized-alpha spectral radius at infinity")
-    t.add_argument("--step-control", choices=("plain", "pi"), default="plain",
-                   help="the adaptive step-size controller: plain, or Gustafsson's PI controller (at twice the "
-                        "tolerance as accurate as plain, in fewer steps; benchmarks/results/step_control.md)")
+    _common.add_step_control(t)
     t.add_argument("--out", help="write the right ends' positions (t, x1, y1, x2, y2, x3, y3) to this CSV file")
     t.add_argument("--plot", help="write the shapes (Fig. 17) and the right ends' motion (Fig. 18) as a PNG here")
     t.add_argument("--animate", help="write an animated GIF of the motion here")

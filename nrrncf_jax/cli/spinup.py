@@ -83,9 +83,7 @@ def register(sub) -> None:
                    help="beam elements (default: the paper's Table 2 mesh for omega_s)")
     s.add_argument("--rho-inf", type=float, default=0.9, help="generalized-alpha spectral radius, in [0, 1]")
     s.add_argument("--rtol", type=float, default=1e-4, help="relative tolerance of the step control, in (0, 1)")
-    s.add_argument("--step-control", choices=("plain", "pi"), default="plain",
-                   help="the adaptive step-size controller: plain, or Gustafsson's PI controller (fewer rejected "
-                        "steps; benchmarks/results/step_control.md)")
+    _common.add_step_control(s)
     s.add_argument("--dt-out", type=float, default=0.01, help="output interval [s]")
     s.add_argument("--vms", type=_common.count_or_auto(1), default="auto",
                    help="nr-rncf: vibration modes kept, 'auto' (MMI, Eq. 39) or a count >= 1")
