@@ -480,3 +480,33 @@ def test_reverse_gradient_with_adaptive_steps_matches_finite_differences():
     assert (int(plus.num_steps), int(plus.num_rejected)) == (int(minus.num_steps), int(minus.num_rejected))
     fd = (_loss(plus) - _loss(minus)) / (2 * eps)
     assert g == pytest.approx(fd, rel=1e-3) and abs(g) > 0
+
+
+def test_reduced_models_compile_with_the_small_kernel_options():
+    """A single run of a model made of small kernels (a reduced one: ``small_kernels``) is compiled
+    with ``SMALL_KERNEL_OPTIONS`` on a CPU, any other with XLA's defaults; the reduced run equals the
+    same run compiled with the defaults within the step decisions the other rounding may flip
+    (``counts_close``, ``step_flip_bound``)."""
+    import importlib
+
+    from nrrncf_jax import reduce_rotating_model
+
+    sim = importlib.import_module("nrrncf_jax.integrate.simulate")  # the module, not the function
+    full = RotatingFrameModel(paper_body(2), SpinUp(2.0, 6.0))
+    modes = vibration_modes(full.body, full.free_mask(), 4)
+    reduced = reduce_rotating_model(full, modes.phi, force="tensor")
+    projected = reduce_rotating_model(full, modes.phi, force="projected")
+    assert reduced.small_kernels and not projected.small_kernels and not full.small_kernels
+    on_cpu = jax.default_backend() == "cpu" and sim._small_kernel_options_known()
+    assert (sim._single_run_program(reduced) is sim._simulate_small) == on_cpu
+    assert sim._single_run_program(projected) is sim._simulate and sim._single_run_program(full) is sim._simulate
+    ts, controller = jnp.linspace(0.0, 6.0, 61), AdaptiveStepSize(1e-5, 1e-7)
+    small = simulate(reduced, GA, controller, ts)
+    args = sim._prepare(reduced, GA, controller, ts, None, None, 0.0, None, "forward", 200_000, False)
+    default = sim._simulate(*args)
+    assert counts_close(small.num_steps, default.num_steps)
+    assert float(jnp.abs(small.ys - default.ys).max()) <= step_flip_bound(1e-5, 1e-7, default.ys)
+    assert float(jnp.abs(default.ys).max()) > 1e-3  # the run moves
+    # inside a user's jit the options cannot apply (JAX refuses them on a nested jit): the defaults
+    inside = jax.jit(lambda: simulate(reduced, GA, controller, ts).ys)()
+    assert float(jnp.abs(inside - default.ys).max()) <= step_flip_bound(1e-5, 1e-7, default.ys)

@@ -17,6 +17,7 @@ each step's Newton solve implicitly (``NewtonOptions.implicit``).
 """
 
 import dataclasses
+import functools
 import sys
 import time
 from collections.abc import Callable
@@ -170,7 +171,7 @@ def simulate(
     are the same either way; a slot the run did not reach (it stopped early) is zero.
     """
     args = _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, max_steps, progress)
-    return _check(_simulate(*args), throw)
+    return _check(_single_run_program(args[0])(*args), throw)
 
 
 def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controller: AbstractStepSizeController, ts, *,
@@ -226,7 +227,7 @@ def simulate_timed(model: "AbstractModel", solver: AbstractSolver, controller: A
     args = _prepare(model, solver, controller, ts, kw.get("observe"), kw.get("newton"), kw.get("t0", 0.0),
                     kw.get("y0"), kw.get("adjoint", "forward"), kw.get("max_steps", 200_000), kw.get("progress", False))
     t0 = time.perf_counter()
-    compiled = _simulate.lower(*args).compile()
+    compiled = _single_run_program(args[0]).lower(*args).compile()
     t1 = time.perf_counter()
     sol = jax.block_until_ready(compiled(*args))
     t2 = time.perf_counter()
@@ -521,8 +522,8 @@ class _AdaptiveLoop(eqx.Module):
         )
 
 
-@eqx.filter_jit
-def _simulate(model, solver, controller, ts, t0, y0, newton: NewtonOptions, config: _Config) -> Solution:
+def _simulate_program(model, solver, controller, ts, t0, y0, newton: NewtonOptions, config: _Config) -> Solution:
+    """A single run's program: the adaptive loop, then the observations after it."""
     loop = _AdaptiveLoop(model, solver, controller, ts, t0, y0, newton, config.recording())
     final = eqxi.while_loop(
         loop.cond, lambda c: loop.step(c)[0], loop.init(), max_steps=config.max_steps,
@@ -535,6 +536,52 @@ def _simulate(model, solver, controller, ts, t0, y0, newton: NewtonOptions, conf
     if config.after:
         sol = eqx.tree_at(lambda s: s.ys, sol, _observe_after(config.observe, ts, t0, final.k, sol.ys))
     return sol
+
+
+SMALL_KERNEL_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+"""XLA's options for a single run of a model made of small kernels (``AbstractModel.small_kernels``:
+the reduced models) on a CPU: the older (LLVM IR) emitter for fused element-wise kernels instead of
+the MLIR-based one. It compiles such a run's loop in about half the time, and the loop runs as fast.
+The full-order models' large fused kernels (element forces at every Gauss point) and a batch's
+wider ones run slower with it, so those keep XLA's defaults (figures:
+``benchmarks/results/xla_options.md``). Per program (``jax.jit``'s ``compiler_options``): no global
+flag is changed, and inside a user's own ``jit`` the outer program's options apply."""
+
+_simulate = eqx.filter_jit(_simulate_program)
+_simulate_small = eqx.filter_jit(_simulate_program, compiler_options=SMALL_KERNEL_OPTIONS)
+
+
+def _single_run_program(model):
+    """The jitted program for a single run of ``model``: compiled with ``SMALL_KERNEL_OPTIONS``
+    for a model of small kernels on a CPU, called at the top level (JAX accepts compiler options
+    only on a program it compiles itself, not on one traced into a user's ``jit``, ``vmap`` or
+    ``grad``), where this jaxlib knows the options; with XLA's defaults otherwise."""
+    if (getattr(model, "small_kernels", False) and jax.default_backend() == "cpu" and _at_top_level()
+            and _small_kernel_options_known()):
+        return _simulate_small
+    return _simulate
+
+
+def _at_top_level() -> bool:
+    """Whether no JAX transformation is tracing. ``jax._src.core.trace_state_clean`` is the test
+    JAX itself applies before it refuses compiler options on a nested ``jit``; it has no public
+    name, so a JAX without it keeps XLA's defaults."""
+    try:
+        from jax._src.core import trace_state_clean
+    except ImportError:
+        return False
+    return bool(trace_state_clean())
+
+
+@functools.cache
+def _small_kernel_options_known() -> bool:
+    """Whether this jaxlib's XLA knows ``SMALL_KERNEL_OPTIONS`` (an unknown option fails the
+    compilation): compiles a one-operation program with them, once a process."""
+    try:
+        jax.jit(lambda x: x + 1.0, compiler_options=SMALL_KERNEL_OPTIONS).lower(1.0).compile()
+    except Exception:  # noqa: BLE001 - any refusal means: keep XLA's defaults
+        return False
+    return True
 
 
 @eqx.filter_jit

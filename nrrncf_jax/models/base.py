@@ -24,6 +24,13 @@ class AbstractModel(eqx.Module):
     per step) suits models whose factorisation costs more than a residual."""
 
     @property
+    def small_kernels(self) -> bool:
+        """Whether the model's step is made of small kernels only (a reduced model's few
+        contractions, not element forces over a mesh): ``simulate`` then compiles a single run
+        with ``integrate.simulate.SMALL_KERNEL_OPTIONS`` on a CPU. False unless a model says so."""
+        return False
+
+    @property
     @abc.abstractmethod
     def n_dof(self) -> int: ...
 

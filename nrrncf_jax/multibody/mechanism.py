@@ -152,6 +152,12 @@ class Mechanism(AbstractConstrainedModel):
         return kinds.pop() if len(kinds) == 1 else ("rigid" if not kinds else "mixed")
 
     @property
+    def small_kernels(self) -> bool:
+        """Reduced and rigid bodies only: each body's step is a few small contractions
+        (``models.base.AbstractModel.small_kernels``)."""
+        return all(b.kind in ("rigid", "point", "nr-rncf") for b in self.bodies)
+
+    @property
     def masses(self) -> tuple[Float[Array, "nv nv"], ...]:
         """Each body's mass matrix on its nodal vectors (the same for each component)."""
         return tuple(b.mass for b in self.bodies)

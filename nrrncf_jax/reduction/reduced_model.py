@@ -63,6 +63,13 @@ class ReducedRotatingModel(AbstractModel):
     preferred_newton: ClassVar[str] = "full"
 
     @property
+    def small_kernels(self) -> bool:
+        """True with the cubic tensors (or linear): a step is a few Km-sized contractions. The
+        ``"projected"`` force evaluates the body's elements, large kernels
+        (``models.base.AbstractModel.small_kernels``)."""
+        return self.linear or self.force == "tensor"
+
+    @property
     def n_dof(self) -> int:
         return self.Psi.shape[1]
 
