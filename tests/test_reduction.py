@@ -396,21 +396,3 @@ def test_craig_bampton_basis_keeps_the_boundary_and_is_exact_for_boundary_loads(
         craig_bampton(beam, free, [0], 3)
     with pytest.raises(ValueError, match="distinct"):
         craig_bampton(beam, free, [tip[0], tip[0]], 3)
-
-
-@pytest.mark.parametrize("km", [1, 2, 5])
-def test_packed_products_follow_the_tensors_index_order(km):
-    """The packed force's pair and triple products, built by slices (``tensors._triple_products``),
-    are p_k p_l and p_j p_k p_l in the order of ``ElasticTensors.pairs`` and ``triples`` (the
-    columns of N2u and N3): exactly, alone and under ``vmap``."""
-    from nrrncf_jax.reduction.tensors import ElasticTensors, _pair_products, _triple_products
-
-    rng = np.random.default_rng(km)
-    T = ElasticTensors(np.zeros(km), np.eye(km), np.zeros((km,) * 3), np.zeros((km,) * 4))
-    P = jnp.asarray(rng.normal(size=(3, km)))
-    j, k, l = np.asarray(T.triples)
-    kk, ll = np.asarray(T.pairs)
-    for p in P:
-        np.testing.assert_array_equal(_pair_products(p), p[kk] * p[ll])
-        np.testing.assert_allclose(_triple_products(p), p[j] * p[k] * p[l], rtol=4 * EPS, atol=0)
-    np.testing.assert_allclose(jax.vmap(_triple_products)(P), P[:, j] * P[:, k] * P[:, l], rtol=4 * EPS, atol=0)

@@ -72,7 +72,8 @@ class ElasticTensors(eqx.Module):
 
     def force(self, p: Float[Array, " km"]) -> Float[Array, " km"]:
         """F(p) = f + K p + L p p + N p p p (Eq. 24)."""
-        return self.f + self.K @ p + (self.L @ p) @ p + self.N3 @ _triple_products(p)
+        j, k, l = self.triples
+        return self.f + self.K @ p + (self.L @ p) @ p + self.N3 @ (p[j] * p[k] * p[l])
 
     def energy(self, p: Float[Array, " km"]) -> Float[Array, ""]:
         """The strain energy U(p) − U(0) = p·(f + K p / 2 + L p p / 3 + N p p p / 4), whose
@@ -80,37 +81,18 @@ class ElasticTensors(eqx.Module):
         d are p·(their force)/d). Exact, not an approximation of the reduced model's energy: equal
         to the body's element strain energy at q̂ + Ψp, minus its value at q̂ (round-off,
         ``tests/test_floating.py``), for a few contractions instead of every element's quadrature."""
-        return p @ (self.f + self.K @ p / 2.0 + (self.L @ p) @ p / 3.0 + self.N3 @ _triple_products(p) / 4.0)
+        j, k, l = self.triples
+        return p @ (self.f + self.K @ p / 2.0 + (self.L @ p) @ p / 3.0 + self.N3 @ (p[j] * p[k] * p[l]) / 4.0)
 
     def force_and_jacobian(self, p: Float[Array, " km"]):
         """``(F(p), ∂F/∂p)`` (Eq. 25) sharing the contractions."""
-        Npp = (self.N2u @ _pair_products(p))[self.unpack]  # N p p, symmetric
+        k, l = self.pairs
+        Npp = (self.N2u @ (p[k] * p[l]))[self.unpack]  # N p p, symmetric
         # L p as a dot (faster than a broadcast sum, batched or not); the last product as an
         # elementwise sum, which XLA fuses with the additions around it.
         Lp = self.L @ p
         F = self.f + jnp.sum((self.K + Lp + Npp) * p, axis=1)  # f + (K + L p + N p p) p
         return F, self.K + 2.0 * Lp + 3.0 * Npp
-
-
-def _pair_products(p):
-    """p_k p_l over k ≤ l, in ``ElasticTensors.pairs``' order (row by row of the upper triangle),
-    the indices compile-time constants."""
-    n = p.shape[-1]
-    k, l = np.triu_indices(n)
-    return p[..., k] * p[..., l]
-
-
-def _triple_products(p):
-    """p_j p_k p_l over j ≤ k ≤ l, in ``ElasticTensors.triples``' order: for each j, p_j times the
-    pair products whose k ≥ j, which are a suffix of the pairs' list, so static slices and one
-    concatenation rather than a gather of three indices a triple. Inside an integrator step XLA
-    fuses p's producers (the step's kinematics) into such a gather, and each of the triples then
-    recomputes them; this form gathers only the pairs. The run time it saves and the compile
-    time it costs: ``benchmarks/results/kernels.md``, its Notes."""
-    n = p.shape[-1]
-    pp = _pair_products(p)
-    offsets = np.concatenate([[0], np.cumsum(np.arange(n, 0, -1))])
-    return jnp.concatenate([p[..., j:j + 1] * pp[..., offsets[j]:] for j in range(n)], axis=-1)
 
 
 def _fact(counts):
