@@ -541,9 +541,9 @@ def _simulate_program(model, solver, controller, ts, t0, y0, newton: NewtonOptio
 SMALL_KERNEL_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
 """XLA's options for a single run of a model made of small kernels (``AbstractModel.small_kernels``:
 the reduced models) on a CPU: the older (LLVM IR) emitter for fused element-wise kernels instead of
-the MLIR-based one. It compiles such a run's loop in about half the time, and the loop runs as fast.
-The full-order models' large fused kernels (element forces at every Gauss point) and a batch's
-wider ones run slower with it, so those keep XLA's defaults (figures:
+the MLIR-based one: it compiles such a run's loop faster, and the loop runs as fast. The
+full-order models' large fused kernels (element forces at every Gauss point) and a batch's wider
+ones run slower with it, so those keep XLA's defaults (figures:
 ``benchmarks/results/xla_options.md``). Per program (``jax.jit``'s ``compiler_options``): no global
 flag is changed, and inside a user's own ``jit`` the outer program's options apply."""
 
