@@ -165,6 +165,10 @@ def simulate(
     ``jax.vmap`` works through it; for a batch of models in forward mode, ``simulate_batch``
     gives the same results for less (see there).
 
+    A model made of small kernels (``small_kernels``: the reduced ones), called outside any JAX
+    transformation on a CPU, is compiled with ``SMALL_KERNEL_OPTIONS``, which compile it faster;
+    the result is the same to the step decisions that another rounding may flip.
+
     Where ``observe`` runs: in forward mode with a small state, once over all the output times
     after the loop, on the states recorded there (``_Config.after``: the loop then costs no
     observation); otherwise inside the loop, in the steps that reach output times. The values
@@ -216,8 +220,8 @@ def simulate_timed(model: "AbstractModel", solver: AbstractSolver, controller: A
                    **kwargs) -> tuple[Solution, float, float]:
     """``simulate`` with compilation and execution timed apart: ``(solution, compile_s, run_s)``.
 
-    Compiles ahead of time (``lower().compile()``), then runs to ``block_until_ready``. The
-    keyword arguments are ``simulate``'s.
+    Compiles ahead of time (``lower().compile()``, with ``simulate``'s choice of XLA options),
+    then runs to ``block_until_ready``. The keyword arguments are ``simulate``'s.
     """
     throw = kwargs.pop("throw", True)
     kw = {k: kwargs.pop(k) for k in ("observe", "newton", "t0", "y0", "adjoint", "max_steps", "progress")
