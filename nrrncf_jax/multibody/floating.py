@@ -333,6 +333,12 @@ class FloatingBody(AbstractBodyKind):
     def n_vectors(self) -> int:
         return self.body.n_vectors
 
+    @property
+    def small_kernels(self) -> bool:  # type: ignore[override]
+        """Rigid or reduced: the deformation's force is the reduced cubic one; a full-order RNCF
+        body evaluates its elements."""
+        return self.kind != "rncf"
+
     def moved(self, R0, A0=None) -> "FloatingBody":
         """The same reduced body with its frame's initial origin at ``R0`` (and orientation
         ``A0``, default as it is): a copy of one reduction placed elsewhere, as the equal beams of

@@ -37,6 +37,13 @@ class AbstractBodyKind(eqx.Module):
     deformation) or ``"nr-rncf"`` (floating frame, reduced deformation)."""
 
     @property
+    def small_kernels(self) -> bool:
+        """Whether the body's part of a step is a few small contractions (no element forces over a
+        mesh): a mechanism of such bodies only is compiled as ``models.base.AbstractModel``'s
+        ``small_kernels`` says. False unless a kind says so."""
+        return False
+
+    @property
     @abc.abstractmethod
     def n_z(self) -> int:
         """The body's number of coordinates."""

@@ -153,9 +153,9 @@ class Mechanism(AbstractConstrainedModel):
 
     @property
     def small_kernels(self) -> bool:
-        """Reduced and rigid bodies only: each body's step is a few small contractions
-        (``models.base.AbstractModel.small_kernels``)."""
-        return all(b.kind in ("rigid", "point", "nr-rncf") for b in self.bodies)
+        """Every body's kind says its part of a step is small (``kinds.AbstractBodyKind``; reduced,
+        rigid and point bodies): ``models.base.AbstractModel.small_kernels``."""
+        return all(b.small_kernels for b in self.bodies)
 
     @property
     def masses(self) -> tuple[Float[Array, "nv nv"], ...]:

@@ -20,6 +20,11 @@ class PointMass(AbstractBodyKind):
 
     kind = "point"
 
+    @property
+    def small_kernels(self) -> bool:  # type: ignore[override]
+        """Three coordinates, no deformation."""
+        return True
+
     def __init__(self, mass, point):
         m = float(mass)
         if not np.isfinite(m) or m <= 0:
