@@ -489,6 +489,8 @@ def test_release_sweep_runs_each_angle_as_its_own_run():
     for bad in ([], [0.1, np.nan]):
         with pytest.raises(ValueError, match="angles"):
             release_sweep(system, bad, **kw)
+    with pytest.raises(ValueError, match="small_kernels"):
+        release_sweep(system, [theta], small_kernels="yes", **kw)
 
 
 @pytest.mark.slow

@@ -510,3 +510,32 @@ def test_reduced_models_compile_with_the_small_kernel_options():
     # inside a user's jit the options cannot apply (JAX refuses them on a nested jit): the defaults
     inside = jax.jit(lambda: simulate(reduced, GA, controller, ts).ys)()
     assert float(jnp.abs(inside - default.ys).max()) <= step_flip_bound(1e-5, 1e-7, default.ys)
+
+
+def test_batches_compile_with_the_small_kernel_options_on_request():
+    """``simulate_batch(small_kernels=True)`` compiles the batch with ``SMALL_KERNEL_OPTIONS`` (on a
+    CPU): the same members' results as with XLA's defaults, within the step decisions the other
+    rounding may flip. Inside a user's ``jit`` it cannot apply and says so; ``kernel_options`` gives
+    the options for that outer ``jit``."""
+    from nrrncf_jax.integrate import kernel_options
+
+    ks = jnp.array([1.0, 4.0]) * OMEGA**2
+    ts = jnp.linspace(0.0, 1.0, 11)
+    rtol, atol = 1e-6, 1e-8
+    run, kw = (GA, AdaptiveStepSize(rtol, atol), ts), dict(observe=_first)
+    default = simulate_batch(_oscillator_of, ks, *run, **kw)
+    small = simulate_batch(_oscillator_of, ks, *run, small_kernels=True, **kw)
+    bound = step_flip_bound(rtol, atol, default.ys)
+    np.testing.assert_allclose(small.ys, default.ys, rtol=0, atol=bound)
+    assert all(map(counts_close, np.asarray(small.num_steps), np.asarray(default.num_steps)))
+    options = kernel_options(True)
+    on_cpu = jax.default_backend() == "cpu" and bool(options)
+    assert options == ({"xla_cpu_use_fusion_emitters": False} if on_cpu else {})
+    assert kernel_options(False) == {} and kernel_options(True, platform="gpu") == {}
+    outer = jax.jit(lambda k: simulate_batch(_oscillator_of, k, *run, **kw).ys, compiler_options=options or None)
+    np.testing.assert_allclose(outer(ks), default.ys, rtol=0, atol=bound)
+    if on_cpu:
+        with pytest.raises(ValueError, match="outermost program"):
+            jax.jit(lambda k: simulate_batch(_oscillator_of, k, *run, small_kernels=True, **kw).ys)(ks)
+    with pytest.raises(ValueError, match="small_kernels"):
+        simulate_batch(_oscillator_of, ks, *run, small_kernels="yes", **kw)

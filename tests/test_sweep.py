@@ -164,6 +164,7 @@ def test_bad_input_raises_before_tracing(monkeypatch):
             raise AssertionError("traced before the input was checked")
 
     monkeypatch.setattr(sweep_mod, "_sweep_kernel", NoTrace())
+    monkeypatch.setattr(sweep_mod, "_sweep_kernel_small", NoTrace())
     for kwargs, match in [
         (dict(t_end=0.0), "t_end"),
         (dict(t_end=-1.0), "t_end"),
@@ -174,6 +175,7 @@ def test_bad_input_raises_before_tracing(monkeypatch):
         (dict(t_end=T_END, balance="random"), "balance"),
         (dict(t_end=T_END, dt=-0.01), "dt"),
         (dict(t_end=T_END, tip=10_000), "tip"),
+        (dict(t_end=T_END, small_kernels="yes"), "small_kernels"),
     ]:
         with pytest.raises(ValueError, match=match):
             spinup_sweep(red, grid, **kwargs)

@@ -9,6 +9,7 @@
   the iteration matrix across steps, ``base.IterationMatrix``);
 - ``simulate``, ``simulate_batch`` (a batch of models in one loop, each with its own steps),
   ``simulate_timed`` (compile and run timed apart); ``Solution`` and ``SimulationResult``;
+  ``kernel_options`` (XLA's options for programs of small kernels, for a user's own ``jax.jit``);
 - ``static_equilibrium``: load-stepped static solutions; ``compilation_cache``: JAX's persistent
   compilation cache as a context manager.
 
@@ -38,7 +39,9 @@ from .newton import NewtonResult as NewtonResult
 from .newton import NewtonSolution as NewtonSolution
 from .results import SimulationError as SimulationError
 from .results import SimulationResult as SimulationResult
+from .simulate import SMALL_KERNEL_OPTIONS as SMALL_KERNEL_OPTIONS
 from .simulate import Solution as Solution
+from .simulate import kernel_options as kernel_options
 from .simulate import simulate as simulate
 from .simulate import simulate_batch as simulate_batch
 from .simulate import simulate_timed as simulate_timed

@@ -180,7 +180,8 @@ def simulate(
 
 def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controller: AbstractStepSizeController, ts, *,
                    observe: Callable | None = None, newton: Newton | None = None, t0: float = 0.0,
-                   max_steps: int = 200_000, width: int | None = None, throw: bool = True) -> Solution:
+                   max_steps: int = 200_000, width: int | None = None, small_kernels: bool = False,
+                   throw: bool = True) -> Solution:
     """``simulate`` for a batch of models, ``model_fn(p)`` for each ``p`` along the leading axis of
     the pytree ``params``, in one loop: each member keeps its own adaptive steps. Returns a
     ``Solution`` whose fields have the batch axis first. The members start from their models'
@@ -193,7 +194,14 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
     until the queue is empty instead of running until its slowest member is done with the rest
     idle. Put the costliest members first.
 
-    ``jax.vmap(simulate)`` gives the same result but costs more: see ``_simulate_batch``.
+    ``small_kernels=True`` compiles the batch with ``SMALL_KERNEL_OPTIONS`` on a CPU, as a single
+    run of a reduced model is: about half the compile time, but a batch's wider fused kernels may
+    run slower with them (``benchmarks/results/xla_options.md``), so it pays where compilation
+    dominates (short runs, a one-off batch) and is off by default. Inside a user's ``jit``,
+    ``vmap`` or ``grad`` the outer program's options apply: pass
+    ``compiler_options=kernel_options(True)`` to that ``jax.jit`` instead.
+
+    ``jax.vmap(simulate)`` gives the same result but costs more: see ``_simulate_batch_program``.
     ``model_fn`` should be a pytree-aware callable (``jax.tree_util.Partial`` or an
     ``equinox.Module``) when it closes over arrays, so that they are traced rather than baked
     in. ``observe(t, q, v)`` is shared by the members.
@@ -212,7 +220,16 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
     _, solver, controller, ts_, t0_, _, options, config = _prepare(member, solver, controller, ts, observe, newton,
                                                                    t0, None, "forward", max_steps, False)
     config = config.with_after(member.n_dof, ts_.shape[0], n)
-    sol = _simulate_batch(model_fn, params, solver, controller, ts_, t0_, options, config, width=min(int(width), n))
+    if not isinstance(small_kernels, bool):
+        raise ValueError(f"small_kernels must be True or False, got {small_kernels!r}")
+    program = _simulate_batch
+    if small_kernels and kernel_options(True):
+        if not _at_top_level():
+            raise ValueError("simulate_batch(small_kernels=True) inside jit, vmap or grad: JAX applies compiler "
+                             "options only to the outermost program; pass compiler_options=kernel_options(True) "
+                             "to your jax.jit instead")
+        program = _simulate_batch_small
+    sol = program(model_fn, params, solver, controller, ts_, t0_, options, config, width=min(int(width), n))
     return _check(sol, throw)
 
 
@@ -403,7 +420,7 @@ class _AdaptiveLoop(eqx.Module):
     def step(self, c: _LoopState, active=None):
         """One attempted step: ``(carry, window)``, the new carry and the step's output window
         (its observations at the K output slots from ``c.k`` on). ``active`` (batched runs, see
-        ``_simulate_batch``): a member that is done steps at a harmless size and keeps its carry
+        ``_simulate_batch_program``): a member that is done steps at a harmless size and keeps its carry
         unchanged. A carry with the output buffer ``ys`` gets the window written into it; a carry
         without (``init(outputs=False)``, as batched runs use) leaves the window to the caller to
         write (or drop, for an inactive member)."""
@@ -555,13 +572,23 @@ _simulate = eqx.filter_jit(_simulate_program)
 _simulate_small = eqx.filter_jit(_simulate_program, compiler_options=SMALL_KERNEL_OPTIONS)
 
 
+def kernel_options(small: bool, platform: str | None = None) -> dict:
+    """``jax.jit``'s ``compiler_options`` for a program of small kernels (``small=True``):
+    ``SMALL_KERNEL_OPTIONS`` on a CPU (``platform``, default JAX's default backend) whose XLA knows
+    them; otherwise none (``{}``: XLA's defaults). For a user's own ``jax.jit`` around a batched
+    run (``simulate_batch`` inside it), where the outer program's options apply:
+    ``jax.jit(f, compiler_options=kernel_options(True))``."""
+    if small and (platform or jax.default_backend()) == "cpu" and _small_kernel_options_known():
+        return dict(SMALL_KERNEL_OPTIONS)
+    return {}
+
+
 def _single_run_program(model):
     """The jitted program for a single run of ``model``: compiled with ``SMALL_KERNEL_OPTIONS``
     for a model of small kernels on a CPU, called at the top level (JAX accepts compiler options
     only on a program it compiles itself, not on one traced into a user's ``jit``, ``vmap`` or
     ``grad``), where this jaxlib knows the options; with XLA's defaults otherwise."""
-    if (getattr(model, "small_kernels", False) and jax.default_backend() == "cpu" and _at_top_level()
-            and _small_kernel_options_known()):
+    if getattr(model, "small_kernels", False) and _at_top_level() and kernel_options(True):
         return _simulate_small
     return _simulate
 
@@ -588,9 +615,8 @@ def _small_kernel_options_known() -> bool:
     return True
 
 
-@eqx.filter_jit
-def _simulate_batch(model_fn, params, solver, controller, ts, t0, newton: NewtonOptions, config: _Config, *,
-                    width: int) -> Solution:
+def _simulate_batch_program(model_fn, params, solver, controller, ts, t0, newton: NewtonOptions, config: _Config, *,
+                            width: int) -> Solution:
     """``simulate_batch``'s program: one ``lax.while_loop`` whose body advances the member in each
     of ``width`` lanes by one attempted step (``vmap`` of the step), until every member is done.
 
@@ -654,6 +680,10 @@ def _simulate_batch(model_fn, params, solver, controller, ts, t0, newton: Newton
         ys = jax.vmap(lambda k, y: _observe_after(config.observe, ts, t0, k, y))(final.k, sol.ys)
         sol = eqx.tree_at(lambda s: s.ys, sol, ys)
     return sol
+
+
+_simulate_batch = eqx.filter_jit(_simulate_batch_program)
+_simulate_batch_small = eqx.filter_jit(_simulate_batch_program, compiler_options=SMALL_KERNEL_OPTIONS)
 
 
 def _print_progress(t, t_end, steps, last=False):

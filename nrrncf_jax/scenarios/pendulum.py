@@ -37,7 +37,7 @@ from ..bodies.mesh import straight_reference
 from ..elements.material import Material
 from ..elements.section import TubeSection
 from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, adaptive_step_size, simulate, simulate_batch
-from ..integrate.simulate import simulate_timed
+from ..integrate.simulate import kernel_options, simulate_timed
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody import (
     GROUND,
@@ -491,13 +491,15 @@ class ReleaseSweep:
 
 def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: float = 2.0, dt_out: float = 0.01,
                   rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, newton_tol: float = 1e-2,
-                  lanes: int | None = None, max_steps: int = 500_000) -> ReleaseSweep:
+                  lanes: int | None = None, max_steps: int = 500_000, small_kernels: bool = False) -> ReleaseSweep:
     """The chain ``system`` (any of ``FORMULATIONS``; its reference state straight along +x)
     released from rest at each of ``angles`` [rad] about the ground hinge's Z axis
     (``system.turned``), all in one compiled, batched run (``integrate.simulate_batch``: every
     member keeps its own adaptive steps; ``lanes`` of them advance together, the rest queue, all
     at once by default). Index-3 generalized-α as in ``run_chain``; returns a ``ReleaseSweep``
-    with the tips. A member that fails (Newton, step size) is flagged in ``ok``, not raised."""
+    with the tips. A member that fails (Newton, step size) is flagged in ``ok``, not raised.
+    ``small_kernels``: compile with ``integrate.SMALL_KERNEL_OPTIONS`` on a CPU (``simulate_batch``'s
+    option of that name: faster to compile, its run possibly slower; off by default)."""
     import time
 
 
@@ -508,6 +510,8 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
     _, vectors, nodes = _chain(system)
     tip = nodes[-1]
     lanes = angles.size if lanes is None else positive_int("lanes", lanes)
+    if not isinstance(small_kernels, bool):
+        raise ValueError(f"small_kernels must be True or False, got {small_kernels!r}")
 
     def observe(t, x, v):
         return jnp.stack([xb[tip] for xb in vectors(x)])
@@ -519,7 +523,7 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
 
     args = jnp.asarray(angles)
     t0 = time.perf_counter()
-    compiled = jax.jit(batch).lower(args).compile()
+    compiled = jax.jit(batch, compiler_options=kernel_options(small_kernels) or None).lower(args).compile()
     t1 = time.perf_counter()
     sol = jax.block_until_ready(compiled(args))
     t2 = time.perf_counter()

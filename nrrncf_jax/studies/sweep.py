@@ -51,7 +51,7 @@ from .._progress import note
 from .._validate import parse_range as parse_range  # the CLI's grid syntax, checked without JAX
 from ..integrate import AbstractStepSizeController, AdaptiveStepSize, ConstantStepSize, GeneralizedAlpha
 from ..integrate.results import SimulationError, result_message
-from ..integrate.simulate import simulate, simulate_batch, simulate_timed
+from ..integrate.simulate import SMALL_KERNEL_OPTIONS, kernel_options, simulate, simulate_batch, simulate_timed
 from ..models.observe import beam_tip, tip_observer
 from ..motion import SpinUp
 from ..reduction.reduced_model import ReducedRotatingModel
@@ -196,8 +196,7 @@ def _local_sweep(model, omega_s, T_s, E_scale, ts, cfg):
                 result=sol.code, t_final=sol.t_final)
 
 
-@eqx.filter_jit
-def _sweep_kernel(model, omega_s, T_s, E_scale, ts, cfg: _Config, mesh):
+def _sweep_program(model, omega_s, T_s, E_scale, ts, cfg: _Config, mesh):
     from jax import shard_map
     from jax.sharding import PartitionSpec as P
 
@@ -210,6 +209,10 @@ def _sweep_kernel(model, omega_s, T_s, E_scale, ts, cfg: _Config, mesh):
     f = shard_map(local, mesh=mesh, in_specs=(P(), P(_AXIS), P(_AXIS), P(_AXIS), P()), out_specs=P(_AXIS),
                   check_vma=False)
     return f(dyn, omega_s, T_s, E_scale, ts)
+
+
+_sweep_kernel = eqx.filter_jit(_sweep_program)
+_sweep_kernel_small = eqx.filter_jit(_sweep_program, compiler_options=SMALL_KERNEL_OPTIONS)
 
 
 _COLLECTIVES = re.compile(r"\b(all-reduce|all-gather|all-to-all|collective-permute|reduce-scatter)(-start)?\(")
@@ -439,8 +442,8 @@ def _as_model(model_or_reduction) -> ReducedRotatingModel:
 def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: float = 0.01, rtol: float = 1e-4,
                  atol: float = 1e-6, rho_inf: float = 0.9, dt: float | None = None, max_steps: int = 500_000,
                  devices: int | Sequence | None = None, lanes: int | None = None, balance: str = "blocks",
-                 tip: int | None = None, time_single: bool = False, throw: bool = True,
-                 progress: bool = False) -> SweepResult:
+                 tip: int | None = None, time_single: bool = False, small_kernels: bool = True,
+                 throw: bool = True, progress: bool = False) -> SweepResult:
     """Run the spin-up of Eq. 43 for every case of ``grid`` in one compiled, vmapped loop.
 
     ``model_or_reduction``: a ``ReducedRotatingModel`` (or the ``Reduction`` from ``nr_rncf``);
@@ -460,6 +463,9 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     (with fixed steps they stay at round-off). ``tip``: the nodal vector observed
     (default the beam's tip position vector). Compilation (ahead of time) and the run are timed
     apart; with ``time_single=True`` the slowest case is then run alone for comparison.
+    ``small_kernels``: compile with ``integrate.SMALL_KERNEL_OPTIONS`` on CPU devices, as a single
+    reduced run is (``simulate_batch``'s option of that name): the sweep's loop compiles in about
+    half the time and runs as fast (``benchmarks/results/xla_options.md``); False: XLA's defaults.
     ``throw=True`` raises ``SimulationError`` naming a case that stopped early. ``progress=True``
     prints each stage (compilation, the run, the single run) on stderr.
 
@@ -478,6 +484,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     max_steps = _validate.positive_int("max_steps", max_steps)
     if balance not in BALANCES:
         raise ValueError(f"balance must be one of {BALANCES}, got {balance!r}")
+    if not isinstance(small_kernels, bool):
+        raise ValueError(f"small_kernels must be True or False, got {small_kernels!r}")
     n_vec = model.q_hat.shape[0]
     tip = beam_tip(model) if tip is None else int(tip)
     if not 0 <= tip < n_vec:
@@ -521,7 +529,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     note(progress, f"sweep: compiling the batched loop ({grid.cases} cases on {n_dev} {devs[0].platform.upper()} "
                    f"device(s), {c} lanes each) ...")
     t0 = time.perf_counter()
-    compiled = _sweep_kernel.lower(*args, cfg, mesh).compile()
+    kernel = _sweep_kernel_small if kernel_options(small_kernels, devs[0].platform) else _sweep_kernel
+    compiled = kernel.lower(*args, cfg, mesh).compile()
     t1 = time.perf_counter()
     note(progress, f"sweep: compiled in {t1 - t0:.1f} s; running the {grid.cases} cases ...")
     out = jax.block_until_ready(compiled(*args, cfg, mesh))
