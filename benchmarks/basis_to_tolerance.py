@@ -7,7 +7,7 @@ For each case, beam:ω_s:tol (tol the paper's χ_rel for it: "less than 1.5 %" o
 beam's four speeds, "only 0.86 %" over the three curved beams; the paper's mesh, T_s = 15 s,
 0-30 s, rtol 1e-4): the full RNCF run (the reference, for the measured χ_rel only) and
 ``run_nr_rncf_spinup(..., tol=tol)``, whose basis grows along the MMI ranking until the error
-estimate of its training run (at rtol/100) is at most tol / 2 (``reduction.basis_to_tolerance``).
+estimate of its training run (at rtol/10, its steps ending on the samples) is at most tol / 2 (``reduction.basis_to_tolerance``).
 Columns: the DOFs chosen and the paper's, the estimate, the χ_rel measured against the full run
 at the same rtol and the chosen basis's own χ_rel (both runs at rtol 1e-6), the trials (prefix length
 → DOFs: estimate) and the search's wall time (every trial's reduction, compilation, run and
@@ -117,7 +117,8 @@ def main():
         f"bisection, up to {args.max_dofs} columns. The run is the training "
         "manoeuvre: spin-up of Eq. 43, T_s = 15 s, 0-30 s, rtol 1e-4, the paper's meshes. P is the paper's χ_rel "
         "(straight beam: \"less than 1.5 %\" over its four speeds; curved beams: \"only 0.86 %\" over the three). "
-        "The training runs go at rtol/100 (`reduction.run_error`: the estimate is of the basis). Measured "
+        "The training runs go at rtol/10, their steps ending on the estimate's samples (`reduction.run_error`). "
+        "Measured "
         "χ_rel: the reduced run against the full RNCF run, both at rtol 1e-4 (*same rtol*), and the chosen "
         f"basis's own error, the reduced model against the full one both at rtol {TIGHT:g} (*basis*; beams only). "
         "Search: the wall time of every trial (reduction, compilation, run, estimate).",

@@ -539,3 +539,26 @@ def test_batches_compile_with_the_small_kernel_options_on_request():
             jax.jit(lambda k: simulate_batch(_oscillator_of, k, *run, small_kernels=True, **kw).ys)(ks)
     with pytest.raises(ValueError, match="small_kernels"):
         simulate_batch(_oscillator_of, ks, *run, small_kernels="yes", **kw)
+
+
+def test_states_at_ends_a_step_on_each_time():
+    """``states_at``: the run through each of the times, every piece a run from the last state
+    that ends exactly on its time (the same program as ``simulate``'s, so the same numbers), and
+    as accurate as one run through the same times: the pieces take about its steps (each starts
+    afresh, with the controller's first step), so their error is its error, within the half that
+    a different step sequence may move it."""
+    from nrrncf_jax.integrate import states_at
+
+    model, ctrl = _oscillator(), AdaptiveStepSize(1e-6, 1e-8)
+    times = np.array([0.0, 0.3, 0.7, 1.6])
+    Q, V, compile_s, run_s, steps = states_at(model, GA, ctrl, times)
+    assert Q.shape == V.shape == (4, 1) and steps > 3 and compile_s > 0 and run_s > 0
+    one = simulate(model, GA, ctrl, jnp.asarray(times), observe=_first)
+    one_error = np.abs(np.asarray(one.ys) - np.cos(OMEGA * times)).max()
+    assert np.abs(Q[:, 0] - np.cos(OMEGA * times)).max() <= 1.5 * one_error
+    for i in (1, 2, 3):
+        piece = simulate(model, GA, ctrl, jnp.array([times[i]]), t0=float(times[i - 1]), y0=(Q[i - 1], V[i - 1]),
+                         observe=lambda t, q, v: (q, v))
+        np.testing.assert_array_equal(np.asarray(piece.ys[0][-1]), Q[i])
+    with pytest.raises(ValueError, match="increasing"):
+        states_at(model, GA, ctrl, [0.0, 0.0])

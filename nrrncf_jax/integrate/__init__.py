@@ -9,6 +9,7 @@
   the iteration matrix across steps, ``base.IterationMatrix``);
 - ``simulate``, ``simulate_batch`` (a batch of models in one loop, each with its own steps),
   ``simulate_timed`` (compile and run timed apart); ``Solution`` and ``SimulationResult``;
+  ``states_at`` (states at given times, each the end of a step, not an interpolated output);
   ``kernel_options`` (XLA's options for programs of small kernels, for a user's own ``jax.jit``);
 - ``static_equilibrium``: load-stepped static solutions; ``compilation_cache``: JAX's persistent
   compilation cache as a context manager.
@@ -45,6 +46,7 @@ from .simulate import kernel_options as kernel_options
 from .simulate import simulate as simulate
 from .simulate import simulate_batch as simulate_batch
 from .simulate import simulate_timed as simulate_timed
+from .simulate import states_at as states_at
 from .static import static_equilibrium as static_equilibrium
 from .step_size import STEP_CONTROLS as STEP_CONTROLS
 from .step_size import AbstractStepSizeController as AbstractStepSizeController

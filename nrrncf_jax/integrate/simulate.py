@@ -543,6 +543,45 @@ class _AdaptiveLoop(eqx.Module):
         )
 
 
+def states_at(model: "AbstractModel", solver: AbstractSolver, controller: AbstractStepSizeController, times, *,
+              newton: Newton | None = None,
+              max_steps: int = 200_000) -> tuple[np.ndarray, np.ndarray, float, float, int]:
+    """The run of ``model`` from ``times[0]`` (its initial state there) through each later time in
+    turn, every piece ending exactly on its time: ``(Q, V, compile_s, run_s, steps)`` with the
+    states q and v at ``times`` (rows), compile and run times and the accepted steps in all.
+
+    Each state is the end of a step, where the model's equations hold to Newton's tolerance with
+    the step's acceleration, not an output interpolated between steps (cubic Hermite), which is
+    accurate to the step's error but can sit off the equations' stiff directions by far more: a
+    reduced model's stiff coordinates (its modal derivatives) carry the interpolation's error as an
+    elastic force out of balance, which an equation-based acceleration at that state reads as a
+    large one (``reduction.run_error``, ``benchmarks/results/error_estimate.md``). Each piece starts
+    afresh (the solver's consistent initial state at the piece's start, the controller's first
+    step), so the steps are not those of one run through all the times. Compiled once for all the
+    pieces; raises ``SimulationError`` if a piece stops early."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    if times.size < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+        raise ValueError(f"times must be at least two finite, strictly increasing times, got {times.tolist()}")
+    y = tuple(jnp.asarray(x) for x in model.initial_state(times[0]))
+    Q, V = [np.asarray(y[0])], [np.asarray(y[1])]
+    compiled, compile_s, run_s, steps = None, 0.0, 0.0, 0
+    for a, b in zip(times[:-1], times[1:]):
+        args = _prepare(model, solver, controller, np.array([b]), _observe_state, newton, float(a), y, "forward",
+                        max_steps, False)
+        if compiled is None:
+            t0 = time.perf_counter()
+            compiled = _single_run_program(args[0]).lower(*args).compile()
+            compile_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        sol = _check(jax.block_until_ready(compiled(*args)), True)
+        run_s += time.perf_counter() - t0
+        y = (sol.ys[0][-1], sol.ys[1][-1])
+        Q.append(np.asarray(y[0]))
+        V.append(np.asarray(y[1]))
+        steps += int(sol.num_steps)
+    return np.stack(Q), np.stack(V), compile_s, run_s, steps
+
+
 def _simulate_program(model, solver, controller, ts, t0, y0, newton: NewtonOptions, config: _Config) -> Solution:
     """A single run's program: the adaptive loop, then the observations after it."""
     loop = _AdaptiveLoop(model, solver, controller, ts, t0, y0, newton, config.recording())

@@ -33,7 +33,6 @@ from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate
 from ..reduction.basis_to_tolerance import shortest_passing
 from ..reduction.error_estimate import ErrorEstimate
-from ..reduction.run_error import TIGHTEN
 from .error_estimate import estimate_mechanism_error, full_counterpart
 from .mechanism import Mechanism
 
@@ -100,9 +99,17 @@ def _name(item) -> str:
     return f"φ{item + 1}" if isinstance(item, int) else str(item)
 
 
+TRAINING_TIGHTEN = 100.0
+"""The training runs' tolerances are the run's divided by this. The mechanism's estimate (the
+error equation by default) reads every output, interpolated between steps, so its training runs
+stay a hundred times tighter than the run (``reduction.run_error`` says why interpolated outputs
+matter; its single-body estimate ends its steps on the samples instead)."""
+
+
 def mechanism_to_tolerance(build: Callable[[list], Mechanism], order: Sequence, ts, tol: float, *, y0=None,
-                           rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, tighten: float = TIGHTEN,
-                           safety: float = 2.0, start: int = 1, method: str = "dynamic", samples: int = 16,
+                           rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5,
+                           tighten: float = TRAINING_TIGHTEN, safety: float = 2.0, start: int = 1,
+                           method: str = "dynamic", samples: int = 16,
                            newton_tol: float = 1e-2, max_steps: int = 500_000) -> MechanismSearch:
     """The reduced mechanism ``build(order[:n])`` of the shortest prefix whose training run over
     ``ts`` (from ``y0`` = (z, ż), default: the mechanism's reference at rest) has a reliable

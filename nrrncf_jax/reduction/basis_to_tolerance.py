@@ -22,8 +22,9 @@ failing and the first passing length, which assumes that the estimate falls alon
 every trial is recorded, so where it does not the record shows it. A trial compiles its own
 reduced model (the reduced size is a shape), which is most of its cost.
 
-The training runs go at tightened tolerances (``reduction.run_error``): the estimate is then of
-the basis, not of a loose run's integration error magnified. Where it stops working: the
+The training runs end their steps on the estimate's samples (``reduction.run_error``: an output
+interpolated between steps would make the estimate read the interpolation, not the basis), at
+tightened tolerances. Where it stops working: the
 estimate's own limits (``reduction.error_estimate``). Where no prefix passes, the result says
 the tolerance was not met, with the largest basis tried.
 
@@ -44,13 +45,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..integrate import AdaptiveStepSize, GeneralizedAlpha, simulate
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..models.full_order import RotatingFrameModel
 from .basis import modal_basis
 from .error_estimate import ErrorEstimate, estimate_error
 from .modal_derivatives import modal_derivatives
 from .pipeline import Reduction, _reduce, _spin_enrichment, modal_interaction, spin_checked
-from .run_error import TIGHTEN, observe_state
+from .run_error import TIGHTEN, sampled_states
 from .selection import Selection, select
 from .spin_state import spinning_modes
 
@@ -233,16 +234,14 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         model = _reduce(full, basis.Psi, force="auto")
         if error_rows is not None:
             model = model.with_error_rows(error_rows)
-        # At tightened tolerances: the estimate is of the basis, and a loose run's integration
-        # error can make it a false alarm (reduction.run_error).
-        sol = simulate(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol / tighten, atol / tighten),
-                       jnp.asarray(ts), observe=observe_state, max_steps=max_steps)
-        P, V = (np.asarray(y) for y in sol.ys)
-        est = estimate_error(full, model, ts, P, V, samples=samples, output=output, norm_rows=norm_rows)
+        # At the ends of steps, not at interpolated outputs (reduction.run_error says why).
+        idx, P, V, _, _, steps = sampled_states(model, ts, samples, GeneralizedAlpha(rho_inf),
+                                                AdaptiveStepSize(rtol / tighten, atol / tighten), max_steps)
+        est = estimate_error(full, model, ts[idx], P, V, samples=idx.size, output=output, norm_rows=norm_rows)
         runs[n] = (model, est)
         trials[n] = Trial(columns=n, dofs=model.n_dof, vms=vms, pairs=pairs,
                           chi_rel_estimate_percent=est.chi_rel_percent, reliable=est.reliable,
-                          steps=int(sol.num_steps), seconds=time.perf_counter() - t1, spin_enriched=spun)
+                          steps=steps, seconds=time.perf_counter() - t1, spin_enriched=spun)
         return est.chi_rel_percent <= tol / safety
 
     t0 = time.perf_counter()
