@@ -195,9 +195,9 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
     idle. Put the costliest members first.
 
     ``small_kernels=True`` compiles the batch with ``SMALL_KERNEL_OPTIONS`` on a CPU, as a single
-    run of a reduced model is: about half the compile time, but a batch's wider fused kernels may
-    run slower with them (``benchmarks/results/xla_options.md``), so it pays where compilation
-    dominates (short runs, a one-off batch) and is off by default. Inside a user's ``jit``,
+    run of a reduced model is: it compiles faster, but a batch's wider fused kernels may run slower
+    with them (``benchmarks/results/xla_options.md``), so it pays where compilation dominates
+    (short runs, a one-off batch) and is off by default. Inside a user's ``jit``,
     ``vmap`` or ``grad`` the outer program's options apply: pass
     ``compiler_options=kernel_options(True)`` to that ``jax.jit`` instead.
 

@@ -464,8 +464,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     (default the beam's tip position vector). Compilation (ahead of time) and the run are timed
     apart; with ``time_single=True`` the slowest case is then run alone for comparison.
     ``small_kernels``: compile with ``integrate.SMALL_KERNEL_OPTIONS`` on CPU devices, as a single
-    reduced run is (``simulate_batch``'s option of that name): the sweep's loop compiles in about
-    half the time and runs as fast (``benchmarks/results/xla_options.md``); False: XLA's defaults.
+    reduced run is (``simulate_batch``'s option of that name): the sweep's loop compiles faster and
+    runs as fast (``benchmarks/results/xla_options.md``); False: XLA's defaults.
     ``throw=True`` raises ``SimulationError`` naming a case that stopped early. ``progress=True``
     prints each stage (compilation, the run, the single run) on stderr.
 
