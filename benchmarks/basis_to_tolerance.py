@@ -7,7 +7,8 @@ For each case, beam:ω_s:tol (tol the paper's χ_rel for it: "less than 1.5 %" o
 beam's four speeds, "only 0.86 %" over the three curved beams; the paper's mesh, T_s = 15 s,
 0-30 s, rtol 1e-4): the full RNCF run (the reference, for the measured χ_rel only) and
 ``run_nr_rncf_spinup(..., tol=tol)``, whose basis grows along the MMI ranking until the error
-estimate of its training run (at rtol/10, its steps ending on the samples) is at most tol / 2 (``reduction.basis_to_tolerance``).
+estimate of its training run (at rtol/10, its steps ending on the samples) is at most tol / 2
+(``reduction.basis_to_tolerance``).
 Columns: the DOFs chosen and the paper's, the estimate, the χ_rel measured against the full run
 at the same rtol and the chosen basis's own χ_rel (both runs at rtol 1e-6), the trials (prefix length
 → DOFs: estimate) and the search's wall time (every trial's reduction, compilation, run and

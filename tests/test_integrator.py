@@ -552,7 +552,7 @@ def test_states_at_ends_a_step_on_each_time():
     model, ctrl = _oscillator(), AdaptiveStepSize(1e-6, 1e-8)
     times = np.array([0.0, 0.3, 0.7, 1.6])
     Q, V, compile_s, run_s, steps = states_at(model, GA, ctrl, times)
-    assert Q.shape == V.shape == (4, 1) and steps > 3 and compile_s > 0 and run_s > 0
+    assert Q.shape == V.shape == (4, 1) and steps > 3 and compile_s >= 0 and run_s > 0
     one = simulate(model, GA, ctrl, jnp.asarray(times), observe=_first)
     one_error = np.abs(np.asarray(one.ys) - np.cos(OMEGA * times)).max()
     assert np.abs(Q[:, 0] - np.cos(OMEGA * times)).max() <= 1.5 * one_error

@@ -28,14 +28,14 @@ linearisation about the reduced state fails, and the estimate says only that the
 (``reliable`` is False above ``RELIABLE_PERCENT``). The states must lie on the reduced
 equations: p̈ comes from them, so a state interpolated between a run's steps, whose stiff
 coordinates (the modal derivatives) sit off their balance by the interpolation's error, gives an
-acceleration far above the motion's and a residual that measures the interpolation, not the basis
-(on the paper beam's 40 rad/s spin-up, orders of magnitude above the basis error:
-``benchmarks/results/error_estimate.md``).
-``reduction.run_error`` therefore takes its states at the ends of steps (``integrate.states_at``),
-and the scenarios' estimates go through it. The quasi-static model is blind to error that accumulates over the run: it *under*estimates
-where a small basis lets error grow (a slightly wrong frequency drifting in phase): a third of
-the true error on the paper beam's 11-DOF basis at 20 rad/s, and on the bending-torsion
-membrane's three VMs (11.8 % for 32.5 %, below ``RELIABLE_PERCENT`` and so not flagged;
+acceleration far above the motion's and a residual that measures the interpolation, not the
+basis (on the paper beam's 40 rad/s spin-up, orders of magnitude above the basis error:
+``benchmarks/results/error_estimate.md``). ``reduction.run_error`` therefore takes its states at
+the ends of steps (``integrate.states_at``), and the scenarios' estimates go through it. The
+quasi-static model is blind to error that accumulates over the run: it *under*estimates where a
+small basis lets error grow (a slightly wrong frequency drifting in phase): a third of the true
+error on the paper beam's 11-DOF basis at 20 rad/s, and on the bending-torsion membrane's three
+VMs (11.8 % for 32.5 %, below ``RELIABLE_PERCENT`` and so not flagged;
 ``benchmarks/results/basis_to_tolerance.md``, ``error_estimate_large.md``).
 ``basis_to_tolerance`` asks for half its tolerance for that reason.
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha, simulate_timed, states_at
-from .error_estimate import ErrorEstimate, estimate_error, sample_indices
+from .error_estimate import METHODS, ErrorEstimate, estimate_error, sample_indices
 
 TIGHTEN = 10.0
 """The repetition's tolerances are the run's divided by this: its own integration error is then
@@ -67,8 +67,11 @@ def estimate_run_error(full, reduced, ts, ps=None, *, rho_inf: float = 0.9, rtol
     (``method="static"``; every output with ``"dynamic"``), its basis's error estimated there
     (``estimate_error`` with ``output``, ``norm_rows``, ``method``), and, given the run's
     coordinates ``ps`` ((len(ts), k)), its integration error against the repetition in
-    ``integration_percent``. The repetition's compile and run times are in the estimate's."""
+    ``integration_percent`` (None with ``tighten`` = 1, where the repetition is no more accurate
+    than the run). The repetition's compile and run times are in the estimate's."""
     _validate.positive("tighten", tighten)
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     ts = np.asarray(ts, dtype=float)
     solver, controller = GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol / tighten, atol / tighten)
     if ps is not None:
@@ -86,7 +89,7 @@ def estimate_run_error(full, reduced, ts, ps=None, *, rho_inf: float = 0.9, rtol
         est = estimate_error(full, reduced, ts, P, V, samples=samples, output=output, norm_rows=norm_rows,
                              method=method)
     integration = None
-    if ps is not None:
+    if ps is not None and tighten > 1.0:
         rows = np.arange(full.n_dof) if norm_rows is None else np.asarray(norm_rows, dtype=int).reshape(-1)
         lift = jax.vmap(lambda p: reduced.coordinates(p).reshape(-1)[rows])
         run, rep = np.asarray(lift(jnp.asarray(ps[idx]))), np.asarray(lift(jnp.asarray(P)))
