@@ -57,6 +57,14 @@ def non_negative(name: str, value) -> None:
         raise ValueError(f"{name} must be >= 0, got {_show(v)}")
 
 
+def boolean(name: str, value) -> bool:
+    """``value``; raise ``ValueError`` unless it is ``True`` or ``False`` (not a truthy number or
+    string, whose meaning would be a guess)."""
+    if not isinstance(value, bool):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return value
+
+
 def positive_int(name: str, value) -> int:
     """``value`` as an ``int``; raise ``ValueError`` unless it is an integer >= 1."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):

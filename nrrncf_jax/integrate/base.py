@@ -78,8 +78,7 @@ class Newton(eqx.Module):
             max_iter = _validate.positive_int("Newton max_iter", max_iter)
         if kind not in ("auto", "modified", "full"):
             raise ValueError(f"Newton kind must be 'auto', 'modified' or 'full', got {kind!r}")
-        if not isinstance(reuse, bool):
-            raise ValueError(f"Newton reuse must be True or False, got {reuse!r}")
+        _validate.boolean("Newton reuse", reuse)
         if reuse and kind == "full":
             raise ValueError("Newton(reuse=True) keeps one iteration matrix over several steps, which is "
                              "modified Newton: use kind='modified' or 'auto' with it, not 'full'")

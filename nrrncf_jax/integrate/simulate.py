@@ -220,8 +220,7 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
     _, solver, controller, ts_, t0_, _, options, config = _prepare(member, solver, controller, ts, observe, newton,
                                                                    t0, None, "forward", max_steps, False)
     config = config.with_after(member.n_dof, ts_.shape[0], n)
-    if not isinstance(small_kernels, bool):
-        raise ValueError(f"small_kernels must be True or False, got {small_kernels!r}")
+    _validate.boolean("small_kernels", small_kernels)
     program = _simulate_batch
     if small_kernels and kernel_options(True):
         if not _at_top_level():
@@ -567,12 +566,11 @@ def states_at(model: "AbstractModel", solver: AbstractSolver, controller: Abstra
         raise ValueError(f"times must be at least two finite, strictly increasing times, got {times.tolist()}")
     y = tuple(jnp.asarray(x) for x in model.initial_state(times[0]))
     Q, V = [np.asarray(y[0])], [np.asarray(y[1])]
-    program, compile_s, run_s, steps = _simulate, 0.0, 0.0, 0
+    program, compile_s, run_s, steps = _single_run_program(model), 0.0, 0.0, 0
     for i, (a, b) in enumerate(zip(times[:-1], times[1:])):
         args = _prepare(model, solver, controller, np.array([b]), _observe_state, newton, float(a), y, "forward",
                         max_steps, False)
         if i == 0:
-            program = _single_run_program(args[0])
             t0 = time.perf_counter()
             jax.block_until_ready(program(*args))  # compiled here (or found compiled), run once for the timing
             first = time.perf_counter() - t0

@@ -510,8 +510,7 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
     _, vectors, nodes = _chain(system)
     tip = nodes[-1]
     lanes = angles.size if lanes is None else positive_int("lanes", lanes)
-    if not isinstance(small_kernels, bool):
-        raise ValueError(f"small_kernels must be True or False, got {small_kernels!r}")
+    _validate.boolean("small_kernels", small_kernels)
 
     def observe(t, x, v):
         return jnp.stack([xb[tip] for xb in vectors(x)])

@@ -15,7 +15,7 @@ from ..integrate.simulate import simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
 from ..reduction.pipeline import nr_rncf
-from ..reduction.run_error import estimate_run_error, observe_state
+from ..reduction.run_error import TIGHTEN, estimate_run_error, observe_state
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
 from .run_record import RunRecord
@@ -170,7 +170,7 @@ class SpinupResult(RunRecord):
                          f"({s['estimate_samples']} samples, {s['estimate_run_s']:.3f} s){note}"))
             if "integration_error_estimate_percent" in s:
                 rows.append(("integration error estimate [%]", f"{s['integration_error_estimate_percent']:.4f}  "
-                             "(this run against its repetition at rtol/10, at the samples)"))
+                             f"(this run against its repetition at rtol/{TIGHTEN:g}, at the samples)"))
             rows.append(("tip error estimate [m]", f"{s['tip_error_estimate_m']:.2e}"
                          + ("" if "tip_error_m" not in s else f"  (measured {s['tip_error_m']:.2e})")))
         rows += [("steps accepted / rejected", f"{s['steps']} / {s['rejected']}"),

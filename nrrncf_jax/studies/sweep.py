@@ -484,8 +484,7 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     max_steps = _validate.positive_int("max_steps", max_steps)
     if balance not in BALANCES:
         raise ValueError(f"balance must be one of {BALANCES}, got {balance!r}")
-    if not isinstance(small_kernels, bool):
-        raise ValueError(f"small_kernels must be True or False, got {small_kernels!r}")
+    _validate.boolean("small_kernels", small_kernels)
     n_vec = model.q_hat.shape[0]
     tip = beam_tip(model) if tip is None else int(tip)
     if not 0 <= tip < n_vec:
