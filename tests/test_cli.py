@@ -109,7 +109,7 @@ def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):
     png = tmp_path / "tip.png"
     rc = main(["spinup", "--formulation", "nr-rncf", "--beam", "paper", "--elements", "2", "--omega", "4",
                "--t-end", "3", "--modes", "8", "--reference", "rncf", "--plot", str(png), "--json", "--no-progress",
-               "--estimate-method", "dynamic"])
+               "--estimate-method", "dynamic", "--estimate-integration"])
     assert rc == 0
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     for key in ("vms", "mds", "dofs", "offline_s", "chi_rel_percent", "speedup", "steps", "run_s",
@@ -175,7 +175,9 @@ BAD_INPUT = {
                      "--tol (target chi_rel in per cent) must be > 0, got -1"),
     "tol-full-order": (["spinup", "--omega", "4", "--tol", "1"], "--tol chooses a reduced basis; use it with"),
     "estimate-method-full-order": (["spinup", "--omega", "4", "--estimate-method", "dynamic"],
-                                   "--estimate-method estimates a reduced run's error"),
+                                   "--estimate-method and --estimate-integration estimate a reduced run's error"),
+    "estimate-integration-full-order": (["spinup", "--omega", "4", "--estimate-integration"],
+                                        "--estimate-method and --estimate-integration estimate a reduced run's"),
     "truss-tol-full-order": (["truss", "dynamics", "--formulation", "rncf", "--tol", "1"],
                              "--reference and --tol go with --formulation nr-rncf"),
     "membrane-tol-zero": (["membrane", "--tol", "0"], "--tol (target chi_rel in per cent) must be > 0, got 0"),

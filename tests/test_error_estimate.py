@@ -129,6 +129,34 @@ def test_run_error_splits_basis_and_integration(spin):
         estimate_run_error(full, red, TS, P[:, :2], rtol=1e-3, atol=1e-5)
 
 
+@pytest.mark.xdist_group("error_estimate")
+def test_run_error_from_the_runs_own_step_ends(spin):
+    """A run that ends its steps on the estimate's times (``estimate_times`` as ``step_ts``) is
+    estimated from its own states, with nothing run again: the same basis estimate as on a
+    repetition ending on the samples at a ten times tighter tolerance, within the 1 % that the
+    states' integration errors (about 1e-4 of the motion at rtol 1e-3, see above) allow; its
+    states at the samples are ends of steps, so a run without the stops is not what it reads."""
+    from nrrncf_jax.reduction.run_error import estimate_times
+
+    full, _ = spin
+    red = nr_rncf(full, jnp.asarray(TS), n_modes=12).model
+    stops = estimate_times(TS, 16)
+    np.testing.assert_array_equal(stops, TS[sample_indices(TS.size, 16)])
+    np.testing.assert_array_equal(estimate_times(TS, 16, "dynamic"), TS)
+    sol = simulate(red, GA, AdaptiveStepSize(1e-3, 1e-5), jnp.asarray(TS), observe=lambda t, p, v: (p, v),
+                   step_ts=stops)
+    P, V = (np.asarray(y) for y in sol.ys)
+    own = estimate_run_error(full, red, TS, P, V, rtol=1e-3, atol=1e-5)
+    rep = estimate_run_error(full, red, TS, rtol=1e-3, atol=1e-5)
+    assert own.integration_percent is None and rep.integration_percent is None  # no ps: no run to compare
+    assert own.chi_rel_percent == pytest.approx(rep.chi_rel_percent, rel=1e-2), (own.chi_rel_percent,
+                                                                                 rep.chi_rel_percent)
+    with pytest.raises(ValueError, match="goes with ps"):
+        estimate_run_error(full, red, TS, None, V)
+    with pytest.raises(ValueError, match="method"):
+        estimate_times(TS, 16, "adjoint")
+
+
 def test_sample_indices_and_bad_input(spin):
     np.testing.assert_array_equal(sample_indices(5, 60), np.arange(5))
     idx = sample_indices(401, 60)

@@ -541,12 +541,38 @@ def test_batches_compile_with_the_small_kernel_options_on_request():
         simulate_batch(_oscillator_of, ks, *run, small_kernels="yes", **kw)
 
 
+def test_step_ts_end_steps_on_the_stops():
+    """``step_ts``: the steps end exactly on the stops, so that a run's state at a stop is the one
+    of a run that ends there. With constant steps (no decision that round-off could flip) the run
+    with stops at 0.3 and 0.7 s matches, up to 0.7 s, the run that ends at 0.7 s with a stop at
+    0.3 s, and to 0.3 s the run that ends there, all to round-off; without the stops the outputs
+    there are interpolated between steps and differ by the step's error, far above round-off.
+    A stop within round-off of an output time is that output time; a batch keeps the stops."""
+    model, ctrl = _oscillator(), ConstantStepSize(0.07)
+    ts = jnp.array([0.3, 0.7, 1.6])
+    both = np.asarray(simulate(model, GA, ctrl, ts, observe=_first, step_ts=[0.3, 0.7]).ys)
+    to_07 = np.asarray(simulate(model, GA, ctrl, ts[:2], observe=_first, step_ts=[0.3]).ys)
+    to_03 = np.asarray(simulate(model, GA, ctrl, ts[:1], observe=_first).ys)
+    bound = 64 * np.finfo(float).eps  # |q| ≤ 1 and a few dozen steps of O(1) arithmetic
+    np.testing.assert_allclose(both[:2], to_07, rtol=0, atol=bound)
+    np.testing.assert_allclose(both[:1], to_03, rtol=0, atol=bound)
+    free = np.asarray(simulate(model, GA, ctrl, ts, observe=_first).ys)
+    assert np.abs(free[:2] - both[:2]).min() > 1e-6  # interpolated: the stops did change the steps
+    near = np.asarray(simulate(model, GA, ctrl, ts, observe=_first, step_ts=[0.3 + 1e-14, 0.7]).ys)
+    np.testing.assert_array_equal(near, both)
+    batch = simulate_batch(_oscillator_of, jnp.array([OMEGA**2, 4.0 * OMEGA**2]), GA, ctrl, ts, observe=_first,
+                           step_ts=[0.3, 0.7])
+    np.testing.assert_allclose(np.asarray(batch.ys)[0], both, rtol=0, atol=bound)
+    for bad, match in (([0.7, 0.3], "increasing"), ([-0.1], r"\[t0, t_end\]"), ([2.0], r"\[t0, t_end\]"),
+                       ([[0.3]], "1-D"), ([np.nan], "finite")):
+        with pytest.raises(ValueError, match=match):
+            simulate(model, GA, ctrl, ts, step_ts=bad)
+
+
 def test_states_at_ends_a_step_on_each_time():
-    """``states_at``: the run through each of the times, every piece a run from the last state
-    that ends exactly on its time (the same program as ``simulate``'s, so the same numbers), and
-    as accurate as one run through the same times: the pieces take about its steps (each starts
-    afresh, with the controller's first step), so their error is its error, within the half that
-    a different step sequence may move it."""
+    """``states_at``: one run through the times with a stop on each (``step_ts``): the states are
+    that run's outputs there, and as accurate as a run through the same times without the stops
+    (about the same steps: the error within the half that another step sequence may move it)."""
     import importlib
 
     from nrrncf_jax.integrate import states_at
@@ -559,9 +585,8 @@ def test_states_at_ends_a_step_on_each_time():
     one_error = np.abs(np.asarray(one.ys) - np.cos(OMEGA * times)).max()
     assert np.abs(Q[:, 0] - np.cos(OMEGA * times)).max() <= 1.5 * one_error
     sim = importlib.import_module("nrrncf_jax.integrate.simulate")  # the module, not the function
-    for i in (1, 2, 3):  # its observation too, so that the compiled program is the very same one
-        piece = simulate(model, GA, ctrl, jnp.array([times[i]]), t0=float(times[i - 1]), y0=(Q[i - 1], V[i - 1]),
-                         observe=sim._observe_state)
-        np.testing.assert_array_equal(np.asarray(piece.ys[0][-1]), Q[i])
+    run = simulate(model, GA, ctrl, jnp.asarray(times[1:]), step_ts=times[1:], observe=sim._observe_state)
+    np.testing.assert_array_equal(np.asarray(run.ys[0]), Q[1:])
+    np.testing.assert_array_equal(np.asarray(run.ys[1]), V[1:])
     with pytest.raises(ValueError, match="increasing"):
         states_at(model, GA, ctrl, [0.0, 0.0])

@@ -21,8 +21,9 @@ def _check(args) -> None:
         _validate.positive("--tol (target chi_rel in per cent)", args.tol)
         if args.formulation != "nr-rncf":
             raise ValueError("--tol chooses a reduced basis; use it with --formulation nr-rncf")
-    if args.estimate_method != "static" and args.formulation != "nr-rncf":
-        raise ValueError("--estimate-method estimates a reduced run's error; use it with --formulation nr-rncf")
+    if (args.estimate_method != "static" or args.estimate_integration) and args.formulation != "nr-rncf":
+        raise ValueError("--estimate-method and --estimate-integration estimate a reduced run's error; use them "
+                         "with --formulation nr-rncf")
     if args.reference and args.formulation != "nr-rncf":
         raise ValueError("--reference compares a reduced run against the full model; use it with "
                          "--formulation nr-rncf")
@@ -50,7 +51,8 @@ def _spinup(args) -> int:
         res = run_nr_rncf_spinup(args.beam, args.omega, vms=args.vms, mds=args.mds, n_modes=args.modes,
                                  max_dofs=args.max_dofs, tol=args.tol,
                                  spin_state={"auto": "auto", "on": True, "off": False}[args.spin_state],
-                                 reference=args.reference == "rncf", estimate_method=args.estimate_method, **common)
+                                 reference=args.reference == "rncf", estimate_method=args.estimate_method,
+                                 estimate_integration=args.estimate_integration, **common)
     else:
         res = run_spinup(args.formulation, args.beam, args.omega, **common)
     if args.out:
@@ -102,7 +104,11 @@ def register(sub) -> None:
     s.add_argument("--estimate-method", choices=("static", "dynamic"), default="static",
                    help="nr-rncf: the error estimate's model: the quasi-static correction at 16 sampled outputs "
                         "(static), or the linearised error equation over every output (dynamic; where it stops "
-                        "being valid the JSON says so in estimate_valid_until_s)")
+                        "being valid the JSON says so in estimate_valid_until_s); the run ends a step on each "
+                        "of the estimate's times")
+    s.add_argument("--estimate-integration", action="store_true",
+                   help="nr-rncf: also estimate the run's own time-integration error, by repeating the run at "
+                        "rtol/10 (costs more than the run)")
     s.add_argument("--reference", choices=["rncf"], default=None,
                    help="nr-rncf: also run the full RNCF model; report chi_rel (Eq. 40) and the speed-up")
     s.add_argument("--out", help="write the tip displacement CSV (t, theta, ux, uy, uz) here")

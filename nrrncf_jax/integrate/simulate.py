@@ -96,6 +96,7 @@ class _Config(eqx.Module):
     adjoint: str = eqx.field(static=True)
     progress: bool = eqx.field(static=True)
     after: bool = eqx.field(static=True, default=False)
+    step_ts: Any = None  # times at which steps must end (``simulate``'s ``step_ts``), sorted; None: none
 
     def recording(self) -> "_Config":
         """The loop's config: with ``after``, observing the state itself."""
@@ -146,6 +147,7 @@ def simulate(
     adjoint: Literal["forward", "reverse"] = "forward",
     max_steps: int = 200_000,
     progress: bool = False,
+    step_ts=None,
     throw: bool = True,
 ) -> Solution:
     """Integrate ``model`` with ``solver`` and ``controller`` from ``t0`` and return
@@ -157,6 +159,12 @@ def simulate(
     non-finite state retries the step at a quarter of its size. ``y0 = (q0, v0)`` overrides the
     model's initial state (prescribed coordinates are still imposed). ``adjoint="reverse"`` makes
     the run differentiable by ``jax.grad`` (a checkpointed loop; unconstrained models).
+
+    ``step_ts``: times in [t0, t_end] at which a step must end (as diffrax's ``step_ts``): the
+    step before each is cut to end exactly on it. An output at such a time is then the step's end
+    state, which satisfies the model's equations to Newton's tolerance, where an output between
+    steps is interpolated (``reduction.run_error`` evaluates equations at such states). A time
+    within round-off of an output time is taken as that output time.
 
     ``throw=True`` raises ``SimulationError`` naming the time reached if the run stops early (or,
     inside a user's ``jit``/``vmap``, an ``eqx.error_if`` runtime error); ``throw=False`` returns
@@ -174,14 +182,14 @@ def simulate(
     observation); otherwise inside the loop, in the steps that reach output times. The values
     are the same either way; a slot the run did not reach (it stopped early) is zero.
     """
-    args = _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, max_steps, progress)
+    args = _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, max_steps, progress, step_ts)
     return _check(_single_run_program(args[0])(*args), throw)
 
 
 def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controller: AbstractStepSizeController, ts, *,
                    observe: Callable | None = None, newton: Newton | None = None, t0: float = 0.0,
                    max_steps: int = 200_000, width: int | None = None, small_kernels: bool = False,
-                   throw: bool = True) -> Solution:
+                   step_ts=None, throw: bool = True) -> Solution:
     """``simulate`` for a batch of models, ``model_fn(p)`` for each ``p`` along the leading axis of
     the pytree ``params``, in one loop: each member keeps its own adaptive steps. Returns a
     ``Solution`` whose fields have the batch axis first. The members start from their models'
@@ -204,7 +212,7 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
     ``jax.vmap(simulate)`` gives the same result but costs more: see ``_simulate_batch_program``.
     ``model_fn`` should be a pytree-aware callable (``jax.tree_util.Partial`` or an
     ``equinox.Module``) when it closes over arrays, so that they are traced rather than baked
-    in. ``observe(t, q, v)`` is shared by the members.
+    in. ``observe(t, q, v)`` and ``step_ts`` (see ``simulate``) are shared by the members.
     """
     leaves = jtu.tree_leaves(params)
     sizes = {int(np.shape(x)[0]) if np.ndim(x) else -1 for x in leaves}
@@ -218,7 +226,7 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
         raise ValueError(f"width must be a positive integer (lanes of the batched loop), got width={width!r}")
     member = model_fn(jtu.tree_map(lambda x: x[0], params))  # one member, for the checks
     _, solver, controller, ts_, t0_, _, options, config = _prepare(member, solver, controller, ts, observe, newton,
-                                                                   t0, None, "forward", max_steps, False)
+                                                                   t0, None, "forward", max_steps, False, step_ts)
     config = config.with_after(member.n_dof, ts_.shape[0], n)
     _validate.boolean("small_kernels", small_kernels)
     program = _simulate_batch
@@ -240,12 +248,13 @@ def simulate_timed(model: "AbstractModel", solver: AbstractSolver, controller: A
     then runs to ``block_until_ready``. The keyword arguments are ``simulate``'s.
     """
     throw = kwargs.pop("throw", True)
-    kw = {k: kwargs.pop(k) for k in ("observe", "newton", "t0", "y0", "adjoint", "max_steps", "progress")
+    kw = {k: kwargs.pop(k) for k in ("observe", "newton", "t0", "y0", "adjoint", "max_steps", "progress", "step_ts")
           if k in kwargs}
     if kwargs:
         raise TypeError(f"simulate_timed got unexpected keyword arguments {sorted(kwargs)}")
     args = _prepare(model, solver, controller, ts, kw.get("observe"), kw.get("newton"), kw.get("t0", 0.0),
-                    kw.get("y0"), kw.get("adjoint", "forward"), kw.get("max_steps", 200_000), kw.get("progress", False))
+                    kw.get("y0"), kw.get("adjoint", "forward"), kw.get("max_steps", 200_000), kw.get("progress", False),
+                    kw.get("step_ts"))
     t0 = time.perf_counter()
     compiled = _single_run_program(args[0]).lower(*args).compile()
     t1 = time.perf_counter()
@@ -254,7 +263,7 @@ def simulate_timed(model: "AbstractModel", solver: AbstractSolver, controller: A
     return _check(sol, throw), t1 - t0, t2 - t1
 
 
-def _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, max_steps, progress):
+def _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, max_steps, progress, step_ts=None):
     """Check everything before tracing; return ``_simulate``'s arguments."""
     if not isinstance(solver, AbstractSolver):
         raise ValueError(f"solver must be an integrate solver (GeneralizedAlpha, GeneralizedAlphaIndex3), got "
@@ -285,9 +294,31 @@ def _prepare(model, solver, controller, ts, observe, newton, t0, y0, adjoint, ma
         y0 = tuple(jnp.asarray(x, dtype=float) for x in y0)
         if len(y0) != 2 or any(x.shape != (model.n_dof,) for x in y0):
             raise ValueError(f"y0 must be (q0, v0), each of shape ({model.n_dof},)")
+    if step_ts is not None:
+        config = dataclasses.replace(config, step_ts=_step_times(step_ts, ts_np, t0))
     f = jnp.asarray
     ts = f(ts, dtype=float)
     return model, solver, controller, ts, f(t0, dtype=float), y0, options, config.with_after(model.n_dof, ts.shape[0])
+
+
+def _step_times(step_ts, ts_np, t0):
+    """``simulate``'s ``step_ts`` checked (a non-empty 1-D array of finite, strictly increasing
+    times in [t0, t_end]) and, where it is given as numbers, each time within round-off
+    (1e-12 relative, the loop's snap onto a stop) of an output time replaced by that output time:
+    two stops that close apart would make a step of round-off size."""
+    if isinstance(step_ts, jax.core.Tracer) or ts_np is None:
+        return jnp.asarray(step_ts, dtype=float)
+    x = np.asarray(step_ts, dtype=float)
+    if x.ndim != 1 or x.size == 0 or not np.all(np.isfinite(x)) or np.any(np.diff(x) <= 0):
+        raise ValueError("step_ts must be a non-empty 1-D array of finite, strictly increasing times, got "
+                         f"{x.tolist()}")
+    if x[0] < t0 or x[-1] > ts_np[-1]:
+        raise ValueError(f"step_ts must lie in [t0, t_end] = [{t0:g}, {ts_np[-1]:g}], got {x[0]:g} .. {x[-1]:g}")
+    j = np.searchsorted(ts_np, x)
+    lo, hi = np.clip(j - 1, 0, ts_np.size - 1), np.clip(j, 0, ts_np.size - 1)
+    near = np.where(np.abs(ts_np[lo] - x) <= np.abs(ts_np[hi] - x), lo, hi)
+    snap = np.abs(ts_np[near] - x) <= 1e-12 * (1.0 + np.abs(x))
+    return jnp.asarray(np.where(snap, ts_np[near], x))
 
 
 def _check(sol: Solution, throw: bool) -> Solution:
@@ -382,11 +413,18 @@ class _AdaptiveLoop(eqx.Module):
         r = ex / scale
         return jnp.sqrt(jnp.sum(jnp.where(mask, r * r, 0.0)) / jnp.maximum(jnp.sum(mask), 1))
 
-    def next_stop(self, k):
-        return jnp.minimum(self.ts_pad[k + _WINDOW - 1], self.t_end)
+    def next_stop(self, t, k):
+        """Where the step from ``t`` must end at the latest: the end of the output window (``k``,
+        the first uncovered output), the end time, or the next of ``step_ts`` after ``t`` (a step
+        ends exactly on a stop, so the one it ended on is not after it)."""
+        stop = jnp.minimum(self.ts_pad[k + _WINDOW - 1], self.t_end)
+        if self.config.step_ts is not None:
+            stops = self.config.step_ts
+            stop = jnp.minimum(stop, jnp.min(jnp.where(stops > t, stops, jnp.inf)))
+        return stop
 
     def limit_step(self, t, h, k):
-        rem = self.next_stop(k) - t
+        rem = self.next_stop(t, k) - t
         return jnp.where(rem <= 1.1 * h, rem, jnp.where(rem < 2.0 * h, 0.5 * rem, h))
 
     def init(self, outputs=True) -> _LoopState:
@@ -430,7 +468,7 @@ class _AdaptiveLoop(eqx.Module):
             h = jnp.where(active, h, self.dt0)
         h = lax.stop_gradient(h)
         t1 = t + h
-        ns = self.next_stop(k)
+        ns = self.next_stop(t, k)
         t1 = jnp.where(jnp.abs(t1 - ns) <= 1e-12 * (1.0 + jnp.abs(ns)), ns, t1)
         x0, mask = self.error_coords(st.q)
         x0 = lax.stop_gradient(x0)
@@ -469,6 +507,11 @@ class _AdaptiveLoop(eqx.Module):
         def observe_window():
             s = jnp.clip((tau - t) / h, 0.0, 1.0)
             qi, vi = hermite_interpolate(s[:, None], h, st.q, st.v, q1, v1)
+            # An output on the step's end is its end state itself, not the interpolant there
+            # (equal only to round-off where the step was snapped onto its stop): a state on
+            # the equations (``step_ts``).
+            end = (tau == t1)[:, None]
+            qi, vi = jnp.where(end, q1, qi), jnp.where(end, v1, vi)
             return jax.vmap(config.observe)(jnp.where(write, tau, t1), qi, vi)
 
         # A run that carries its output buffer and is not differentiated in reverse observes only
@@ -545,46 +588,28 @@ class _AdaptiveLoop(eqx.Module):
 def states_at(model: "AbstractModel", solver: AbstractSolver, controller: AbstractStepSizeController, times, *,
               newton: Newton | None = None,
               max_steps: int = 200_000) -> tuple[np.ndarray, np.ndarray, float, float, int]:
-    """The run of ``model`` from ``times[0]`` (its initial state there) through each later time in
-    turn, every piece ending exactly on its time: ``(Q, V, compile_s, run_s, steps)`` with the
-    states q and v at ``times`` (rows), compile and run times and the accepted steps in all.
+    """The run of ``model`` from ``times[0]`` (its initial state there) through the later times,
+    its steps ending exactly on each (``simulate``'s ``step_ts``): ``(Q, V, compile_s, run_s,
+    steps)`` with the states q and v at ``times`` (rows), compile and run times and the accepted
+    steps.
 
     Each state is the end of a step, where the model's equations hold to Newton's tolerance with
     the step's acceleration, not an output interpolated between steps (cubic Hermite), which is
     accurate to the step's error but can sit off the equations' stiff directions by far more: a
     reduced model's stiff coordinates (its modal derivatives) carry the interpolation's error as an
     elastic force out of balance, which an equation-based acceleration at that state reads as a
-    large one (``reduction.run_error``, ``benchmarks/results/error_estimate.md``). Each piece starts
-    afresh (the solver's consistent initial state at the piece's start, the controller's first
-    step), so the steps are not those of one run through all the times. Compiled once for all the
-    pieces, and through ``simulate``'s cache, so that a later call for the same model structure
-    does not compile again; ``compile_s`` is the first piece's first call less its second (run
-    again for the timing), 0 when the program was compiled before. Raises ``SimulationError`` if
-    a piece stops early."""
+    large one (``reduction.run_error``, ``benchmarks/results/error_estimate.md``). Compiled through
+    ``simulate``'s cache (``simulate_timed``): a later call for the same model structure and number
+    of times does not compile again. Raises ``SimulationError`` if the run stops early."""
     times = np.asarray(times, dtype=float).reshape(-1)
     if times.size < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
         raise ValueError(f"times must be at least two finite, strictly increasing times, got {times.tolist()}")
     y = tuple(jnp.asarray(x) for x in model.initial_state(times[0]))
-    Q, V = [np.asarray(y[0])], [np.asarray(y[1])]
-    program, compile_s, run_s, steps = _single_run_program(model), 0.0, 0.0, 0
-    for i, (a, b) in enumerate(zip(times[:-1], times[1:])):
-        args = _prepare(model, solver, controller, np.array([b]), _observe_state, newton, float(a), y, "forward",
-                        max_steps, False)
-        if i == 0:
-            t0 = time.perf_counter()
-            jax.block_until_ready(program(*args))  # compiled here (or found compiled), run once for the timing
-            first = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        sol = _check(jax.block_until_ready(program(*args)), True)
-        piece = time.perf_counter() - t0
-        run_s += piece
-        if i == 0:
-            compile_s = max(first - piece, 0.0)
-        y = (sol.ys[0][-1], sol.ys[1][-1])
-        Q.append(np.asarray(y[0]))
-        V.append(np.asarray(y[1]))
-        steps += int(sol.num_steps)
-    return np.stack(Q), np.stack(V), compile_s, run_s, steps
+    sol, compile_s, run_s = simulate_timed(model, solver, controller, times[1:], observe=_observe_state,
+                                           newton=newton, t0=float(times[0]), max_steps=max_steps,
+                                           step_ts=times[1:])
+    Q, V = (np.concatenate([np.asarray(y0)[None], np.asarray(x)]) for y0, x in zip(y, sol.ys))
+    return Q, V, compile_s, run_s, int(sol.num_steps)
 
 
 def _simulate_program(model, solver, controller, ts, t0, y0, newton: NewtonOptions, config: _Config) -> Solution:

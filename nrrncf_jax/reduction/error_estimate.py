@@ -121,6 +121,11 @@ def integrate_error_equation(ts, states, linearised, measure, n: int, m: int = 0
     return jax.tree.map(lambda o: jnp.concatenate([jnp.zeros_like(o[:1]), o]), out)
 
 
+START_FRACTION = 1e-2
+"""``valid_outputs`` tests the error against ``RELIABLE_PERCENT`` of the largest displacement so
+far, but never of less than this fraction of the run's largest."""
+
+
 def valid_outputs(ts, e, w, omega: float) -> int:
     """How many outputs, from the first, an integrated error equation's solution (``e``: |δx| at
     each output; ``w``: the displacement's norm there) is valid for: up to the first output where
@@ -128,10 +133,14 @@ def valid_outputs(ts, e, w, omega: float) -> int:
     no longer small), or, where it first grows by more than ``BLOWUP_FACTOR`` within 1/ω_max
     (``omega``, the largest angular speed of the run's frames), up to where that growth began.
     Growth is that of the error relative to the largest displacement so far: at the start of the
-    run both grow from zero together, and the error alone grows infinitely fast."""
+    run both grow from zero together, and the error alone grows infinitely fast. For the first
+    test the largest displacement so far counts as at least ``START_FRACTION`` of the run's
+    largest: at the start of a run from rest (a spin-up) both the displacement and its error are
+    far below the motion's scale, and below the run's absolute tolerance, and their ratio is not
+    the linearisation's size."""
     e, w = np.asarray(e), np.asarray(w)
     w_max = np.maximum.accumulate(w)
-    broken = e > RELIABLE_PERCENT / 100.0 * w_max
+    broken = e > RELIABLE_PERCENT / 100.0 * np.maximum(w_max, START_FRACTION * w.max(initial=0.0))
     broken[0] = False
     first = int(np.argmax(broken)) if broken.any() else e.size
     if omega > 0:
@@ -173,7 +182,7 @@ class ErrorEstimate:
         """Whether the estimate is in the range where it is first-order accurate (and, for an
         integrated error equation, valid over the whole run)."""
         throughout = self.valid_until is None or self.valid_until >= self.ts[-1]
-        return self.chi_rel_percent <= RELIABLE_PERCENT and throughout
+        return bool(self.chi_rel_percent <= RELIABLE_PERCENT and throughout)
 
 
 def lift(reduced, t, p: Float[Array, " k"], v: Float[Array, " k"]):

@@ -1,30 +1,33 @@
 """The error of a reduced run in its two parts, each estimated from reduced runs alone: the
-basis's (``reduction.error_estimate`` at states of the run repeated to end exactly on the sample
-times) and the time integration's (the run against that repetition, which goes at tightened
-tolerances).
+basis's (``reduction.error_estimate`` at states that end the run's steps) and, on request, the time
+integration's (the run against a repetition at tightened tolerances).
 
-Why a repetition, and why it ends on the samples: the estimate of the basis's error evaluates the
-full model's residual at the lifted reduced state, with the acceleration the reduced equations
-give there. An output between two steps is interpolated (cubic Hermite); its error is within the
-step's tolerance, but the reduced model's stiff coordinates (the modal derivatives, up to thousands
-of rad/s) carry it as an elastic force out of balance, which the reduced equations turn into an
-acceleration far above the motion's. The lifted residual, and the static correction with
-it, then measure the interpolation, not the basis: on the paper beam's 40 rad/s spin-up, orders
-of magnitude above the basis error at the run's tolerance, and at a hundred times tighter still
+Why states at the ends of steps: the estimate of the basis's error evaluates the full model's
+residual at the lifted reduced state, with the acceleration the reduced equations give there. An
+output between two steps is interpolated (cubic Hermite); its error is within the step's
+tolerance, but the reduced model's stiff coordinates (the modal derivatives, up to thousands of
+rad/s) carry it as an elastic force out of balance, which the reduced equations turn into an
+acceleration far above the motion's. The lifted residual, and the static correction with it, then
+measure the interpolation, not the basis: on the paper beam's 40 rad/s spin-up, orders of
+magnitude above the basis error at the run's tolerance, and at a hundred times tighter still
 several times above it and changing with the number of samples
 (``benchmarks/results/error_estimate.md``). At the end of a step the reduced equations hold with
 the step's own acceleration, and the estimate is the same at the run's tolerance as at tighter
-ones. ``integrate.states_at`` runs the model from one
-sample time to the next, each piece ending on its sample.
+ones.
 
-The repetition goes at ``rtol / tighten``: the run's own time-integration error is then estimated
-by the run's displacements against the repetition's at the samples (χ_rel over the samples, in
-``ErrorEstimate.integration_percent``; the repetition's own error is about ``tighten`` times
-smaller). A run's total error against the exact solution is at most the sum of the two parts (the
-triangle inequality of the norm). Against a full run at the same tolerances it is not: the two
-runs' integration errors are alike and partly cancel, so a measured χ_rel between equally loose
-runs can lie below either part. ``method="dynamic"`` integrates the error equation over every
-output, so its repetition is one run through all of them, as before."""
+So the run itself ends steps on the estimate's times: ``estimate_times`` gives them, and the run
+takes them as ``simulate``'s ``step_ts``; ``estimate_run_error`` with the run's velocities ``vs``
+then estimates from the run's own states, at the cost of the estimate alone (a full residual and
+one sparse factorisation a sample; a few more steps in the run, one cut short before each stop).
+Without ``vs`` it repeats the run (``integrate.states_at``) at ``rtol / tighten``, ending on the
+times, and estimates there; given the run's coordinates ``ps`` it also estimates the run's own
+time-integration error by its displacements against the repetition's at the samples (χ_rel over
+the samples, in ``ErrorEstimate.integration_percent``; the repetition's own error is about
+``tighten`` times smaller). A run's total error against the exact solution is at most the sum of
+the two parts (the triangle inequality of the norm). Against a full run at the same tolerances it
+is not: the two runs' integration errors are alike and partly cancel, so a measured χ_rel between
+equally loose runs can lie below either part. ``method="dynamic"`` integrates the error equation
+over every output, so its times are all of them."""
 
 import dataclasses
 
@@ -33,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..integrate import AdaptiveStepSize, GeneralizedAlpha, simulate_timed, states_at
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha, states_at
 from .error_estimate import METHODS, ErrorEstimate, estimate_error, sample_indices
 
 TIGHTEN = 10.0
@@ -48,48 +51,72 @@ def observe_state(t, p, v):
     return p, v
 
 
+def estimate_times(ts, samples: int = 16, method: str = "static") -> np.ndarray:
+    """The output times at which the estimate of ``method`` evaluates the reduced run: ``samples``
+    of the output times ``ts`` (``error_estimate.sample_indices``) for ``"static"``, every one for
+    ``"dynamic"``. Pass them as the run's ``step_ts`` so that its states there end steps, then its
+    velocities to ``estimate_run_error`` (module docstring)."""
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    ts = np.asarray(ts, dtype=float).reshape(-1)
+    return ts[_indices(ts, samples, method)]
+
+
+def _indices(ts, samples, method):
+    return sample_indices(ts.shape[0], int(samples)) if method == "static" else np.arange(ts.shape[0])
+
+
 def sampled_states(reduced, ts, samples: int, solver, controller, max_steps: int):
-    """The reduced model run from t = 0 to end exactly on ``samples`` of the output times ``ts``
-    (``error_estimate.sample_indices``; ``integrate.states_at``): ``(idx, P, V, compile_s, run_s,
-    steps)``, the samples' indices in ``ts`` and the states (p, ṗ) there, each the end of a step."""
+    """The reduced model run from t = 0 with its steps ending exactly on ``samples`` of the output
+    times ``ts`` (``error_estimate.sample_indices``; ``integrate.states_at``): ``(idx, P, V,
+    compile_s, run_s, steps)``, the samples' indices in ``ts`` and the states (p, ṗ) there, each
+    the end of a step."""
     idx = sample_indices(ts.shape[0], int(samples))
-    start = [] if ts[idx[0]] == 0.0 else [0.0]  # the runs start at t = 0
-    P, V, compile_s, run_s, steps = states_at(reduced, solver, controller, np.r_[start, ts[idx]], max_steps=max_steps)
-    return idx, P[len(start):], V[len(start):], compile_s, run_s, steps
+    return (idx, *_ending_on(reduced, ts[idx], solver, controller, max_steps))
 
 
-def estimate_run_error(full, reduced, ts, ps=None, *, rho_inf: float = 0.9, rtol: float = 1e-4,
+def _ending_on(reduced, times, solver, controller, max_steps):
+    """``states_at`` from t = 0 (the runs' start) through ``times``: the states at ``times`` only."""
+    start = [] if times[0] == 0.0 else [0.0]
+    P, V, compile_s, run_s, steps = states_at(reduced, solver, controller, np.r_[start, times], max_steps=max_steps)
+    return P[len(start):], V[len(start):], compile_s, run_s, steps
+
+
+def estimate_run_error(full, reduced, ts, ps=None, vs=None, *, rho_inf: float = 0.9, rtol: float = 1e-4,
                        atol: float = 1e-6, max_steps: int = 500_000, tighten: float = TIGHTEN,
                        samples: int = 16, output=(), norm_rows=None, method: str = "static") -> ErrorEstimate:
-    """The error of the reduced run (module docstring) over the output times ``ts`` with the
-    generalized-α settings ``rho_inf``, ``rtol``, ``atol``: the reduced model repeated at
-    ``rtol / tighten``, ``atol / tighten``, ending exactly on ``samples`` of the output times
-    (``method="static"``; every output with ``"dynamic"``), its basis's error estimated there
-    (``estimate_error`` with ``output``, ``norm_rows``, ``method``), and, given the run's
-    coordinates ``ps`` ((len(ts), k)), its integration error against the repetition in
-    ``integration_percent`` (None with ``tighten`` = 1, where the repetition is no more accurate
-    than the run). The repetition's compile and run times are in the estimate's."""
+    """The error of the reduced run (module docstring) over the output times ``ts``, its
+    coordinates ``ps`` and velocities ``vs`` ((len(ts), k) each) recorded there, with the
+    generalized-α settings ``rho_inf``, ``rtol``, ``atol``.
+
+    Given ``vs``, the run must have ended its steps on ``estimate_times(ts, samples, method)``
+    (its ``step_ts``): the basis's error is estimated at its own states there (``estimate_error``
+    with ``output``, ``norm_rows``, ``method``), and nothing is run again. Without ``vs``, the
+    reduced model is repeated at ``rtol / tighten``, ``atol / tighten``, ending on those times,
+    the basis's error is estimated on the repetition, and, given ``ps``, the run's integration
+    error against it in ``integration_percent`` (None with ``tighten`` = 1, where the repetition
+    is no more accurate than the run). A repetition's compile and run times are in the estimate's."""
     _validate.positive("tighten", tighten)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     ts = np.asarray(ts, dtype=float)
-    solver, controller = GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol / tighten, atol / tighten)
-    if ps is not None:
-        ps = np.asarray(ps, dtype=float)
-        if ps.shape != (ts.shape[0], reduced.n_dof):
-            raise ValueError(f"ps must be (len(ts), {reduced.n_dof}) = {(ts.shape[0], reduced.n_dof)}, got {ps.shape}")
-    if method == "static":
-        idx, P, V, compile_s, run_s, _ = sampled_states(reduced, ts, samples, solver, controller, max_steps)
-        est = estimate_error(full, reduced, ts[idx], P, V, samples=idx.size, output=output, norm_rows=norm_rows)
+    for name, x in (("ps", ps), ("vs", vs)):
+        if x is not None and np.shape(x) != (ts.shape[0], reduced.n_dof):
+            raise ValueError(f"{name} must be (len(ts), {reduced.n_dof}) = {(ts.shape[0], reduced.n_dof)}, got "
+                             f"{np.shape(x)}")
+    if vs is not None and ps is None:
+        raise ValueError("vs (the run's velocities) goes with ps (its coordinates)")
+    idx = _indices(ts, samples, method)
+    compile_s = run_s = 0.0
+    if vs is not None:
+        P, V = np.asarray(ps, dtype=float)[idx], np.asarray(vs, dtype=float)[idx]
     else:
-        idx = np.arange(ts.shape[0])
-        sol, compile_s, run_s = simulate_timed(reduced, solver, controller, jnp.asarray(ts), observe=observe_state,
-                                               max_steps=max_steps)
-        P, V = (np.asarray(y) for y in jax.device_get(sol.ys))
-        est = estimate_error(full, reduced, ts, P, V, samples=samples, output=output, norm_rows=norm_rows,
-                             method=method)
+        solver, controller = GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol / tighten, atol / tighten)
+        P, V, compile_s, run_s, _ = _ending_on(reduced, ts[idx], solver, controller, max_steps)
+    est = estimate_error(full, reduced, ts[idx], P, V, samples=idx.size, output=output, norm_rows=norm_rows,
+                         method=method)
     integration = None
-    if ps is not None and tighten > 1.0:
+    if ps is not None and vs is None and tighten > 1.0:
         rows = np.arange(full.n_dof) if norm_rows is None else np.asarray(norm_rows, dtype=int).reshape(-1)
         lift = jax.vmap(lambda p: reduced.coordinates(p).reshape(-1)[rows])
         run, rep = np.asarray(lift(jnp.asarray(ps[idx]))), np.asarray(lift(jnp.asarray(P)))
@@ -99,4 +126,4 @@ def estimate_run_error(full, reduced, ts, ps=None, *, rho_inf: float = 0.9, rtol
                                run_s=est.run_s + run_s)
 
 
-__all__ = ["TIGHTEN", "estimate_run_error", "observe_state", "sampled_states"]
+__all__ = ["TIGHTEN", "estimate_run_error", "estimate_times", "observe_state", "sampled_states"]

@@ -13,9 +13,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..integrate.simulate import simulate_timed
 from ..models import RotatingFrameModel
+from ..reduction.run_error import estimate_run_error, estimate_times
 from .run_record import RunRecord
 
 FORMULATIONS = ("rncf", "nr-rncf")
@@ -76,15 +78,18 @@ class ForcedRun(RunRecord):
 def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *, vms=4, mds=6, n_modes: int = 12,
                spin_state="auto", modes=None, rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-6,
                progress: bool = False, max_steps: int = 500_000, estimate: bool = True, estimate_samples: int = 16,
-               tol: float | None = None, cls=ForcedRun, **fields) -> ForcedRun:
+               tol: float | None = None, estimate_integration: bool = False, cls=ForcedRun,
+               **fields) -> ForcedRun:
     """Run ``full`` (``'rncf'``) or its NR-RNCF reduction (``'nr-rncf'``: ``nr_rncf`` with ``vms``,
     ``mds`` among ``n_modes`` candidates, MMI over ``ts``, no cap on the size; ``modes``: see
     ``nr_rncf``) to the output times
     ``ts``, observing the mean displacement of ``point_vectors``. Returns a ``cls`` (a
     ``ForcedRun``) with ``fields`` added. ``estimate``: an NR-RNCF run's a-posteriori error
-    estimate from reduced runs alone (``reduction.run_error``, at ``estimate_samples`` output
-    times, over the position vectors as χ_rel is): the run repeated at tightened tolerances and
-    one sparse factorisation of the full model per sample, seconds on the 19k-DOF bodies.
+    estimate from the reduced run alone (``reduction.run_error``, at ``estimate_samples`` output
+    times, on which the run then ends steps, over the position vectors as χ_rel is): one sparse
+    factorisation of the full model per sample, seconds on the 19k-DOF bodies.
+    ``estimate_integration``: also the run's own time-integration error, by a repetition of the
+    run at tightened tolerances.
     ``tol``: the basis chosen to a target χ_rel in per cent
     instead (``nr_rncf(..., tol=...)``, the run itself the training manoeuvre; ``vms`` and ``mds``
     are then not used, and ``spin_state`` governs the spinning-state check of each basis tried)."""
@@ -92,6 +97,8 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
 
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
+    _validate.boolean("estimate_integration", estimate_integration)
+    stops = estimate_times(ts, estimate_samples)  # checks the samples before anything runs
     pos = np.flatnonzero(np.asarray(full.body.is_position))
     red = None
     if formulation == "rncf":
@@ -111,8 +118,10 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
         # carried through every step); its displacements are rebuilt afterwards.
         return (q, v) if red is not None else model.displacements(t, q)[pos]
 
+    own = red is not None and red.search is None and estimate  # the estimate reads the run's own step ends
     sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
-                                           jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps)
+                                           jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps,
+                                           step_ts=stops if own else None)
     if red is not None:
         P, V = (np.asarray(y) for y in jax.device_get(sol.ys))
         w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p)[pos])(jnp.asarray(P)))
@@ -130,11 +139,10 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
             # The search ran the chosen basis over these output times with these settings: its
             # estimate is this run's, and a second one would cost a sparse factorisation a sample.
             run.estimate = red.search.estimate
-        elif estimate:
-            from ..reduction.run_error import estimate_run_error
-
-            run.estimate = estimate_run_error(full, model, ts, P, rho_inf=rho_inf, rtol=rtol, atol=atol,
-                                              max_steps=max_steps, samples=estimate_samples, norm_rows=rows)
+        elif own:
+            run.estimate = estimate_run_error(full, model, ts, P, None if estimate_integration else V,
+                                              rho_inf=rho_inf, rtol=rtol, atol=atol, max_steps=max_steps,
+                                              samples=estimate_samples, norm_rows=rows)
     return run
 
 
