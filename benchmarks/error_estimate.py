@@ -10,12 +10,12 @@ reference) and at 1e-6 (converged), the reduced model with the default basis
 (``run_nr_rncf_spinup``) and with vibration modes only (as many as the default basis has
 coordinates, no MDs: a basis deliberately too small in kind), each run at rtol 1e-4 and 1e-6.
 Estimates: the static correction on the rtol 1e-4 run's own (interpolated) outputs,
-``reduction.run_error`` (the basis's error at the ends of steps of the run repeated at rtol/10 to end
-on each sample, with twice the samples, and with the repetition at the run's own tolerance; the
-run's integration error against the rtol/10 repetition), and the error equation
-(``method="dynamic"``) on the rtol 1e-6 run. Measured: χ_rel against the same-tolerance full run,
-and against the converged full run of the run (total) and of the rtol 1e-6 run (basis). Costs
-compiled first, timed apart. One core.
+``reduction.run_error``'s default route (the run at rtol 1e-4 ending steps on the samples,
+estimated at its own states; also with twice the samples), its repetition at rtol/10 (the
+basis estimate there and the run's integration error against it), and the error equation
+(``method="dynamic"``) on a run at rtol 1e-4 that ends a step on every output. Measured: χ_rel
+against the same-tolerance full run, and against the converged full run of the run (total) and
+of the rtol 1e-6 run (basis). Costs compiled first, timed apart. One core.
 
 Large bodies: ``truss`` (the paper's 36-bay truss, 0-10 s, its 4 VMs + 6 MDs and 4 VMs alone,
 ``run_truss``'s defaults) and ``membrane:CASE:RINGS`` (the rotating membrane's case on a disk of
@@ -34,7 +34,7 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 from nrrncf_jax.reduction.error_estimate import estimate_error  # noqa: E402
-from nrrncf_jax.reduction.run_error import estimate_run_error  # noqa: E402
+from nrrncf_jax.reduction.run_error import estimate_run_error, estimate_times  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model, run_nr_rncf_spinup, run_spinup  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -43,13 +43,15 @@ from _machine import machine, pin_to_one_core, report  # noqa: E402
 RTOL, TIGHT = 1e-4, 1e-6  # the runs' tolerance, and the converged runs'
 
 
-def _pv(res, rtol):
-    """The reduced run's (p, ṗ) at its output times at ``rtol`` (atol rtol/100)."""
-    from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlpha, simulate
+def _pv(res, rtol, step_ts=None):
+    """The reduced run's (p, ṗ) at its output times at ``rtol`` (atol rtol/100), ending steps on
+    ``step_ts``: ``(P, V, run_s, steps)``, compiled first."""
+    from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlpha, simulate_timed
 
-    sol = simulate(res.reduction.model, GeneralizedAlpha(0.9), AdaptiveStepSize(rtol, rtol / 100), res.ts,
-                   observe=lambda t, p, v: (p, v), max_steps=10**6)
-    return (np.asarray(y) for y in sol.ys)
+    sol, _, run_s = simulate_timed(res.reduction.model, GeneralizedAlpha(0.9), AdaptiveStepSize(rtol, rtol / 100),
+                                   res.ts, observe=lambda t, p, v: (p, v), max_steps=10**6, step_ts=step_ts)
+    P, V = (np.asarray(y) for y in sol.ys)
+    return P, V, run_s, int(sol.num_steps)
 
 
 def _displacements(model, P):
@@ -108,25 +110,29 @@ def main():
                                      spin_state=False, reference=ref, estimate=False)
         for label, res in (("default", default), ("VMs only", vm_only)):
             model = res.reduction.model
-            P, V = _pv(res, RTOL)
-            P_t, V_t = _pv(res, TIGHT)
+            P, V, run_s, steps = _pv(res, RTOL)  # no stops: its outputs are interpolated between steps
+            P_t, _, _, _ = _pv(res, TIGHT)
             w, w_t = _displacements(model, P), _displacements(model, P_t)
             w_c = converged.displacements.reshape(len(res.ts), -1)
             true_total = 100 * np.linalg.norm(w - w_c) / np.linalg.norm(w_c)
             true_basis = 100 * np.linalg.norm(w_t - w_c) / np.linalg.norm(w_c)
             on_run = estimate_error(full, model, res.ts, P, V, samples=args.samples)
-            est = estimate_run_error(full, model, res.ts, P, rtol=RTOL, atol=RTOL / 100, samples=args.samples)
-            more = estimate_run_error(full, model, res.ts, None, rtol=RTOL, atol=RTOL / 100,
-                                      samples=2 * args.samples - 1)
-            own = estimate_run_error(full, model, res.ts, None, rtol=RTOL, atol=RTOL / 100, samples=args.samples,
-                                     tighten=1.0)
-            dyn = estimate_error(full, model, res.ts, P_t, V_t, method="dynamic")
+            # The default route: the run ends steps on the samples and is estimated at its own states.
+            P_s, V_s, run_stops_s, steps_stops = _pv(res, RTOL, estimate_times(res.ts, args.samples))
+            est = estimate_run_error(full, model, res.ts, P_s, V_s, samples=args.samples)
+            n2 = 2 * args.samples - 1
+            P_2, V_2, _, _ = _pv(res, RTOL, estimate_times(res.ts, n2))
+            more = estimate_run_error(full, model, res.ts, P_2, V_2, samples=n2)
+            rep = estimate_run_error(full, model, res.ts, P_s, rtol=RTOL, atol=RTOL / 100, samples=args.samples)
+            P_d, V_d, _, _ = _pv(res, RTOL, estimate_times(res.ts, method="dynamic"))
+            dyn = estimate_run_error(full, model, res.ts, P_d, V_d, method="dynamic")
             rows.append(dict(beam=beam, om=om, basis=label, dofs=res.dofs, same=res.chi_rel_percent,
                              basis_true=true_basis, total_true=true_total, on_run=on_run.chi_rel_percent,
-                             est=est.chi_rel_percent, integ=est.integration_percent, reliable=est.reliable,
+                             est=est.chi_rel_percent, more=more.chi_rel_percent, rep=rep.chi_rel_percent,
+                             integ=rep.integration_percent, rep_s=rep.run_s, reliable=est.reliable,
                              dyn=dyn.chi_rel_percent, dyn_valid=dyn.valid_until, dyn_s=dyn.run_s,
-                             est_s=est.run_s, run_s=res.run_s, more=more.chi_rel_percent, own=own.chi_rel_percent,
-                             own_s=own.run_s))
+                             est_s=est.run_s, run_s=run_s, run_stops_s=run_stops_s, steps=steps,
+                             steps_stops=steps_stops))
             print(rows[-1], flush=True)
     lines = [
         "# The a-posteriori error estimate of NR-RNCF runs (issue 34)",
@@ -140,30 +146,34 @@ def main():
         f"of the run itself (*total*) and of the reduced model run at rtol {TIGHT:g} (*basis*, the reduction's "
         f"own error).",
         "",
-        f"Estimates ({args.samples} samples): the static correction at the run's own outputs, interpolated "
-        f"between its steps (*on the run*, `reduction.error_estimate`), and `reduction.run_error`: the static "
-        f"correction at the ends of steps of the run repeated at rtol/10 to end on each sample "
-        f"(`integrate.states_at`; *basis est.*, and with {2 * args.samples - 1} samples *× 2 samples*; "
-        f"*at rtol*: the repetition at the run's own tolerance, `tighten=1`) and the run against the rtol/10 "
-        f"repetition at the samples (*integration est.*); effectivity of the basis estimate against the "
-        f"measured basis error, and of the sum against the measured total. *Dynamic*: the linearised error "
-        f"equation integrated over all outputs of the run at rtol {TIGHT:g} (`method=\"dynamic\"`), with "
-        f"the time where it stopped being valid. Cost: `run_error`'s repetition and estimate (at rtol/10, and "
-        f"at the run's rtol) against the reduced run, each compiled first.",
+        f"Estimates ({args.samples} samples): the static correction at the outputs of a run without stops, "
+        f"interpolated between its steps (*on the run*, `reduction.error_estimate`); `reduction.run_error`'s "
+        f"default route: the run ends steps on the samples (`estimate_times` as its `step_ts`) and the static "
+        f"correction is made at its own states there (*basis est.*; with {2 * args.samples - 1} samples, "
+        f"*× 2 samples*); the repetition at rtol/10 ending on the samples (`estimate_integration`: *repetition*, "
+        f"and the run against it, *integration est.*). Effectivity of the basis estimate against the measured "
+        f"basis error, and of the sum with the integration estimate against the measured total. *Dynamic*: the "
+        f"linearised error equation over every output of a run at rtol {RTOL:g} that ends a step on each "
+        f"(`method=\"dynamic\"`), with the time where it stopped being valid. Costs, each compiled first: the "
+        f"estimate at the run's states (*estimate [s]*) against the run with its stops, the repetition with its "
+        f"estimate, and the run with and without the stops (steps and seconds).",
         "",
         "| beam | ω_s | basis | DOFs | same rtol | total | basis | on the run | basis est. | × 2 samples "
-        "| at rtol | eff. basis | integration est. | eff. total | dynamic (valid until) | dynamic [s] "
-        "| run_error [s] | at rtol [s] | reduced run [s] | reliable |",
-        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---|",
+        "| repetition | eff. basis | integration est. | eff. total | dynamic (valid until) | dynamic [s] "
+        "| estimate [s] | run with stops [s] | cost ratio | repetition [s] | steps (no stops) | run, no stops [s] "
+        "| reliable |",
+        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for r in rows:
         dyn = f"{r['dyn']:.4f}" + ("" if r["dyn_valid"] is None else f" ({r['dyn_valid']:g} s)")
         lines.append(f"| {r['beam']} | {r['om']:g} | {r['basis']} | {r['dofs']} | {r['same']:.4f} "
                      f"| {r['total_true']:.4f} | {r['basis_true']:.4f} | {r['on_run']:.4f} | {r['est']:.4f} "
-                     f"| {r['more']:.4f} | {r['own']:.4f} "
+                     f"| {r['more']:.4f} | {r['rep']:.4f} "
                      f"| {r['est'] / r['basis_true']:.2f} | {r['integ']:.4f} "
                      f"| {(r['est'] + r['integ']) / r['total_true']:.2f} | {dyn} | {r['dyn_s']:.3f} "
-                     f"| {r['est_s']:.3f} | {r['own_s']:.3f} | {r['run_s']:.4f} | {'yes' if r['reliable'] else 'no'} |")
+                     f"| {r['est_s']:.4f} | {r['run_stops_s']:.4f} | {r['est_s'] / r['run_stops_s']:.2f} "
+                     f"| {r['rep_s']:.3f} | {r['steps_stops']} ({r['steps']}) | {r['run_s']:.4f} "
+                     f"| {'yes' if r['reliable'] else 'no'} |")
     if large:
         lines += ["", "Large bodies (`run_forced`'s estimate, now `reduction.run_error`; measured against the "
                   "full run at the same tolerances):", "",

@@ -48,6 +48,7 @@ from ..multibody import (
     hinge,
     placed,
 )
+from ..reduction.run_error import estimate_times
 from .run_record import RunRecord
 
 # The C1 beam's nodal vectors at a node: r, r_x, r_y, r_xy, r_z, r_xz
@@ -444,13 +445,16 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
                kinetic + system.potential_energy(x), kinetic, jnp.max(jnp.abs(system.constraints(x))))
         return out + ((x, v) if estimate else ())
 
+    step_ts = None
     if estimate:
         from ..multibody.error_estimate import full_counterpart
 
         full = full_counterpart(system)  # checks that the system has reduced bodies, before the run
+        # The estimate evaluates the equations at its states: the run ends steps there (``run_error``).
+        step_ts = estimate_times(ts, estimate_samples, estimate_method)
     sol, compile_s, run_s = simulate_timed(system, GeneralizedAlphaIndex3(rho_inf), controller,
                                            jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps,
-                                           newton=Newton(newton_tol))
+                                           newton=Newton(newton_tol), step_ts=step_ts)
     pos, slopes, energy, kinetic, cmax, *state = (np.asarray(y) for y in jax.device_get(sol.ys))
     run = PendulumRun(formulation=formulation, dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes,
                       energy=energy, kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
