@@ -221,3 +221,24 @@ def test_basis_to_a_tolerance_meets_it_measured(spin):
     _, _, w = _reduced_run(red.model)
     assert float(chi_rel(w_ref, w)) <= 0.5
     assert "the first" in s.describe()
+
+
+def test_valid_outputs_reads_the_start_against_the_motions_scale():
+    """``valid_outputs``: an error above ``RELIABLE_PERCENT`` of the displacement so far ends the
+    validity, except while the displacement is below ``START_FRACTION`` of the run's largest (a
+    run from rest: both far below the motion's scale); an error growing by ``BLOWUP_FACTOR`` within
+    1/ω ends it where the growth began."""
+    from nrrncf_jax.reduction.error_estimate import BLOWUP_FACTOR, START_FRACTION, valid_outputs
+
+    ts = np.linspace(0.0, 1.0, 101)
+    w = np.minimum((ts / 0.5) ** 3, 1.0)  # the displacement grows from rest to 1 by t = 0.5 s
+    start = 0.5 * START_FRACTION * RELIABLE_PERCENT / 100.0  # below the scale's floor
+    e = np.where(ts < 0.1, start, 1e-3 * w)
+    e[0] = 0.0
+    assert np.all(e[1:8] > RELIABLE_PERCENT / 100.0 * w[1:8])  # large against the displacement so far
+    assert valid_outputs(ts, e, w, omega=0.0) == ts.size
+    late = e.copy()
+    late[60:] = 2 * RELIABLE_PERCENT / 100.0  # past the linearisation's range from t = 0.6 s
+    assert valid_outputs(ts, late, w, omega=0.0) == 60
+    blow = 1e-3 * w * np.where(ts >= 0.8, 2 * BLOWUP_FACTOR, 1.0)  # a jump within 1/ω = 0.05 s
+    assert valid_outputs(ts, blow, w, omega=20.0) < 80

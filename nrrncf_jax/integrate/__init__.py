@@ -17,7 +17,8 @@
 The whole simulation is one jit-compiled loop. Each step solves for the new acceleration by Newton
 (full Newton stops on the error its last update leaves, estimated from the observed contraction;
 a Newton failure or a non-finite state retries a shorter step), a Zienkiewicz-Xie local error
-estimate drives the step size, and dense output gives the requested output times. The loop works
+estimate drives the step size, and dense output gives the requested output times (``step_ts``:
+times on which steps must end, where an output is then a step's end state). The loop works
 under ``jax.vmap`` and is differentiable with ``jax.grad``: reverse mode runs a checkpointed loop
 with implicit differentiation of each step's Newton solve, so its memory grows with the number of
 checkpoints, not of steps (``benchmarks/results/identification.md``). A run that stops early (a

@@ -33,6 +33,7 @@ from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate
 from ..reduction.basis_to_tolerance import shortest_passing
 from ..reduction.error_estimate import ErrorEstimate
+from ..reduction.run_error import estimate_times
 from .error_estimate import estimate_mechanism_error, full_counterpart
 from .mechanism import Mechanism
 
@@ -100,10 +101,9 @@ def _name(item) -> str:
 
 
 TRAINING_TIGHTEN = 100.0
-"""The training runs' tolerances are the run's divided by this. The mechanism's estimate (the
-error equation by default) reads every output, interpolated between steps, so its training runs
-stay a hundred times tighter than the run (``reduction.run_error`` says why interpolated outputs
-matter; its single-body estimate ends its steps on the samples instead)."""
+"""The training runs' tolerances are the run's divided by this. The training runs end their steps
+on the estimate's times (every output for the error equation, ``reduction.run_error`` says why);
+the factor dates from when they read interpolated outputs, and was not re-measured since."""
 
 
 def mechanism_to_tolerance(build: Callable[[list], Mechanism], order: Sequence, ts, tol: float, *, y0=None,
@@ -139,7 +139,7 @@ def mechanism_to_tolerance(build: Callable[[list], Mechanism], order: Sequence, 
             raise ValueError(f"build must return a reduced Mechanism, got {type(system).__name__}")
         sol = simulate(system, GeneralizedAlphaIndex3(rho_inf), AdaptiveStepSize(rtol / tighten, atol / tighten),
                        jnp.asarray(ts), observe=lambda t, z, v: (z, v), y0=y0, newton=Newton(newton_tol),
-                       max_steps=max_steps)
+                       max_steps=max_steps, step_ts=estimate_times(ts, samples, method))
         zs, vs = (np.asarray(y) for y in sol.ys)
         est = estimate_mechanism_error(full_counterpart(system), system, ts, zs, vs, samples=samples, method=method)
         runs[n] = (system, est)

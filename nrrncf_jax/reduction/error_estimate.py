@@ -133,11 +133,11 @@ def valid_outputs(ts, e, w, omega: float) -> int:
     no longer small), or, where it first grows by more than ``BLOWUP_FACTOR`` within 1/ω_max
     (``omega``, the largest angular speed of the run's frames), up to where that growth began.
     Growth is that of the error relative to the largest displacement so far: at the start of the
-    run both grow from zero together, and the error alone grows infinitely fast. For the first
-    test the largest displacement so far counts as at least ``START_FRACTION`` of the run's
-    largest: at the start of a run from rest (a spin-up) both the displacement and its error are
-    far below the motion's scale, and below the run's absolute tolerance, and their ratio is not
-    the linearisation's size."""
+    run both grow from zero together, and the error alone grows infinitely fast. In the test
+    against ``RELIABLE_PERCENT`` the largest displacement so far counts as at least
+    ``START_FRACTION`` of the run's largest: at the start of a run from rest (a spin-up) both the
+    displacement and its error are far below the motion's scale, and below the run's absolute
+    tolerance, and their ratio is not the linearisation's size."""
     e, w = np.asarray(e), np.asarray(w)
     w_max = np.maximum.accumulate(w)
     broken = e > RELIABLE_PERCENT / 100.0 * np.maximum(w_max, START_FRACTION * w.max(initial=0.0))
