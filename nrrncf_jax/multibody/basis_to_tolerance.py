@@ -100,10 +100,11 @@ def _name(item) -> str:
     return f"φ{item + 1}" if isinstance(item, int) else str(item)
 
 
-TRAINING_TIGHTEN = 100.0
+TRAINING_TIGHTEN = 10.0
 """The training runs' tolerances are the run's divided by this. The training runs end their steps
-on the estimate's times (every output for the error equation, ``reduction.run_error`` says why);
-the factor dates from when they read interpolated outputs, and was not re-measured since."""
+on the estimate's times (every output for the error equation; ``reduction.run_error`` says why),
+so their estimates barely depend on it, and a tighter factor costs steps for nothing
+(``benchmarks/results/pendulum_to_tolerance.md``)."""
 
 
 def mechanism_to_tolerance(build: Callable[[list], Mechanism], order: Sequence, ts, tol: float, *, y0=None,
