@@ -33,7 +33,10 @@ the attachment modes of chosen coordinates, the same span kept as plain basis ve
 are 0-based everywhere (``Reduction.selection.vms``, ``.pairs``), as in the command line's output.
 
 How good a reduced run is, without the full run: ``error_estimate`` (the static-correction
-estimate of χ_rel from the run alone), and ``basis_to_tolerance`` (``nr_rncf(..., tol=P)``: the
+estimate of χ_rel from the run alone), made on a run of one's own by ``run_error``: run the
+reduced model with ``step_ts=estimate_times(ts)`` (its steps then end on the samples), then
+``estimate_run_error(full, reduced, ts, P, V)`` with its coordinates and velocities at ``ts``;
+and ``basis_to_tolerance`` (``nr_rncf(..., tol=P)``: the
 basis grown along the MMI ranking until that estimate over a training run is at most P per cent);
 for jointed systems of reduced bodies, ``multibody.error_estimate``."""
 
@@ -46,6 +49,8 @@ from .craig_bampton import CraigBampton as CraigBampton
 from .craig_bampton import craig_bampton as craig_bampton
 from .craig_bampton import static_modes as static_modes
 from .deflation import deflate as deflate
+from .error_estimate import ErrorEstimate as ErrorEstimate
+from .error_estimate import estimate_error as estimate_error
 from .modal_derivatives import ModalDerivatives as ModalDerivatives
 from .modal_derivatives import modal_derivatives as modal_derivatives
 from .modes import VibrationModes as VibrationModes
@@ -54,6 +59,8 @@ from .pipeline import Reduction as Reduction
 from .pipeline import nr_rncf as nr_rncf
 from .reduced_model import ReducedRotatingModel as ReducedRotatingModel
 from .reduced_model import reduce_rotating_model as reduce_rotating_model
+from .run_error import estimate_run_error as estimate_run_error
+from .run_error import estimate_times as estimate_times
 from .selection import Selection as Selection
 from .selection import align_degenerate_modes as align_degenerate_modes
 from .selection import excited_modes as excited_modes
