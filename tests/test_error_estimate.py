@@ -227,7 +227,7 @@ def test_valid_outputs_reads_the_start_against_the_motions_scale():
     """``valid_outputs``: an error above ``RELIABLE_PERCENT`` of the displacement so far ends the
     validity, except while the displacement is below ``START_FRACTION`` of the run's largest (a
     run from rest: both far below the motion's scale); an error growing by ``BLOWUP_FACTOR`` within
-    1/ω ends it where the growth began."""
+    1/ω ends it where the growth began, one that only oscillates (near zero and back) does not."""
     from nrrncf_jax.reduction.error_estimate import BLOWUP_FACTOR, START_FRACTION, valid_outputs
 
     ts = np.linspace(0.0, 1.0, 101)
@@ -242,3 +242,6 @@ def test_valid_outputs_reads_the_start_against_the_motions_scale():
     assert valid_outputs(ts, late, w, omega=0.0) == 60
     blow = 1e-3 * w * np.where(ts >= 0.8, 2 * BLOWUP_FACTOR, 1.0)  # a jump within 1/ω = 0.05 s
     assert valid_outputs(ts, blow, w, omega=20.0) < 80
+    # A phase error: it oscillates, passing near zero and back within 1/ω, without growing.
+    ring = 1e-3 * np.abs(np.sin(2 * np.pi * ts / 0.2)) + 1e-7
+    assert valid_outputs(ts, ring, np.ones_like(ts), omega=20.0) == ts.size

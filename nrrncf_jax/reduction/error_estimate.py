@@ -132,9 +132,11 @@ def valid_outputs(ts, e, w, omega: float) -> int:
     it exceeds ``RELIABLE_PERCENT`` of the largest displacement so far (the linearisation is then
     no longer small), or, where it first grows by more than ``BLOWUP_FACTOR`` within 1/ω_max
     (``omega``, the largest angular speed of the run's frames), up to where that growth began.
-    Growth is that of the error relative to the largest displacement so far: at the start of the
-    run both grow from zero together, and the error alone grows infinitely fast. In the test
-    against ``RELIABLE_PERCENT`` the largest displacement so far counts as at least
+    Growth is that of the error relative to the largest displacement so far, and of its largest
+    value so far (its envelope): at the start of the run both grow from zero together, and the
+    error alone grows infinitely fast; and an error that oscillates (a phase error of a ringing
+    beam) passes near zero and grows back tenfold within a period without growing at all. In the
+    test against ``RELIABLE_PERCENT`` the largest displacement so far counts as at least
     ``START_FRACTION`` of the run's largest: at the start of a run from rest (a spin-up) both the
     displacement and its error are far below the motion's scale, and below the run's absolute
     tolerance, and their ratio is not the linearisation's size."""
@@ -145,9 +147,9 @@ def valid_outputs(ts, e, w, omega: float) -> int:
     first = int(np.argmax(broken)) if broken.any() else e.size
     if omega > 0:
         k = max(1, int(np.ceil(1.0 / (omega * (ts[-1] - ts[0]) / max(ts.size - 1, 1)))))
-        relative = e / np.where(w_max > 0, w_max, np.inf)
+        envelope = np.maximum.accumulate(e / np.where(w_max > 0, w_max, np.inf))
         for i in range(k + 1, first):
-            if relative[i] > BLOWUP_FACTOR * max(relative[i - k], 1e-6):
+            if envelope[i] > BLOWUP_FACTOR * max(envelope[i - k], 1e-6):
                 return i - k + 1
     return first
 
