@@ -153,6 +153,12 @@ def test_run_error_from_the_runs_own_step_ends(spin):
                                                                                  rep.chi_rel_percent)
     with pytest.raises(ValueError, match="goes with ps"):
         estimate_run_error(full, red, TS, None, V)
+    # Where a run should stop: on the samples for the static estimate; nowhere where it repeats
+    # the run (the error equation over every output, or the run's integration error wanted).
+    from nrrncf_jax.reduction.run_error import run_step_ts
+
+    np.testing.assert_array_equal(run_step_ts(TS, 16), stops)
+    assert run_step_ts(TS, 16, "dynamic") is None and run_step_ts(TS, 16, integration=True) is None
     with pytest.raises(ValueError, match="method"):
         estimate_times(TS, 16, "adjoint")
 

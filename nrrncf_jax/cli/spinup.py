@@ -104,8 +104,8 @@ def register(sub) -> None:
     s.add_argument("--estimate-method", choices=("static", "dynamic"), default="static",
                    help="nr-rncf: the error estimate's model: the quasi-static correction at 16 sampled outputs "
                         "(static), or the linearised error equation over every output (dynamic; where it stops "
-                        "being valid the JSON says so in estimate_valid_until_s); the run ends a step on each "
-                        "of the estimate's times")
+                        "being valid the JSON says so in estimate_valid_until_s); static: the run ends a step on "
+                        "each sample; dynamic: on a repetition of the run that ends a step on every output")
     s.add_argument("--estimate-integration", action="store_true",
                    help="nr-rncf: also estimate the run's own time-integration error, by repeating the run at "
                         "rtol/10 (costs more than the run)")

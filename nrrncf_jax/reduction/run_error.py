@@ -15,19 +15,21 @@ several times above it and changing with the number of samples
 the step's own acceleration, and the estimate is the same at the run's tolerance as at tighter
 ones.
 
-So the run itself ends steps on the estimate's times: ``estimate_times`` gives them, and the run
-takes them as ``simulate``'s ``step_ts``; ``estimate_run_error`` with the run's velocities ``vs``
-then estimates from the run's own states, at the cost of the estimate alone (a full residual and
-one sparse factorisation a sample; a few more steps in the run, one cut short before each stop).
-Without ``vs`` it repeats the run (``integrate.states_at``) at ``rtol / tighten``, ending on the
-times, and estimates there; given the run's coordinates ``ps`` it also estimates the run's own
-time-integration error by its displacements against the repetition's at the samples (χ_rel over
-the samples, in ``ErrorEstimate.integration_percent``; the repetition's own error is about
-``tighten`` times smaller). A run's total error against the exact solution is at most the sum of
-the two parts (the triangle inequality of the norm). Against a full run at the same tolerances it
-is not: the two runs' integration errors are alike and partly cancel, so a measured χ_rel between
-equally loose runs can lie below either part. ``method="dynamic"`` integrates the error equation
-over every output, so its times are all of them."""
+So the run itself ends steps on the estimate's samples: ``estimate_times`` gives them
+(``run_step_ts``: where a run should take them), and the run takes them as ``simulate``'s
+``step_ts``; ``estimate_run_error`` with the run's velocities ``vs`` then estimates from the run's
+own states, at the cost of the estimate alone (a full residual and one sparse factorisation a
+sample; the run's step before each stop is cut short). Without ``vs`` it repeats the run
+(``integrate.states_at``) at ``rtol / tighten``, ending on the times, and estimates there; given
+the run's coordinates ``ps`` it also estimates the run's own time-integration error by its
+displacements against the repetition's at the samples (χ_rel over the samples, in
+``ErrorEstimate.integration_percent``; the repetition's own error is about ``tighten`` times
+smaller). A run's total error against the exact solution is at most the sum of the two parts (the
+triangle inequality of the norm). Against a full run at the same tolerances it is not: the two
+runs' integration errors are alike and partly cancel, so a measured χ_rel between equally loose
+runs can lie below either part. ``method="dynamic"`` integrates the error equation over every
+output, so its times are all of them, and it repeats the run rather than have the run stop on
+every output (``run_step_ts``)."""
 
 import dataclasses
 
@@ -60,6 +62,18 @@ def estimate_times(ts, samples: int = 16, method: str = "static") -> np.ndarray:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     ts = np.asarray(ts, dtype=float).reshape(-1)
     return ts[_indices(ts, samples, method)]
+
+
+def run_step_ts(ts, samples: int = 16, method: str = "static", integration: bool = False):
+    """The ``step_ts`` for a run that ``estimate_run_error`` then estimates from its own states
+    (passing its velocities): ``estimate_times`` for the static estimate, whose few stops cut a
+    step each; None where the estimate repeats the run instead (then pass no velocities): for
+    ``"dynamic"``, whose stop at every output would bound the run's steps by the output interval
+    (several times the steps where the run's own are longer; the repetition costs little next to
+    the error equation's factorisation an output), and where the run's ``integration`` error is
+    wanted (the repetition at tightened tolerances gives the states too)."""
+    times = estimate_times(ts, samples, method)  # checks method and samples
+    return times if method == "static" and not integration else None
 
 
 def _indices(ts, samples, method):
@@ -126,4 +140,4 @@ def estimate_run_error(full, reduced, ts, ps=None, vs=None, *, rho_inf: float = 
                                run_s=est.run_s + run_s)
 
 
-__all__ = ["TIGHTEN", "estimate_run_error", "estimate_times", "observe_state", "sampled_states"]
+__all__ = ["TIGHTEN", "estimate_run_error", "estimate_times", "observe_state", "run_step_ts", "sampled_states"]

@@ -17,7 +17,7 @@ from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..integrate.simulate import simulate_timed
 from ..models import RotatingFrameModel
-from ..reduction.run_error import estimate_run_error, estimate_times
+from ..reduction.run_error import TIGHTEN, estimate_run_error, run_step_ts
 from .run_record import RunRecord
 
 FORMULATIONS = ("rncf", "nr-rncf")
@@ -98,7 +98,7 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     _validate.boolean("estimate_integration", estimate_integration)
-    stops = estimate_times(ts, estimate_samples)  # checks the samples before anything runs
+    stops = run_step_ts(ts, estimate_samples, integration=estimate_integration)  # checks them before anything runs
     pos = np.flatnonzero(np.asarray(full.body.is_position))
     red = None
     if formulation == "rncf":
@@ -140,9 +140,10 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
             # estimate is this run's, and a second one would cost a sparse factorisation a sample.
             run.estimate = red.search.estimate
         elif own:
-            run.estimate = estimate_run_error(full, model, ts, P, None if estimate_integration else V,
+            run.estimate = estimate_run_error(full, model, ts, P, None if stops is None else V,
                                               rho_inf=rho_inf, rtol=rtol, atol=atol, max_steps=max_steps,
-                                              samples=estimate_samples, norm_rows=rows)
+                                              samples=estimate_samples, norm_rows=rows,
+                                              tighten=TIGHTEN if estimate_integration else 1.0)
     return run
 
 

@@ -15,7 +15,7 @@ from ..integrate.simulate import simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
 from ..reduction.pipeline import nr_rncf
-from ..reduction.run_error import TIGHTEN, estimate_run_error, estimate_times, observe_state
+from ..reduction.run_error import TIGHTEN, estimate_run_error, observe_state, run_step_ts
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
 from .run_record import RunRecord
@@ -264,14 +264,14 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     χ_rel (Eq. 40, over all nodal displacements q − q̂ and all output times) and the run-time
     ratio full/reduced are filled in.
 
-    ``estimate``: the run's a-posteriori error estimate from the reduced run alone
-    (``reduction.run_error``; with a reference also the effectivity, estimate / measured): the
-    run ends its steps on the estimate's times (``estimate_times`` as its ``step_ts``) and the
-    basis's χ_rel is estimated at its own states there. ``estimate_method``: ``"static"`` (the
-    quasi-static correction at ``estimate_samples`` output times) or ``"dynamic"`` (the linearised
-    error equation over every output, ``reduction.error_estimate``; the run then ends a step on
-    every output). ``estimate_integration``: also estimate the run's own time-integration error,
-    by a repetition at tightened tolerances (``TIGHTEN``), which costs more than the run.
+    ``estimate``: the run's a-posteriori error estimate from reduced runs alone
+    (``reduction.run_error``; with a reference also the effectivity, estimate / measured).
+    ``estimate_method``: ``"static"`` (the quasi-static correction at ``estimate_samples`` output
+    times: the run ends a step on each, ``run_step_ts``, and the basis's χ_rel is estimated at its
+    own states there) or ``"dynamic"`` (the linearised error equation over every output,
+    ``reduction.error_estimate``, on a repetition of the run ending a step on each).
+    ``estimate_integration``: also estimate the run's own time-integration error, from a
+    repetition at tightened tolerances (``TIGHTEN``), which costs more than the run.
 
     ``tol``: a target χ_rel in per cent. The basis is then the smallest prefix of the MMI ranking
     whose run has an estimate at or below ``tol`` / 2 (``reduction.basis_to_tolerance``, the run itself
@@ -285,7 +285,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     _validate.boolean("estimate_integration", estimate_integration)
-    estimate_times(ts, estimate_samples, estimate_method)  # checks the method and samples before anything runs
+    stops = run_step_ts(ts, estimate_samples, estimate_method, estimate_integration)  # checks them before anything runs
     controller = adaptive_step_size(rtol, atol, step_control)
     full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
     body = full.body
@@ -298,8 +298,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), controller,
                                            jnp.asarray(ts), observe=observe_state, progress=progress,
                                            max_steps=max_steps,
-                                           step_ts=estimate_times(ts, estimate_samples, estimate_method) if own
-                                           else None)
+                                           step_ts=stops if own else None)
     # Observing (p, ṗ) alone keeps the loop's carry small; displacements are rebuilt afterwards.
     P, V = sol.ys
     w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(P))
@@ -314,9 +313,10 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         offline_s=dict(red.offline_s), reduction=red, spin=red.spin, basis_search=red.search,
         # With tol, the search ran the chosen basis over these output times: its estimate is this run's.
         estimate=red.search.estimate if red.search is not None else
-        estimate_run_error(full, model, ts, P, None if estimate_integration else V, rho_inf=rho_inf, rtol=rtol,
+        estimate_run_error(full, model, ts, P, None if stops is None else V, rho_inf=rho_inf, rtol=rtol,
                            atol=atol, max_steps=max_steps, samples=estimate_samples, output=tip_rows,
-                           method=estimate_method) if own else None,
+                           tighten=TIGHTEN if estimate_integration else 1.0, method=estimate_method)
+        if own else None,
     )
     if reference is False or reference is None:
         return res
