@@ -429,7 +429,10 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     ``estimate`` (a reduced system): the run's a-posteriori error estimate from the run alone, at
     ``estimate_samples`` output times (``multibody.error_estimate``, against the system's
     full-order counterpart), in ``PendulumRun.estimate``; the run then also records its
-    coordinates and velocities at the output times.
+    coordinates and velocities at the output times, and ends a step on each of the estimate's
+    times (``reduction.run_error.estimate_times``: the estimate evaluates the equations there;
+    every output for ``"dynamic"``, a few more steps where the chain's own steps are shorter than
+    the output interval).
 
     ``step_control``: the adaptive controller by name (``integrate.STEP_CONTROLS``): ``"plain"``, or
     ``"pi"``, whose runs are more accurate at the same tolerance and reject fewer steps, so that it
