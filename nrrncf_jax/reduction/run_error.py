@@ -56,8 +56,8 @@ def observe_state(t, p, v):
 def estimate_times(ts, samples: int = 16, method: str = "static") -> np.ndarray:
     """The output times at which the estimate of ``method`` evaluates the reduced run: ``samples``
     of the output times ``ts`` (``error_estimate.sample_indices``) for ``"static"``, every one for
-    ``"dynamic"``. Pass them as the run's ``step_ts`` so that its states there end steps, then its
-    velocities to ``estimate_run_error`` (module docstring)."""
+    ``"dynamic"``: where its states must end steps (the run's ``step_ts``, ``run_step_ts``, or
+    a repetition's; module docstring)."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     ts = np.asarray(ts, dtype=float).reshape(-1)
