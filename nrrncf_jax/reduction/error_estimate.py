@@ -132,14 +132,16 @@ def valid_outputs(ts, e, w, omega: float) -> int:
     it exceeds ``RELIABLE_PERCENT`` of the largest displacement so far (the linearisation is then
     no longer small), or, where it first grows by more than ``BLOWUP_FACTOR`` within 1/ω_max
     (``omega``, the largest angular speed of the run's frames), up to where that growth began.
-    Growth is that of the error relative to the largest displacement so far, and of its largest
-    value so far (its envelope): at the start of the run both grow from zero together, and the
-    error alone grows infinitely fast; and an error that oscillates (a phase error of a ringing
-    beam) passes near zero and grows back tenfold within a period without growing at all. In the
-    test against ``RELIABLE_PERCENT`` the largest displacement so far counts as at least
-    ``START_FRACTION`` of the run's largest: at the start of a run from rest (a spin-up) both the
-    displacement and its error are far below the motion's scale, and below the run's absolute
-    tolerance, and their ratio is not the linearisation's size."""
+    Growth is that of the error relative to the largest displacement so far, against its largest
+    value over the 1/ω_max before (its envelope there): at the start of the run both grow from zero
+    together, and the error alone grows infinitely fast; and an error that oscillates (a phase error
+    of a ringing beam) passes near zero and grows back tenfold within a period without growing at
+    all. Against the largest value over the whole run instead, a blow-up that follows an early
+    peak is seen late, after it has spoilt the estimate. In the test against ``RELIABLE_PERCENT``
+    the largest displacement so far counts as at least ``START_FRACTION`` of the run's largest: at
+    the start of a run from rest (a spin-up) both the displacement and its error are far below the
+    motion's scale, and below the run's absolute tolerance, and their ratio is not the
+    linearisation's size."""
     e, w = np.asarray(e), np.asarray(w)
     w_max = np.maximum.accumulate(w)
     broken = e > RELIABLE_PERCENT / 100.0 * np.maximum(w_max, START_FRACTION * w.max(initial=0.0))
@@ -147,9 +149,10 @@ def valid_outputs(ts, e, w, omega: float) -> int:
     first = int(np.argmax(broken)) if broken.any() else e.size
     if omega > 0:
         k = max(1, int(np.ceil(1.0 / (omega * (ts[-1] - ts[0]) / max(ts.size - 1, 1)))))
-        envelope = np.maximum.accumulate(e / np.where(w_max > 0, w_max, np.inf))
+        relative = e / np.where(w_max > 0, w_max, np.inf)
         for i in range(k + 1, first):
-            if envelope[i] > BLOWUP_FACTOR * max(envelope[i - k], 1e-6):
+            before = relative[max(0, i - 2 * k):i - k + 1].max()  # its envelope over the 1/ω before
+            if relative[i] > BLOWUP_FACTOR * max(before, 1e-6):
                 return i - k + 1
     return first
 
