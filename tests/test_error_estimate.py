@@ -248,6 +248,10 @@ def test_valid_outputs_reads_the_start_against_the_motions_scale():
     assert valid_outputs(ts, late, w, omega=0.0) == 60
     blow = 1e-3 * w * np.where(ts >= 0.8, 2 * BLOWUP_FACTOR, 1.0)  # a jump within 1/ω = 0.05 s
     assert valid_outputs(ts, blow, w, omega=20.0) < 80
+    # A blow-up after an early peak is seen where it begins, not once it passes the peak tenfold.
+    bump = np.maximum(0.015 * np.sin(np.pi * ts / 0.4) * (ts < 0.4), 1e-4)  # slow: no blow-up
+    spike = bump * np.exp(100.0 * np.maximum(ts - 0.7, 0.0))  # tenfold in 0.023 s from t = 0.7 s
+    assert 68 <= valid_outputs(ts, spike, np.ones_like(ts), omega=20.0) <= 71
     # A phase error: it oscillates, passing near zero and back within 1/ω, without growing.
     ring = 1e-3 * np.abs(np.sin(2 * np.pi * ts / 0.2)) + 1e-7
     assert valid_outputs(ts, ring, np.ones_like(ts), omega=20.0) == ts.size
