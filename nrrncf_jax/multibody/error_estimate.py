@@ -57,12 +57,11 @@ from jax import lax
 
 from .._types import Array, Float
 from ..reduction.error_estimate import (
-    METHODS,
     NEWMARK_BETA,
     NEWMARK_GAMMA,
     ErrorEstimate,
+    estimate_indices,
     integrate_error_equation,
-    sample_indices,
     valid_outputs,
 )
 from .floating import FloatingBody, rotation
@@ -225,11 +224,9 @@ def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, sa
     if zs.ndim != 2 or zs.shape != vs.shape or zs.shape[0] != ts.shape[0] or zs.shape[1] != reduced.n_dof:
         raise ValueError(f"zs and vs must be (len(ts), {reduced.n_dof}) = ({ts.shape[0]}, {reduced.n_dof}), got "
                          f"{zs.shape} and {vs.shape}")
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    idx = estimate_indices(ts.shape[0], samples, method)
     maps = _lift_maps(full, reduced)
     flexible = tuple(b for b, P in enumerate(maps) if P is not None)
-    idx = sample_indices(ts.shape[0], int(samples)) if method == "static" else np.arange(ts.shape[0])
     args = (full, reduced, maps, jnp.asarray(ts[idx]), jnp.asarray(zs[idx]), jnp.asarray(vs[idx]), flexible)
     fn = _mechanism_corrections if method == "static" else _error_equation
     t0 = time.perf_counter()

@@ -272,6 +272,15 @@ def sample_indices(n_out: int, samples: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n_out - 1, min(samples, n_out))).astype(int))
 
 
+def estimate_indices(n_out: int, samples: int, method: str) -> np.ndarray:
+    """The outputs (of ``n_out``) at which the estimate of ``method`` evaluates a run:
+    ``samples`` of them (``sample_indices``) for ``"static"``, every one for ``"dynamic"``; an
+    unknown method is a ``ValueError``."""
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    return sample_indices(n_out, int(samples)) if method == "static" else np.arange(n_out)
+
+
 def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=(), norm_rows=None,
                    method: str = "static") -> ErrorEstimate:
     """The error estimate (module docstring) of the reduced run whose coordinates ``ps`` and
@@ -298,10 +307,8 @@ def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=(), norm
     norm_rows = np.arange(full.n_dof) if norm_rows is None else np.asarray(norm_rows, dtype=int).reshape(-1)
     if norm_rows.size == 0 or norm_rows.min() < 0 or norm_rows.max() >= full.n_dof:
         raise ValueError(f"norm_rows must index the full model's {full.n_dof} coordinates")
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    idx = estimate_indices(ts.shape[0], samples, method)
     norm_rows = jnp.asarray(norm_rows)
-    idx = sample_indices(ts.shape[0], int(samples)) if method == "static" else np.arange(ts.shape[0])
     t_s = jnp.asarray(ts[idx])
     lifted = (reduced, t_s, jnp.asarray(ps[idx]), jnp.asarray(vs[idx]), norm_rows)
     t0 = time.perf_counter()
@@ -328,5 +335,6 @@ def estimate_error(full, reduced, ts, ps, vs, samples: int = 16, output=(), norm
                          valid_until=valid_until)
 
 
-__all__ = ["METHODS", "RELIABLE_PERCENT", "ErrorEstimate", "estimate_error", "integrate_error_equation", "lift",
+__all__ = ["METHODS", "RELIABLE_PERCENT", "ErrorEstimate", "estimate_error", "estimate_indices",
+           "integrate_error_equation", "lift",
            "sample_indices", "static_correction", "valid_outputs"]

@@ -39,7 +39,7 @@ import numpy as np
 
 from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha, states_at
-from .error_estimate import METHODS, ErrorEstimate, estimate_error, sample_indices
+from .error_estimate import ErrorEstimate, estimate_error, estimate_indices, sample_indices
 
 TIGHTEN = 10.0
 """The repetition's tolerances are the run's divided by this: its own integration error is then
@@ -58,10 +58,8 @@ def estimate_times(ts, samples: int = 16, method: str = "static") -> np.ndarray:
     of the output times ``ts`` (``error_estimate.sample_indices``) for ``"static"``, every one for
     ``"dynamic"``: where its states must end steps (the run's ``step_ts``, ``run_step_ts``, or
     a repetition's; module docstring)."""
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     ts = np.asarray(ts, dtype=float).reshape(-1)
-    return ts[_indices(ts, samples, method)]
+    return ts[estimate_indices(ts.shape[0], samples, method)]
 
 
 def run_step_ts(ts, samples: int = 16, method: str = "static", integration: bool = False):
@@ -74,10 +72,6 @@ def run_step_ts(ts, samples: int = 16, method: str = "static", integration: bool
     wanted (the repetition at tightened tolerances gives the states too)."""
     times = estimate_times(ts, samples, method)  # checks method and samples
     return times if method == "static" and not integration else None
-
-
-def _indices(ts, samples, method):
-    return sample_indices(ts.shape[0], int(samples)) if method == "static" else np.arange(ts.shape[0])
 
 
 def sampled_states(reduced, ts, samples: int, solver, controller, max_steps: int):
@@ -111,19 +105,19 @@ def estimate_run_error(full, reduced, ts, ps=None, vs=None, *, rho_inf: float = 
     error against it in ``integration_percent`` (None with ``tighten`` = 1, where the repetition
     is no more accurate than the run). A repetition's compile and run times are in the estimate's."""
     _validate.positive("tighten", tighten)
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     ts = np.asarray(ts, dtype=float)
+    idx = estimate_indices(ts.shape[0], samples, method)
+    ps = None if ps is None else np.asarray(ps, dtype=float)
+    vs = None if vs is None else np.asarray(vs, dtype=float)
     for name, x in (("ps", ps), ("vs", vs)):
         if x is not None and np.shape(x) != (ts.shape[0], reduced.n_dof):
             raise ValueError(f"{name} must be (len(ts), {reduced.n_dof}) = {(ts.shape[0], reduced.n_dof)}, got "
                              f"{np.shape(x)}")
     if vs is not None and ps is None:
         raise ValueError("vs (the run's velocities) goes with ps (its coordinates)")
-    idx = _indices(ts, samples, method)
     compile_s = run_s = 0.0
     if vs is not None:
-        P, V = np.asarray(ps, dtype=float)[idx], np.asarray(vs, dtype=float)[idx]
+        P, V = ps[idx], vs[idx]
     else:
         solver, controller = GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol / tighten, atol / tighten)
         P, V, compile_s, run_s, _ = _ending_on(reduced, ts[idx], solver, controller, max_steps)
