@@ -221,17 +221,48 @@ def _lifted(reduced, ts, ps, vs, norm_rows):
     return q, qd, qdd, jnp.linalg.norm(w, axis=1)
 
 
+SAMPLE_BATCH = 8
+"""The static estimate's samples are corrected up to this many at a time (a ``vmap`` within each
+batch, the batches one after another). Each correction is the full model's element tangents, their
+assembly and factorisation (a beam's block-tridiagonal LU: a scan over its nodes) and a residual:
+many small operations, whose fixed cost a batch shares; batches of a few samples share it, where
+all the samples at once were slower on the paper beam's finer mesh
+(``benchmarks/results/error_estimate.md``).
+
+The batches are equal (``_batches``): the samples are padded with copies of the last one, not
+split into full batches and a remainder. A remainder is a second batched computation independent
+of the first, which XLA may run beside it, and two of jaxlib's batched LAPACK factorisations at
+once on the CPU can deadlock: each blocks a thread of XLA's pool until its parts are done, and
+with every thread blocked none is left to do them (on 2 cores: the 876-DOF membrane's 11 samples
+as 8 + 3 hung; ``linalg.dense.solve_once`` says the same of several host devices). One batch at a
+time, as a batched run of a full model factors once a step, leaves a thread free."""
+
+
+def _batches(count: int) -> tuple[int, int]:
+    """``(batches, size)`` for ``count`` samples: as few batches of at most ``SAMPLE_BATCH`` as
+    cover them, all of one size, with as little padding as that allows."""
+    batches = -(-count // SAMPLE_BATCH)
+    return batches, -(-count // batches)
+
+
 @eqx.filter_jit
 def _corrections(full, ts, q, qd, qdd, norm_rows, rows):
-    """|e| on ``norm_rows`` and e[rows] at each sample. Apart from the lift, so that it is compiled once per full
-    model and sample count, whatever the reduced model (``basis_to_tolerance`` tries many
-    reduced sizes against one full model). One sample after another (``lax.map``): a vmapped
-    factorisation would be one batched LAPACK call, which the library avoids on the CPU
-    (``linalg.dense.solve_once``)."""
-    def one(args):
-        e = _correction(full, *args)
+    """|e| on ``norm_rows`` and e[rows] at each sample, in equal batches (``SAMPLE_BATCH``). Apart
+    from the lift, so that it is compiled once per full model and sample count, whatever the
+    reduced model (``basis_to_tolerance`` tries many reduced sizes against one full model)."""
+    count = ts.shape[0]
+    batches, size = _batches(count)
+
+    def batched(x):  # (count, ...) → (batches, size, ...), padded with the last sample
+        x = jnp.concatenate([x, jnp.repeat(x[-1:], batches * size - count, axis=0)])
+        return x.reshape(batches, size, *x.shape[1:])
+
+    def one(t, q, qd, qdd):
+        e = _correction(full, t, q, qd, qdd)
         return jnp.linalg.norm(e[norm_rows]), e[rows]
-    return lax.map(one, (ts, q, qd, qdd))
+
+    norms, out = lax.map(lambda x: jax.vmap(one)(*x), tuple(batched(x) for x in (ts, q, qd, qdd)))
+    return norms.reshape(-1)[:count], out.reshape(batches * size, -1)[:count]
 
 
 @eqx.filter_jit
