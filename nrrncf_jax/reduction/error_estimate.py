@@ -58,6 +58,7 @@ import numpy as np
 from jax import lax
 
 from .._types import Array, Float
+from ..linalg import BlockTridiagonal
 
 RELIABLE_PERCENT = 20.0
 """Above this estimate (χ_rel in per cent) the linearised correction is not small next to the
@@ -223,35 +224,35 @@ def _lifted(reduced, ts, ps, vs, norm_rows):
 
 SAMPLE_BATCH = 8
 """The static estimate's samples are corrected up to this many at a time (a ``vmap`` within each
-batch, the batches one after another). Each correction is the full model's element tangents, their
-assembly and factorisation (a beam's block-tridiagonal LU: a scan over its nodes) and a residual:
-many small operations, whose fixed cost a batch shares; batches of a few samples share it, where
-all the samples at once were slower on the paper beam's finer mesh
-(``benchmarks/results/error_estimate.md``).
+batch, the batches one after another) where the full model factors its tangent block-tridiagonally
+(a beam chain). Each correction is then the element tangents, their assembly and a block LU (a scan
+over the nodes of small LAPACK factorisations) and a residual: many small operations, whose fixed
+cost a batch shares. Batches of a few samples share it, where all the samples at once were slower
+on the paper beam's finer mesh (``benchmarks/results/error_estimate.md``). The batches are equal
+(``_batches``: the samples padded with copies of the last one), so that one program serves them.
 
-The batches are equal (``_batches``): the samples are padded with copies of the last one, not
-split into full batches and a remainder. A remainder is a second batched computation independent
-of the first, which XLA may run beside it, and two of jaxlib's batched LAPACK factorisations at
-once on the CPU can deadlock: each blocks a thread of XLA's pool until its parts are done, and
-with every thread blocked none is left to do them (on 2 cores: the 876-DOF membrane's 11 samples
-as 8 + 3 hung; ``linalg.dense.solve_once`` says the same of several host devices). One batch at a
-time, as a batched run of a full model factors once a step, leaves a thread free."""
+Other solvers correct one sample at a time. A dense tangent's LU is one large LAPACK call, which
+a batch does not make cheaper, and jaxlib's batched LAPACK LU on the CPU can hang: a batch of 8
+factorisations of the 876-DOF test membrane's tangent hung on 2 cores even alone
+(``linalg.dense.solve_once`` avoids the same call for the reduced models). The sparse solver's
+host callbacks run one after another under ``vmap`` anyway."""
 
 
-def _batches(count: int) -> tuple[int, int]:
-    """``(batches, size)`` for ``count`` samples: as few batches of at most ``SAMPLE_BATCH`` as
-    cover them, all of one size, with as little padding as that allows."""
-    batches = -(-count // SAMPLE_BATCH)
+def _batches(count: int, most: int) -> tuple[int, int]:
+    """``(batches, size)`` for ``count`` samples: as few batches of at most ``most`` as cover them,
+    all of one size, with as little padding as that allows."""
+    batches = -(-count // most)
     return batches, -(-count // batches)
 
 
 @eqx.filter_jit
 def _corrections(full, ts, q, qd, qdd, norm_rows, rows):
-    """|e| on ``norm_rows`` and e[rows] at each sample, in equal batches (``SAMPLE_BATCH``). Apart
-    from the lift, so that it is compiled once per full model and sample count, whatever the
-    reduced model (``basis_to_tolerance`` tries many reduced sizes against one full model)."""
+    """|e| on ``norm_rows`` and e[rows] at each sample, in batches (``SAMPLE_BATCH``). Apart from
+    the lift, so that it is compiled once per full model and sample count, whatever the reduced
+    model (``basis_to_tolerance`` tries many reduced sizes against one full model)."""
     count = ts.shape[0]
-    batches, size = _batches(count)
+    most = SAMPLE_BATCH if isinstance(getattr(full, "solver", None), BlockTridiagonal) else 1
+    batches, size = _batches(count, most)
 
     def batched(x):  # (count, ...) → (batches, size, ...), padded with the last sample
         x = jnp.concatenate([x, jnp.repeat(x[-1:], batches * size - count, axis=0)])
