@@ -232,10 +232,12 @@ on the paper beam's finer mesh (``benchmarks/results/error_estimate.md``). The b
 (``_batches``: the samples padded with copies of the last one), so that one program serves them.
 
 Other solvers correct one sample at a time. A dense tangent's LU is one large LAPACK call, which
-a batch does not make cheaper, and jaxlib's batched LAPACK LU on the CPU can hang: a batch of 8
-factorisations of the 876-DOF test membrane's tangent hung on 2 cores even alone
-(``linalg.dense.solve_once`` avoids the same call for the reduced models). The sparse solver's
-host callbacks run one after another under ``vmap`` anyway."""
+a batch does not make cheaper, and jaxlib's batched LAPACK LU on the CPU can hang: the 876-DOF
+test membrane's corrections in one batch of 8 hung on 2 cores (a batched LU of eight such
+matrices on its own did not; ``linalg.dense.solve_once`` avoids the batched call for the reduced
+models). The block LU's node blocks (12 × 12 on the paper's beams) are batched as in the batched
+runs of beams (``simulate_batch``). The sparse solver's host callbacks run one after another
+under ``vmap`` anyway."""
 
 
 def _batches(count: int, most: int) -> tuple[int, int]:
