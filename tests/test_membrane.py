@@ -119,9 +119,26 @@ def test_membrane_command(capsys, tmp_path):
     assert len([f for f in os.listdir(vtk) if f.endswith(".vtu")]) == 11
 
 
+@pytest.mark.slow
+def test_membrane_command_error_equation(capsys):
+    """``--estimate-method dynamic``: the error equation over every output (21 here, where the
+    static estimate takes 16 samples), valid throughout on the paper's basis and within the
+    effectivity band (0.5-2) of the static estimate, which estimates the same basis error."""
+    args = ["membrane", "--case", "bending-torsion", "--rings", "3", "--thickness", "8e-3", "--t-end", "0.4",
+            "--dt-out", "0.02", "--rtol", "1e-4", "--atol", "1e-6", "--json"]
+    d = {}
+    for method in ("static", "dynamic"):
+        assert main([*args, "--estimate-method", method]) == 0
+        d[method] = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert d["static"]["estimate_samples"] == 16 and d["dynamic"]["estimate_samples"] == 21
+    assert d["dynamic"]["estimate_reliable"] and "estimate_valid_until_s" not in d["dynamic"]
+    assert 0.5 < d["dynamic"]["chi_rel_estimate_percent"] / d["static"]["chi_rel_estimate_percent"] < 2.0
+
+
 def test_membrane_command_refuses_bad_input(capsys):
     """Exit status 2 and one line naming the bad value, before any work."""
     for bad, named in ((["--formulation", "rncf", "--reference", "rncf"], "--reference"),
+                       (["--formulation", "rncf", "--estimate-method", "dynamic"], "--estimate-method"),
                        (["--vms", "30"], "mode index 30"), (["--mds", "none", "2,2"], "--mds"),
                        (["--rings", "1"], "--rings"), (["--omega", "-1"], "--omega"), (["--rtol", "0"], "rtol")):
         assert main(["membrane", *bad]) == 2

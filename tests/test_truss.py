@@ -152,6 +152,7 @@ def test_truss_dynamics_command(capsys, tmp_path):
     assert np.isfinite(d["tip_y_max_m"]) and d["tip_y_max_m"] > 0
     assert plot.stat().st_size > 0 and len(list((tmp_path / "vtk").glob("*.vtu"))) > 1
     assert main(["truss", "dynamics", "--formulation", "rncf", "--reference", "rncf"]) == 2
+    assert main(["truss", "dynamics", "--formulation", "rncf", "--estimate-method", "dynamic"]) == 2
 
 
 @pytest.mark.xdist_group("truss_small")

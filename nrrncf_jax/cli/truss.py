@@ -1,8 +1,8 @@
 """``nrrncf truss``: the beamlike truss of the paper's Sec. 4.5 (``scenarios.truss``).
 
     nrrncf truss modes [--count 10] [--plot F] [--vtk DIR] [--json] [--no-progress]
-    nrrncf truss dynamics --formulation {rncf,nr-rncf} [--vms 4] [--mds 6] [--reference rncf]
-                          [--plot F] [--vtk DIR] [--json]
+    nrrncf truss dynamics --formulation {rncf,nr-rncf} [--vms 4] [--mds 6]
+                          [--estimate-method {static,dynamic}] [--reference rncf] [--plot F] [--vtk DIR] [--json]
 
 ``--json`` prints one JSON object as the last line: for ``modes`` ``frequencies_hz`` (ascending)
 and ``mode_types``; for ``dynamics`` ``dofs, vms, mds, steps, compile_s, run_s, offline_s`` and
@@ -76,7 +76,7 @@ def _dynamics(args) -> int:
         run = ref
     else:
         run = run_truss("nr-rncf", spec, vms=args.vms, mds=args.mds, n_modes=args.modes, tol=args.tol,
-                        reference=ref if ref is not None else False, **kw)
+                        estimate_method=args.estimate_method, reference=ref if ref is not None else False, **kw)
     if args.plot:
         from ..post.plotting import plot_truss_tip
 
@@ -104,8 +104,9 @@ def _check(args) -> None:
         _common.output_times(args.t_end, args.dt_out)
         if args.tol is not None:
             _validate.positive("--tol (target chi_rel in per cent)", args.tol)
-        if args.formulation == "rncf" and (args.reference is not None or args.tol is not None):
-            raise ValueError("--reference and --tol go with --formulation nr-rncf")
+        if args.formulation == "rncf" and (args.reference is not None or args.tol is not None
+                                           or args.estimate_method != "static"):
+            raise ValueError("--reference, --tol and --estimate-method go with --formulation nr-rncf")
         _common.at_least("--vms", args.vms, 1)
         _common.at_least("--mds", args.mds, 0)
         _common.at_least("--modes", args.modes, args.vms)
@@ -129,6 +130,11 @@ def register(sub) -> None:
     t.add_argument("--tol", type=float, default=None, metavar="P",
                    help="dynamics, nr-rncf: choose the basis to a target chi_rel of P per cent (the smallest prefix of "
                         "the MMI ranking whose run's error estimate is <= P/2; --vms and --mds are then not used)")
+    t.add_argument("--estimate-method", choices=("static", "dynamic"), default="static",
+                   help="dynamics, nr-rncf: the error estimate: static (the quasi-static correction at 16 sampled "
+                        "outputs, a sparse factorisation each) or dynamic (the linearised error equation over every "
+                        "output, a factorisation each: minutes, but it flags a basis whose error grows as drift; "
+                        "estimate_valid_until_s says where its linearisation stopped holding)")
     t.add_argument("--reference", choices=("rncf",), default=None,
                    help="dynamics, nr-rncf: also run the full RNCF model and report chi_rel and the speed-up")
     t.add_argument("--t-end", type=float, default=10.0, help="dynamics: end time [s]")

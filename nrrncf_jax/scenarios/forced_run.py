@@ -78,7 +78,8 @@ class ForcedRun(RunRecord):
 def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *, vms=4, mds=6, n_modes: int = 12,
                spin_state="auto", modes=None, rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-6,
                progress: bool = False, max_steps: int = 500_000, estimate: bool = True, estimate_samples: int = 16,
-               tol: float | None = None, estimate_integration: bool = False, cls=ForcedRun,
+               tol: float | None = None, estimate_integration: bool = False, estimate_method: str = "static",
+               cls=ForcedRun,
                **fields) -> ForcedRun:
     """Run ``full`` (``'rncf'``) or its NR-RNCF reduction (``'nr-rncf'``: ``nr_rncf`` with ``vms``,
     ``mds`` among ``n_modes`` candidates, MMI over ``ts``, no cap on the size; ``modes``: see
@@ -89,7 +90,11 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     times, on which the run then ends steps, over the position vectors as χ_rel is): one sparse
     factorisation of the full model per sample, seconds on the 19k-DOF bodies.
     ``estimate_integration``: also the run's own time-integration error, by a repetition of the
-    run at tightened tolerances.
+    run at tightened tolerances. ``estimate_method``: ``"static"`` (the quasi-static correction at
+    the samples, above) or ``"dynamic"`` (the linearised error equation over every output, on a
+    repetition of the run ending a step on each: a sparse factorisation an output, minutes on the
+    19k-DOF bodies, but the one that flags a basis whose error grows over the run as drift:
+    ``benchmarks/results/error_estimate_large.md``).
     ``tol``: the basis chosen to a target χ_rel in per cent
     instead (``nr_rncf(..., tol=...)``, the run itself the training manoeuvre; ``vms`` and ``mds``
     are then not used, and ``spin_state`` governs the spinning-state check of each basis tried)."""
@@ -98,7 +103,7 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     _validate.boolean("estimate_integration", estimate_integration)
-    stops = run_step_ts(ts, estimate_samples, integration=estimate_integration)  # checks them before anything runs
+    stops = run_step_ts(ts, estimate_samples, estimate_method, estimate_integration)  # checks them before anything runs
     pos = np.flatnonzero(np.asarray(full.body.is_position))
     red = None
     if formulation == "rncf":
@@ -143,7 +148,8 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
             run.estimate = estimate_run_error(full, model, ts, P, None if stops is None else V,
                                               rho_inf=rho_inf, rtol=rtol, atol=atol, max_steps=max_steps,
                                               samples=estimate_samples, norm_rows=rows,
-                                              tighten=TIGHTEN if estimate_integration else 1.0)
+                                              tighten=TIGHTEN if estimate_integration else 1.0,
+                                              method=estimate_method)
     return run
 
 
