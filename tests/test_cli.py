@@ -179,7 +179,7 @@ BAD_INPUT = {
     "estimate-integration-full-order": (["spinup", "--omega", "4", "--estimate-integration"],
                                         "--estimate-method and --estimate-integration estimate a reduced run's"),
     "truss-tol-full-order": (["truss", "dynamics", "--formulation", "rncf", "--tol", "1"],
-                             "--reference and --tol go with --formulation nr-rncf"),
+                             "--reference, --tol and --estimate-method go with --formulation nr-rncf"),
     "membrane-tol-zero": (["membrane", "--tol", "0"], "--tol (target chi_rel in per cent) must be > 0, got 0"),
     "spinup-out-dir": (["spinup", "--omega", "10", "--out", MISSING + "tip.csv"],
                        f"--out {MISSING}tip.csv: the directory /nonexistent/dir does not exist"),
