@@ -255,3 +255,35 @@ def test_valid_outputs_reads_the_start_against_the_motions_scale():
     # A phase error: it oscillates, passing near zero and back within 1/ω, without growing.
     ring = 1e-3 * np.abs(np.sin(2 * np.pi * ts / 0.2)) + 1e-7
     assert valid_outputs(ts, ring, np.ones_like(ts), omega=20.0) == ts.size
+
+
+def test_error_equation_in_windows_equals_step_by_step():
+    """``integrate_error_equation(..., batch=k)`` (the factors of k steps made together) integrates
+    the same equations as one step after another: a damped 3-DOF system driven by a given defect,
+    with 10 steps in windows of 4 (the last padded), agrees to round-off: ten steps, each a solve
+    with a matrix of condition ≈ 10, allow some hundreds of ε of the solution."""
+    from nrrncf_jax.linalg import DenseLU
+    from nrrncf_jax.reduction.error_estimate import NEWMARK_BETA, NEWMARK_GAMMA, integrate_error_equation
+
+    M = jnp.diag(jnp.array([1.0, 2.0, 0.5]))
+    C = 0.1 * jnp.eye(3)
+    K0 = jnp.array([[4.0, -1.0, 0.0], [-1.0, 3.0, -0.5], [0.0, -0.5, 2.0]])
+    ts = jnp.linspace(0.0, 1.0, 11)
+    states = ts  # the "run's state": the time itself, which scales the stiffness and drives the defect
+
+    def linearised(t, h, state):
+        K = K0 * (1.0 + 0.5 * state)
+        force = jnp.array([jnp.sin(3.0 * t), 1.0, t])
+
+        def defect(e, ed, edd, mu):
+            return M @ edd + C @ ed + K @ e - force
+
+        return defect, DenseLU.factor(M + NEWMARK_GAMMA * h * C + NEWMARK_BETA * h**2 * K), None
+
+    def measure(_, e):
+        return e
+
+    one = integrate_error_equation(ts, states, linearised, measure, 3)
+    windows = integrate_error_equation(ts, states, linearised, measure, 3, batch=4)
+    assert one.shape == windows.shape == (11, 3) and float(jnp.abs(one).max()) > 1e-3
+    np.testing.assert_allclose(windows, one, rtol=0, atol=1000 * EPS * float(jnp.abs(one).max()))

@@ -84,7 +84,8 @@ error at up to 20 /s, the unstable error equation at 90-460 /s:
 ``benchmarks/results/error_estimate_mechanism.md``)."""
 
 
-def integrate_error_equation(ts, states, linearised, measure, n: int, m: int = 0, refinements: int = 1):
+def integrate_error_equation(ts, states, linearised, measure, n: int, m: int = 0, refinements: int = 1,
+                             batch: int = 1):
     """The linearised error equation of a reduced run integrated along it from e = ė = 0 by
     Newmark's rule (``NEWMARK_GAMMA``, ``NEWMARK_BETA``) over the output times ``ts``: the
     ``measure`` of the error at each output, the first (zero error) included.
@@ -96,14 +97,20 @@ def integrate_error_equation(ts, states, linearised, measure, n: int, m: int = 0
     what ``measure(lifted, e)`` needs. Each step solves ``refinements`` times on the exact
     defect: once where the factor is the equations' exact Jacobian, more where it leaves terms
     out. Shared by the single-body (``estimate_error``) and the mechanism
-    (``multibody.error_estimate``) estimates."""
+    (``multibody.error_estimate``) estimates.
+
+    ``batch`` > 1: the factors of ``batch`` consecutive steps are made together (a ``vmap``), each
+    window of steps then integrated one step after another with them; the factors depend on the
+    run's states only, not on the error. For factorisations of many small operations
+    (``FACTOR_BATCH`` says where that pays and where batched LAPACK calls must be avoided)."""
     g, b = NEWMARK_GAMMA, NEWMARK_BETA
 
-    def step(carry, args):
+    def step(carry, args, factor=None):
         e, ed, x = carry
         t0, t, state = args
         h = t - t0
-        defect, factor, lifted = linearised(t, h, state)
+        defect, own, lifted = linearised(t, h, state)  # ``own`` unused (compiled away) when given one
+        factor = own if factor is None else factor
         e_p, ed_p = e + h * ed + (0.5 - b) * h**2 * x[:n], ed + (1.0 - g) * h * x[:n]
 
         def refine(_, x):
@@ -118,7 +125,21 @@ def integrate_error_equation(ts, states, linearised, measure, n: int, m: int = 0
     # step's predictor misses (1/2 − β) h² ë(0), second order in the output interval
     zero = jnp.zeros(n, ts.dtype)
     carry0 = (zero, zero, jnp.zeros(n + m, ts.dtype))
-    _, out = lax.scan(step, carry0, (ts[:-1], ts[1:], jax.tree.map(lambda s: s[1:], states)))
+    steps = (ts[:-1], ts[1:], jax.tree.map(lambda s: s[1:], states))
+    if batch <= 1:
+        _, out = lax.scan(step, carry0, steps)
+    else:
+        count = ts.shape[0] - 1
+        windows, size = _batches(count, batch)
+        windowed = jax.tree.map(lambda x: _padded(x, windows, size), steps)
+
+        def window(carry, args):
+            t0, t, state = args
+            factors = jax.vmap(lambda t0, t, state: linearised(t, t - t0, state)[1])(t0, t, state)
+            return lax.scan(lambda c, a: step(c, a[:3], a[3]), carry, (t0, t, state, factors))
+
+        _, out = lax.scan(window, carry0, windowed)
+        out = jax.tree.map(lambda o: o.reshape(windows * size, *o.shape[2:])[:count], out)
     return jax.tree.map(lambda o: jnp.concatenate([jnp.zeros_like(o[:1]), o]), out)
 
 
@@ -222,18 +243,19 @@ def _lifted(reduced, ts, ps, vs, norm_rows):
     return q, qd, qdd, jnp.linalg.norm(w, axis=1)
 
 
-SAMPLE_BATCH = 8
-"""The static estimate's samples are corrected up to this many at a time (a ``vmap`` within each
-batch, the batches one after another) where the full model factors its tangent block-tridiagonally
-(a beam chain). Each correction is then the element tangents, their assembly and a block LU (a scan
-over the nodes of small LAPACK factorisations) and a residual: many small operations, whose fixed
-cost a batch shares. Batches of a few samples share it, where all the samples at once were slower
-on the paper beam's finer mesh (``benchmarks/results/error_estimate.md``). The batches are equal
-(``_batches``: the samples padded with copies of the last one), so that one program serves them.
+FACTOR_BATCH = 8
+"""How many factorisations of the full tangent are made together where the full model factors it
+block-tridiagonally (a beam chain): the static estimate's samples (a ``vmap`` within each batch,
+the batches one after another) and the error equation's outputs (``integrate_error_equation``'s
+windows). A factorisation is then the element tangents, their assembly and a block LU (a scan over
+the nodes of small LAPACK factorisations): many small operations, whose fixed cost a batch shares.
+Batches of a few share it, where all 16 samples at once were slower on the paper beam's finer
+mesh (``benchmarks/results/error_estimate.md``). The batches are equal (``_batches``, padded with
+copies of the last item), so that one program serves them.
 
-Other solvers correct one sample at a time. A dense tangent's LU is one large LAPACK call, which
-a batch does not make cheaper, and jaxlib's batched LAPACK LU on the CPU can hang: the 876-DOF
-test membrane's corrections in one batch of 8 hung on 2 cores (a batched LU of eight such
+Other solvers factor one at a time. A dense tangent's LU is one large LAPACK call, which a batch
+does not make cheaper, and jaxlib's batched LAPACK LU on the CPU can hang: the 876-DOF test
+membrane's static corrections in one batch of 8 hung on 2 cores (a batched LU of eight such
 matrices on its own did not; ``linalg.dense.solve_once`` avoids the batched call for the reduced
 models). The block LU's node blocks (12 × 12 on the paper's beams) are batched as in the batched
 runs of beams (``simulate_batch``). The sparse solver's host callbacks run one after another
@@ -241,31 +263,37 @@ under ``vmap`` anyway."""
 
 
 def _batches(count: int, most: int) -> tuple[int, int]:
-    """``(batches, size)`` for ``count`` samples: as few batches of at most ``most`` as cover them,
+    """``(batches, size)`` for ``count`` items: as few batches of at most ``most`` as cover them,
     all of one size, with as little padding as that allows."""
     batches = -(-count // most)
     return batches, -(-count // batches)
 
 
+def _batch_for(full) -> int:
+    """How many of ``full``'s factorisations to make together: ``FACTOR_BATCH`` for a
+    block-tridiagonal tangent, one otherwise."""
+    return FACTOR_BATCH if isinstance(getattr(full, "solver", None), BlockTridiagonal) else 1
+
+
+def _padded(x, batches: int, size: int):
+    """``x`` (count, ...) as (batches, size, ...), padded with copies of its last item."""
+    x = jnp.concatenate([x, jnp.repeat(x[-1:], batches * size - x.shape[0], axis=0)])
+    return x.reshape(batches, size, *x.shape[1:])
+
+
 @eqx.filter_jit
 def _corrections(full, ts, q, qd, qdd, norm_rows, rows):
-    """|e| on ``norm_rows`` and e[rows] at each sample, in batches (``SAMPLE_BATCH``). Apart from
+    """|e| on ``norm_rows`` and e[rows] at each sample, in batches (``FACTOR_BATCH``). Apart from
     the lift, so that it is compiled once per full model and sample count, whatever the reduced
     model (``basis_to_tolerance`` tries many reduced sizes against one full model)."""
-    count = ts.shape[0]
-    most = SAMPLE_BATCH if isinstance(getattr(full, "solver", None), BlockTridiagonal) else 1
-    batches, size = _batches(count, most)
-
-    def batched(x):  # (count, ...) → (batches, size, ...), padded with the last sample
-        x = jnp.concatenate([x, jnp.repeat(x[-1:], batches * size - count, axis=0)])
-        return x.reshape(batches, size, *x.shape[1:])
+    batches, size = _batches(ts.shape[0], _batch_for(full))
 
     def one(t, q, qd, qdd):
         e = _correction(full, t, q, qd, qdd)
         return jnp.linalg.norm(e[norm_rows]), e[rows]
 
-    norms, out = lax.map(lambda x: jax.vmap(one)(*x), tuple(batched(x) for x in (ts, q, qd, qdd)))
-    return norms.reshape(-1)[:count], out.reshape(batches * size, -1)[:count]
+    norms, out = lax.map(lambda x: jax.vmap(one)(*x), tuple(_padded(x, batches, size) for x in (ts, q, qd, qdd)))
+    return norms.reshape(-1)[:ts.shape[0]], out.reshape(batches * size, -1)[:ts.shape[0]]
 
 
 @eqx.filter_jit
@@ -295,7 +323,7 @@ def _error_equation(full, ts, q, qd, qdd, norm_rows, rows):
         e = jnp.where(free, e, 0.0)
         return jnp.linalg.norm(e[norm_rows]), e[rows]
 
-    return integrate_error_equation(ts, (q, qd, qdd), linearised, measure, full.n_dof)
+    return integrate_error_equation(ts, (q, qd, qdd), linearised, measure, full.n_dof, batch=_batch_for(full))
 
 
 def sample_indices(n_out: int, samples: int) -> np.ndarray:
