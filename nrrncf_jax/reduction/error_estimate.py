@@ -293,7 +293,7 @@ def _corrections(full, ts, q, qd, qdd, norm_rows, rows):
         return jnp.linalg.norm(e[norm_rows]), e[rows]
 
     norms, out = lax.map(lambda x: jax.vmap(one)(*x), tuple(_padded(x, batches, size) for x in (ts, q, qd, qdd)))
-    return norms.reshape(-1)[:ts.shape[0]], out.reshape(batches * size, -1)[:ts.shape[0]]
+    return norms.reshape(-1)[:ts.shape[0]], out.reshape(batches * size, *out.shape[2:])[:ts.shape[0]]
 
 
 @eqx.filter_jit
