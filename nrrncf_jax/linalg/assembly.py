@@ -19,6 +19,7 @@ them once, from static data (the element DOFs as NumPy), before anything is trac
 import abc
 import warnings
 from collections.abc import Sequence
+from typing import ClassVar
 
 import equinox as eqx
 import numpy as np
@@ -44,6 +45,13 @@ class AbstractLinearSolver(eqx.Module):
     """How a matrix assembled from element groups is factored (see the module docstring). A
     solver holds only static data, so a model that carries one can be built inside ``jit``."""
 
+    batches_factors: ClassVar[bool] = False
+    """Whether several of its factorisations are worth making together under ``vmap`` (the error
+    estimates' samples and outputs, ``reduction.error_estimate.FACTOR_BATCH``): true where a
+    factorisation is many small operations whose fixed cost a batch shares. False by default: a
+    dense LU is one large LAPACK call, which a batch does not make cheaper and which, batched, can
+    hang on the CPU; a sparse one is host callbacks, one after another under ``vmap`` anyway."""
+
     @abc.abstractmethod
     def factor(self, parts: Parts, free: Bool[Array, " n"]) -> AbstractFactorization:
         """Assemble the groups ``parts`` into the n × n matrix (n = ``free.shape[0]``), make the
@@ -62,6 +70,7 @@ class BlockTridiagonal(AbstractLinearSolver):
     nodes e and e + 1, DOFs numbered node by node)."""
 
     block: int = eqx.field(static=True)
+    batches_factors: ClassVar[bool] = True  # a scan of small block LUs over the nodes
 
     def factor(self, parts, free) -> BlockTridiagonalLU:
         ((Ge, _),) = parts

@@ -58,7 +58,6 @@ import numpy as np
 from jax import lax
 
 from .._types import Array, Float
-from ..linalg import BlockTridiagonal
 
 RELIABLE_PERCENT = 20.0
 """Above this estimate (χ_rel in per cent) the linearised correction is not small next to the
@@ -244,22 +243,23 @@ def _lifted(reduced, ts, ps, vs, norm_rows):
 
 
 FACTOR_BATCH = 8
-"""How many factorisations of the full tangent are made together where the full model factors it
-block-tridiagonally (a beam chain): the static estimate's samples (a ``vmap`` within each batch,
-the batches one after another) and the error equation's outputs (``integrate_error_equation``'s
-windows). A factorisation is then the element tangents, their assembly and a block LU (a scan over
-the nodes of small LAPACK factorisations): many small operations, whose fixed cost a batch shares.
+"""How many factorisations of the full tangent are made together where the full model's linear
+solver batches them well (``linalg.AbstractLinearSolver.batches_factors``: block-tridiagonal, a
+beam chain): the static estimate's samples (a ``vmap`` within each batch, the batches one after
+another) and the error equation's outputs (``integrate_error_equation``'s windows). A
+factorisation is then the element tangents, their assembly and a block LU (a scan over the nodes
+of small LAPACK factorisations): many small operations, whose fixed cost a batch shares.
 Batches of a few share it, where all 16 samples at once were slower on the paper beam's finer
 mesh (``benchmarks/results/error_estimate.md``). The batches are equal (``_batches``, padded with
 copies of the last item), so that one program serves them.
 
-Other solvers factor one at a time. A dense tangent's LU is one large LAPACK call, which a batch
-does not make cheaper, and jaxlib's batched LAPACK LU on the CPU can hang: the 876-DOF test
-membrane's static corrections in one batch of 8 hung on 2 cores (a batched LU of eight such
-matrices on its own did not; ``linalg.dense.solve_once`` avoids the batched call for the reduced
-models). The block LU's node blocks (12 × 12 on the paper's beams) are batched as in the batched
-runs of beams (``simulate_batch``). The sparse solver's host callbacks run one after another
-under ``vmap`` anyway."""
+Other solvers (``batches_factors`` false) factor one at a time. A dense tangent's LU is one large
+LAPACK call, which a batch does not make cheaper, and jaxlib's batched LAPACK LU on the CPU can
+hang: the 876-DOF test membrane's static corrections in one batch of 8 hung on 2 cores (a batched
+LU of eight such matrices on its own did not; ``linalg.dense.solve_once`` avoids the batched call
+for the reduced models). The block LU's node blocks (12 × 12 on the paper's beams) are batched
+as in the batched runs of beams (``simulate_batch``). The sparse solver's host callbacks run one
+after another under ``vmap`` anyway."""
 
 
 def _batches(count: int, most: int) -> tuple[int, int]:
@@ -270,9 +270,9 @@ def _batches(count: int, most: int) -> tuple[int, int]:
 
 
 def _batch_for(full) -> int:
-    """How many of ``full``'s factorisations to make together: ``FACTOR_BATCH`` for a
-    block-tridiagonal tangent, one otherwise."""
-    return FACTOR_BATCH if isinstance(getattr(full, "solver", None), BlockTridiagonal) else 1
+    """How many of ``full``'s factorisations to make together: ``FACTOR_BATCH`` where its linear
+    solver batches them well (``linalg.AbstractLinearSolver.batches_factors``), one otherwise."""
+    return FACTOR_BATCH if getattr(getattr(full, "solver", None), "batches_factors", False) else 1
 
 
 def _padded(x, batches: int, size: int):

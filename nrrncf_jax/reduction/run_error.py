@@ -134,4 +134,18 @@ def estimate_run_error(full, reduced, ts, ps=None, vs=None, *, rho_inf: float = 
                                run_s=est.run_s + run_s)
 
 
-__all__ = ["TIGHTEN", "estimate_run_error", "estimate_times", "observe_state", "run_step_ts", "sampled_states"]
+def estimate_own_run(full, reduced, ts, ps, vs, *, samples: int = 16, method: str = "static",
+                     integration: bool = False, **kwargs) -> ErrorEstimate:
+    """``estimate_run_error`` of a run made with ``step_ts=run_step_ts(ts, samples, method,
+    integration)``, its coordinates ``ps`` and velocities ``vs`` recorded at ``ts``: from its own
+    states where it stopped on the samples, else on a repetition (at ``rtol / TIGHTEN`` with the
+    run's ``integration`` error, at the run's tolerances without). ``kwargs``: the rest of
+    ``estimate_run_error``'s settings (the run's ``rho_inf``, ``rtol``, ``atol``, ``max_steps``,
+    ``output``, ``norm_rows``)."""
+    stopped = run_step_ts(ts, samples, method, integration) is not None
+    return estimate_run_error(full, reduced, ts, ps, vs if stopped else None, samples=samples, method=method,
+                              tighten=TIGHTEN if integration else 1.0, **kwargs)
+
+
+__all__ = ["TIGHTEN", "estimate_own_run", "estimate_run_error", "estimate_times", "observe_state", "run_step_ts",
+           "sampled_states"]

@@ -17,7 +17,7 @@ from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..integrate.simulate import simulate_timed
 from ..models import RotatingFrameModel
-from ..reduction.run_error import TIGHTEN, estimate_run_error, run_step_ts
+from ..reduction.run_error import estimate_own_run, run_step_ts
 from .run_record import RunRecord
 
 FORMULATIONS = ("rncf", "nr-rncf")
@@ -145,11 +145,9 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
             # estimate is this run's, and a second one would cost a sparse factorisation a sample.
             run.estimate = red.search.estimate
         elif own:
-            run.estimate = estimate_run_error(full, model, ts, P, None if stops is None else V,
-                                              rho_inf=rho_inf, rtol=rtol, atol=atol, max_steps=max_steps,
-                                              samples=estimate_samples, norm_rows=rows,
-                                              tighten=TIGHTEN if estimate_integration else 1.0,
-                                              method=estimate_method)
+            run.estimate = estimate_own_run(full, model, ts, P, V, samples=estimate_samples, method=estimate_method,
+                                            integration=estimate_integration, rho_inf=rho_inf, rtol=rtol,
+                                            atol=atol, max_steps=max_steps, norm_rows=rows)
     return run
 
 

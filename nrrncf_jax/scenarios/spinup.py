@@ -15,7 +15,7 @@ from ..integrate.simulate import simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
 from ..reduction.pipeline import nr_rncf
-from ..reduction.run_error import TIGHTEN, estimate_run_error, observe_state, run_step_ts
+from ..reduction.run_error import TIGHTEN, estimate_own_run, observe_state, run_step_ts
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
 from .run_record import RunRecord
@@ -313,9 +313,9 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         offline_s=dict(red.offline_s), reduction=red, spin=red.spin, basis_search=red.search,
         # With tol, the search ran the chosen basis over these output times: its estimate is this run's.
         estimate=red.search.estimate if red.search is not None else
-        estimate_run_error(full, model, ts, P, None if stops is None else V, rho_inf=rho_inf, rtol=rtol,
-                           atol=atol, max_steps=max_steps, samples=estimate_samples, output=tip_rows,
-                           tighten=TIGHTEN if estimate_integration else 1.0, method=estimate_method)
+        estimate_own_run(full, model, ts, P, V, samples=estimate_samples, method=estimate_method,
+                         integration=estimate_integration, rho_inf=rho_inf, rtol=rtol, atol=atol,
+                         max_steps=max_steps, output=tip_rows)
         if own else None,
     )
     if reference is False or reference is None:
