@@ -209,12 +209,39 @@ def test_greedy_order_ranks_by_interaction_and_breaks_ties_by_index():
         greedy_order(W, [])
 
 
+def test_pruning_drops_what_the_prefix_does_not_need():
+    """``_pruned``: from the lowest ranked up, a candidate goes where the basis without it still
+    passes with no more DOFs; a VM stays while an MD of its pairs does; the first never goes, and
+    the last is not tried alone (that is the shorter prefix, which failed)."""
+    from nrrncf_jax.reduction.basis_to_tolerance import Trial, _pruned
+
+    needed = {0, (0, 0), 2}
+    calls = []
+
+    def evaluate(items, key, dropped):
+        calls.append(dropped)
+        spun = dropped[-1] == (1, 1)  # as if the spinning-state check enriched this one: more DOFs
+        return Trial(columns=len(items), dofs=len(items) + (3 if spun else 0), vms=(), pairs=(),
+                     chi_rel_estimate_percent=0.1 + sum(c not in items for c in needed), reliable=True,
+                     steps=1, seconds=0.0, dropped=dropped)
+
+    items = [0, (0, 0), 1, (0, 1), (1, 1), 2]
+    start = Trial(columns=6, dofs=6, vms=(), pairs=(), chi_rel_estimate_percent=0.1, reliable=True, steps=1,
+                  seconds=0.0)
+    key = _pruned(evaluate, items, start, limit=0.5)
+    assert key == ("pruned", (0, 1))
+    # The last (φ2) is the failing shorter prefix's; dropping θ1,1 passes but adds DOFs; θ0,1 goes;
+    # φ1 stays for θ1,1; θ0,0 is needed.
+    assert calls == [((1, 1),), ((0, 1),), ((0, 1), (0, 0))]
+
+
 @pytest.mark.slow
 @pytest.mark.xdist_group("error_estimate")
 def test_basis_to_a_tolerance_meets_it_measured(spin):
     """``nr_rncf(..., tol=0.5)``: the basis grows along the MMI order until the estimate of its
     training run is at most 0.25 % (the default safety factor 2); every shorter prefix tried was
-    above that, and the χ_rel measured against the full run is below the tolerance."""
+    above that, pruning kept no more DOFs than the passing prefix, and the χ_rel measured against
+    the full run is below the tolerance."""
     full, w_ref = spin
     # The search from 5 columns (a 2-column start is the command line test's): 5, 8, then 6 and 7.
     red = nr_rncf(full, jnp.asarray(TS), n_modes=12, max_dofs=8, tol=0.5,
@@ -222,8 +249,10 @@ def test_basis_to_a_tolerance_meets_it_measured(spin):
     s = red.search
     assert s.met and s.safety == 2.0 and s.chosen.chi_rel_estimate_percent <= 0.25
     assert red.dofs == s.chosen.dofs and red.selection.vms == s.chosen.vms
-    assert all(t.chi_rel_estimate_percent > 0.25 for t in s.trials if t.columns < s.chosen.columns)
-    assert any(t.columns == s.chosen.columns - 1 for t in s.trials)  # the next shorter prefix was tried
+    prefix = s.chosen.columns + len(s.chosen.dropped)  # the passing prefix's length
+    assert all(t.chi_rel_estimate_percent > 0.25 for t in s.trials if not t.dropped and t.columns < prefix)
+    assert any(t.columns == prefix - 1 for t in s.trials if not t.dropped)  # the next shorter prefix was tried
+    assert s.chosen.dofs <= next(t.dofs for t in s.trials if not t.dropped and t.columns == prefix)
     _, _, w = _reduced_run(red.model)
     assert float(chi_rel(w_ref, w)) <= 0.5
     assert "the first" in s.describe()

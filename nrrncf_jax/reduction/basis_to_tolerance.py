@@ -22,6 +22,15 @@ failing and the first passing length, which assumes that the estimate falls alon
 every trial is recorded, so where it does not the record shows it. A trial compiles its own
 reduced model (the reduced size is a shape), which is most of its cost.
 
+A prefix carries candidates that the ones after it made redundant: the MMI weight ranks a column
+by how strongly the training motion excites it, not by what it adds to the columns before it.
+So the passing prefix is then *pruned* (``prune``, on by default): backward elimination, each
+candidate from the lowest ranked up dropped where the basis without it still passes and has no
+more DOFs, a VM kept while an MD of its pairs is. Most of their sizes were compiled by the
+search before them, so they cost about their runs and estimates. The result passes the same
+test as the prefix; it is not the smallest passing subset, which would need a search over
+subsets.
+
 The training runs end their steps on the estimate's samples (``reduction.run_error``: an output
 interpolated between steps would make the estimate read the interpolation, not the basis), at
 tightened tolerances. Where it stops working: the
@@ -87,6 +96,23 @@ def greedy_order(W, candidates) -> list[tuple[int, int] | int]:
     return order
 
 
+def _pruned(evaluate, items, chosen, limit):
+    """Backward elimination from the passing prefix ``items`` (its ``Trial`` ``chosen``): each
+    candidate after the first, from the lowest ranked up, is dropped where the basis without it
+    (``evaluate(items, key, dropped)``, a ``Trial``) still has an estimate at most ``limit`` and
+    no more DOFs (the spinning-state check can enrich a smaller set). A VM is kept while an MD of
+    its pairs is. The last candidate is not tried first: without it, the prefix is the shorter one
+    the search found failing. Returns the key of the last basis kept."""
+    kept, dropped, key = list(items), (), chosen.columns
+    for c in reversed(items[1:-1]):
+        if isinstance(c, int) and any(not isinstance(x, int) and c in x for x in kept):
+            continue
+        t = evaluate([x for x in kept if x != c], ("pruned", *dropped, c), (*dropped, c))
+        if t.chi_rel_estimate_percent <= limit and t.dofs <= chosen.dofs:
+            kept, dropped, key, chosen = [x for x in kept if x != c], t.dropped, ("pruned", *t.dropped), t
+    return key
+
+
 def shortest_passing(trial, length: int, start: int = 1) -> int | None:
     """The shortest prefix length n ≤ ``length`` with ``trial(n)`` true, searched by growth
     (``start``, then ×1.5, at least one more each time) and bisection between the last length
@@ -116,7 +142,9 @@ class Trial:
     deflation, its VMs and MD pairs, the estimate of its training run (χ_rel in per cent, and
     whether that is in the estimate's reliable range), the run's accepted steps, the trial's
     wall time [s] (its reduction, compilations, run and estimate), and whether the spinning-state
-    check added its columns (``spin_enriched``; the DOFs count them)."""
+    check added its columns (``spin_enriched``; the DOFs count them). A pruning trial's ``dropped``
+    lists the candidates removed from the passing prefix, the one it tried last; ``columns`` is
+    then the number of candidates it kept."""
 
     columns: int
     dofs: int
@@ -127,6 +155,7 @@ class Trial:
     steps: int
     seconds: float
     spin_enriched: bool = False
+    dropped: tuple = ()
 
 
 @dataclasses.dataclass
@@ -148,25 +177,37 @@ class BasisSearch:
         """The JSON-ready record: the target, whether it was met, and each basis tried."""
         return {"tol_percent": self.tol, "tol_met": self.met,
                 "basis_trials": [{"columns": t.columns, "dofs": t.dofs,
-                                  "chi_rel_estimate_percent": t.chi_rel_estimate_percent, "seconds": t.seconds}
+                                  "chi_rel_estimate_percent": t.chi_rel_estimate_percent, "seconds": t.seconds,
+                                  "dropped": [_name(c) for c in t.dropped]}
                                  for t in self.trials]}
 
     def describe(self) -> str:
         """What was chosen and why: the tolerance, the verdict and every trial."""
         c = self.chosen
+        which = (f"the first {c.columns} of {len(self.order)} ranked candidates" if not c.dropped else
+                 f"the first {c.columns + len(c.dropped)} of {len(self.order)} ranked candidates without "
+                 + ", ".join(_name(d) for d in c.dropped))
         head = (f"basis to tol = {self.tol:g} % (estimate <= {self.tol / self.safety:g} %): {c.dofs} DOFs "
-                f"({len(c.vms)} VMs + {len(c.pairs)} MDs, "
-                f"the first {c.columns} of {len(self.order)} ranked candidates), estimate "
+                f"({len(c.vms)} VMs + {len(c.pairs)} MDs, {which}), estimate "
                 f"{c.chi_rel_estimate_percent:.4g} %")
         if not self.met:
             head += (f"; NOT MET: no basis tried has an estimate at or below {self.tol / self.safety:g} % (the largest "
                      "is kept; "
                      "see reduction.error_estimate for where the estimate raises false alarms)")
-        rows = [f"  {t.columns:4d} columns → {t.dofs:3d} DOFs{' (spin-enriched)' if t.spin_enriched else ''}: "
+
+        def label(t):
+            return (f"prefix of {t.columns:3d}" if not t.dropped else
+                    f"{t.columns:3d}, without {_name(t.dropped[-1])}")
+        rows = [f"  {label(t)} → {t.dofs:3d} DOFs{' (spin-enriched)' if t.spin_enriched else ''}: "
                 f"estimate {t.chi_rel_estimate_percent:10.4g} %"
                 f"{'' if t.reliable else ' (above the reliable range)'}, {t.steps} steps, {t.seconds:.1f} s"
-                for t in sorted(self.trials, key=lambda t: t.columns)]
-        return "\n".join([head, "  trials, by prefix length:"] + rows)
+                for t in self.trials]
+        return "\n".join([head, "  trials, in the order made (columns → DOFs):"] + rows)
+
+
+def _name(candidate) -> str:
+    """A candidate as the paper writes it: VM i as φi, the MD of modes i, j as θi,j."""
+    return f"φ{candidate}" if isinstance(candidate, int) else f"θ{candidate[0]},{candidate[1]}"
 
 
 def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: int = 24,
@@ -175,7 +216,7 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
                          rtol: float = 1e-4, atol: float = 1e-6, max_steps: int = 500_000,
                          start: int = 2, safety: float = 2.0, error_rows=None, norm_rows=None, output=(),
                          modes=None, tighten: float = TIGHTEN, spin_state: bool | str = "auto", spin_vms: int = 1,
-                         spin_mds: int = 4, spin_tol: float = 2e-3) -> Reduction:
+                         spin_mds: int = 4, spin_tol: float = 2e-3, prune: bool = True) -> Reduction:
     """The NR-RNCF reduced model of ``full`` with the smallest greedy basis whose training run
     over the output times ``ts`` has an error estimate of at most ``tol / safety`` per cent χ_rel
     (module docstring). ``max_dofs`` caps the columns tried (default: every candidate); ``start``
@@ -185,7 +226,8 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
     ``n_modes``, ``vm_tol``, ``md_method``, ``deflation_tol``, ``modes`` and the spinning-state
     enrichment's ``spin_state``, ``spin_vms``, ``spin_mds``, ``spin_tol`` are ``nr_rncf``'s
     (``nr_rncf(..., tol=...)`` calls this): each basis tried is checked, and enriched, as
-    ``nr_rncf`` checks its own. Returns the ``Reduction``
+    ``nr_rncf`` checks its own. ``prune``: drop what the passing prefix does not need (module
+    docstring). Returns the ``Reduction``
     of the chosen basis, with ``search`` (a ``BasisSearch``) holding every trial; ``search.met``
     is False (and the largest basis tried is kept) when no basis reaches the tolerance."""
     if not isinstance(full, RotatingFrameModel):
@@ -222,11 +264,11 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         return modal_basis(body, free, phi, pairs, vms=vms, extra=[extra], theta=theta[:, cols],
                            deflation_tol=deflation_tol), True
 
-    def trial(n):
+    def evaluate(items, key, dropped=()):
+        """Build, run and estimate the basis of the candidates ``items``; record it under ``key``."""
         t1 = time.perf_counter()
-        prefix = order[:n]
-        vms = tuple(c for c in prefix if isinstance(c, int))
-        cols = [k for k, c in enumerate(all_pairs) if c in prefix]
+        vms = tuple(c for c in items if isinstance(c, int))
+        cols = [k for k, c in enumerate(all_pairs) if c in items]
         pairs = tuple(all_pairs[k] for k in cols)
         basis = modal_basis(body, free, phi, pairs, vms=vms, theta=theta[:, cols] if cols else None,
                             deflation_tol=deflation_tol)
@@ -238,16 +280,23 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         idx, P, V, _, _, steps = sampled_states(model, ts, samples, GeneralizedAlpha(rho_inf),
                                                 AdaptiveStepSize(rtol / tighten, atol / tighten), max_steps)
         est = estimate_error(full, model, ts[idx], P, V, samples=idx.size, output=output, norm_rows=norm_rows)
-        runs[n] = (model, est)
-        trials[n] = Trial(columns=n, dofs=model.n_dof, vms=vms, pairs=pairs,
-                          chi_rel_estimate_percent=est.chi_rel_percent, reliable=est.reliable,
-                          steps=steps, seconds=time.perf_counter() - t1, spin_enriched=spun)
-        return est.chi_rel_percent <= tol / safety
+        runs[key] = (model, est)
+        trials[key] = Trial(columns=len(items), dofs=model.n_dof, vms=vms, pairs=pairs,
+                            chi_rel_estimate_percent=est.chi_rel_percent, reliable=est.reliable,
+                            steps=steps, seconds=time.perf_counter() - t1, spin_enriched=spun, dropped=dropped)
+        return trials[key]
+
+    def trial(n):
+        return evaluate(order[:n], n).chi_rel_estimate_percent <= tol / safety
 
     t0 = time.perf_counter()
     passed = shortest_passing(trial, length, start)
     offline["greedy"] = time.perf_counter() - t0
     chosen = passed if passed is not None else length
+    if prune and passed is not None:
+        t0 = time.perf_counter()
+        chosen = _pruned(evaluate, order[:passed], trials[passed], tol / safety)
+        offline["prune"] = time.perf_counter() - t0
     model, est = runs[chosen]
     pick = trials[chosen]
     offline["total"] = sum(v for k, v in offline.items() if k != "total")
