@@ -70,7 +70,7 @@ def main():
     lines = [
         "# The pendulum's NR-RNCF basis chosen to a tolerance (issue 34)",
         "",
-        f"Produced by `benchmarks/pendulum_to_tolerance.py`. Machine: {machine()}; the process pinned to one core.",
+        f"Produced by `benchmarks/pendulum_to_tolerance.py`. Machine: {machine()}.",
         "",
         f"The paper's pendulum (10 elements a beam). `pendulum_to_tolerance(tol=P)`: candidates a beam (the first "
         f"of {args.vms} in-plane cantilever modes, the right-end joint's static modes, then the VMs and the MDs of "
