@@ -72,6 +72,15 @@ def test_spinup_nr_rncf_to_a_tolerance_json(capsys):
     assert d["basis_trials"][0]["chi_rel_estimate_percent"] == pytest.approx(d["chi_rel_estimate_percent"], rel=1e-9)
 
 
+@pytest.mark.xdist_group("cli_paper2_nr_rncf")
+def test_spinup_estimate_samples(capsys):
+    """``--estimate-samples N``: the static estimate at N sampled outputs, the record says N."""
+    assert main(["spinup", "--formulation", "nr-rncf", "--beam", "paper", "--elements", "2", "--omega", "4",
+                 "--t-end", "1", "--modes", "4", "--estimate-samples", "3", "--json", "--no-progress"]) == 0
+    d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert d["estimate_samples"] == 3 and d["chi_rel_estimate_percent"] > 0
+
+
 def test_modes_json(capsys):
     assert main(["modes", "--beam", "paper", "--elements", "4", "--count", "4", "--json"]) == 0
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
@@ -178,6 +187,14 @@ BAD_INPUT = {
                                    "--estimate-method and --estimate-integration estimate a reduced run's error"),
     "estimate-integration-full-order": (["spinup", "--omega", "4", "--estimate-integration"],
                                         "--estimate-method and --estimate-integration estimate a reduced run's"),
+    "estimate-samples-one": (["spinup", "--formulation", "nr-rncf", "--omega", "4", "--estimate-samples", "1"],
+                             "--estimate-samples must be >= 2, got 1"),
+    "estimate-samples-full-order": (["membrane", "--formulation", "rncf", "--estimate-samples", "8"],
+                                    "--estimate-samples goes with --formulation nr-rncf"),
+    "estimate-samples-dynamic": (["truss", "dynamics", "--estimate-method", "dynamic", "--estimate-samples", "8"],
+                                 "--estimate-samples sets the static estimate's samples"),
+    "estimate-samples-no-estimate": (["pendulum", "--formulation", "nr-rncf", "--no-estimate", "--estimate-samples",
+                                      "8"], "--estimate-samples sets the error estimate's samples; leave out"),
     "truss-tol-full-order": (["truss", "dynamics", "--formulation", "rncf", "--tol", "1"],
                              "--reference, --tol and --estimate-method go with --formulation nr-rncf"),
     "membrane-tol-zero": (["membrane", "--tol", "0"], "--tol (target chi_rel in per cent) must be > 0, got 0"),

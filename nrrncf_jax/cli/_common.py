@@ -99,6 +99,30 @@ def add_step_control(parser) -> None:
                              "benchmarks/results/step_control.md)")
 
 
+def add_estimate_samples(parser) -> None:
+    """``--estimate-samples N``: the static error estimate's sampled outputs (the scenario
+    runners' ``estimate_samples``; default theirs, 16)."""
+    parser.add_argument("--estimate-samples", type=int, default=None, metavar="N",
+                        help="nr-rncf: output times at which the static error estimate factors the full tangent, "
+                             ">= 2 (default 16; fewer cost less and integrate the chi_rel norm more coarsely: "
+                             "benchmarks/results/error_estimate.md)")
+
+
+def estimate_samples(args, reduced: bool) -> dict:
+    """The runner's keyword for ``--estimate-samples`` (empty when not given: the runner's
+    default), after its checks: at least 2, a reduced run's, and the static estimate's (the
+    dynamic one runs over every output)."""
+    if args.estimate_samples is None:
+        return {}
+    at_least("--estimate-samples", args.estimate_samples, 2)
+    if not reduced:
+        raise ValueError("--estimate-samples goes with --formulation nr-rncf")
+    if args.estimate_method != "static":
+        raise ValueError("--estimate-samples sets the static estimate's samples; the dynamic estimate runs over "
+                         "every output")
+    return {"estimate_samples": args.estimate_samples}
+
+
 def at_least(flag: str, value: int | None, minimum: int) -> None:
     """An integer option (None: not given) that must be at least ``minimum``."""
     if value is not None and value < minimum:

@@ -43,7 +43,8 @@ def _run(args) -> int:
     else:
         mds = None if args.mds is None else ([] if args.mds == ["none"] else args.mds)
         run = run_membrane(args.case, omega, "nr-rncf", spec, vms=args.vms, mds=mds, n_modes=args.modes, tol=args.tol,
-                           estimate_method=args.estimate_method, reference=ref if ref is not None else False, **kw)
+                           estimate_method=args.estimate_method, reference=ref if ref is not None else False,
+                           **_common.estimate_samples(args, True), **kw)
     if args.plot:
         from ..post.plotting import plot_membrane_rim
 
@@ -75,6 +76,7 @@ def _check(args) -> None:
             raise ValueError("--reference, --tol and --estimate-method go with --formulation nr-rncf")
         if args.vms is not None or args.mds is not None:
             raise ValueError("--vms and --mds go with --formulation nr-rncf")
+    _common.estimate_samples(args, args.formulation == "nr-rncf")
     if args.mds is not None and "none" in args.mds and len(args.mds) > 1:
         raise ValueError("--mds none stands alone")
     highest = max([*(args.vms or []), *(i for p in (args.mds or []) if p != "none" for i in p)], default=-1)
@@ -108,6 +110,7 @@ def register(sub) -> None:
                         "a factorisation each) or dynamic (the linearised error equation over every output, a "
                         "factorisation each: minutes on the full mesh, but it flags a basis whose error grows as "
                         "drift; estimate_valid_until_s says where its linearisation stopped holding)")
+    _common.add_estimate_samples(t)
     t.add_argument("--reference", choices=("rncf",), default=None,
                    help="nr-rncf: also run the full RNCF model and report chi_rel and the speed-up")
     t.add_argument("--rings", type=int, default=15, help="rings of the hexagonal disk mesh (15: 1350 triangles)")

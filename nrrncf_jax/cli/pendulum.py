@@ -70,14 +70,15 @@ def _run(args) -> int:
         _common.say(args, search.describe())
         run = run_chain(search.system, args.t_end, args.dt_out, args.rho_inf, args.rtol, args.atol,
                         kw["progress"], estimate=not args.no_estimate, estimate_method=args.estimate_method,
-                        step_control=args.step_control)
+                        step_control=args.step_control, **_common.estimate_samples(args, True))
         run.search = search
         if ref is not None:
             run.compare(ref)
     else:
         run = run_pendulum(spec, formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
                            joint_modes=args.joint_modes, craig_bampton=args.craig_bampton,
-                           estimate=not args.no_estimate, estimate_method=args.estimate_method, **kw)
+                           estimate=not args.no_estimate, estimate_method=args.estimate_method,
+                           **_common.estimate_samples(args, True), **kw)
         if ref is not None:
             run.compare(ref)
     if args.out:
@@ -117,6 +118,9 @@ def _check(args) -> None:
         _common.output_times(args.train_t, 0.01)
     elif args.train_t != TRAIN_T:
         raise ValueError("--train-t is the training window of --tol; give --tol too")
+    _common.estimate_samples(args, args.formulation == "nr-rncf")
+    if args.no_estimate and args.estimate_samples is not None:
+        raise ValueError("--estimate-samples sets the error estimate's samples; leave out --no-estimate")
     if args.joint_modes and args.craig_bampton:
         raise ValueError("--craig-bampton already holds the joint's static modes: pass one of --joint-modes, "
                          "--craig-bampton")
@@ -172,6 +176,7 @@ def register(sub) -> None:
                         "the drift of the chain's swing) or dynamic (the linearised error equation over every "
                         "output: tracks the drift while its linearisation holds, reports where it stopped holding "
                         "as estimate_valid_until_s; costs a few full-model steps an output)")
+    _common.add_estimate_samples(t)
     t.add_argument("--reference-rtol", type=float, default=None,
                    help="the reference run's relative tolerance (default: --rtol; its atol scaled alike): the full "
                         "model is the reference and may need a tighter one than the reduced model's")

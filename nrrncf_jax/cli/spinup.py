@@ -24,6 +24,7 @@ def _check(args) -> None:
     if (args.estimate_method != "static" or args.estimate_integration) and args.formulation != "nr-rncf":
         raise ValueError("--estimate-method and --estimate-integration estimate a reduced run's error; use them "
                          "with --formulation nr-rncf")
+    _common.estimate_samples(args, args.formulation == "nr-rncf")
     if args.reference and args.formulation != "nr-rncf":
         raise ValueError("--reference compares a reduced run against the full model; use it with "
                          "--formulation nr-rncf")
@@ -52,7 +53,8 @@ def _spinup(args) -> int:
                                  max_dofs=args.max_dofs, tol=args.tol,
                                  spin_state={"auto": "auto", "on": True, "off": False}[args.spin_state],
                                  reference=args.reference == "rncf", estimate_method=args.estimate_method,
-                                 estimate_integration=args.estimate_integration, **common)
+                                 estimate_integration=args.estimate_integration,
+                                 **_common.estimate_samples(args, True), **common)
     else:
         res = run_spinup(args.formulation, args.beam, args.omega, **common)
     if args.out:
@@ -106,6 +108,7 @@ def register(sub) -> None:
                         "(static), or the linearised error equation over every output (dynamic; where it stops "
                         "being valid the JSON says so in estimate_valid_until_s); static: the run ends a step on "
                         "each sample; dynamic: on a repetition of the run that ends a step on every output")
+    _common.add_estimate_samples(s)
     s.add_argument("--estimate-integration", action="store_true",
                    help="nr-rncf: also estimate the run's own time-integration error, by repeating the run at "
                         "rtol/10 (costs more than the run)")

@@ -76,7 +76,8 @@ def _dynamics(args) -> int:
         run = ref
     else:
         run = run_truss("nr-rncf", spec, vms=args.vms, mds=args.mds, n_modes=args.modes, tol=args.tol,
-                        estimate_method=args.estimate_method, reference=ref if ref is not None else False, **kw)
+                        estimate_method=args.estimate_method, reference=ref if ref is not None else False,
+                        **_common.estimate_samples(args, True), **kw)
     if args.plot:
         from ..post.plotting import plot_truss_tip
 
@@ -107,6 +108,7 @@ def _check(args) -> None:
         if args.formulation == "rncf" and (args.reference is not None or args.tol is not None
                                            or args.estimate_method != "static"):
             raise ValueError("--reference, --tol and --estimate-method go with --formulation nr-rncf")
+        _common.estimate_samples(args, args.formulation == "nr-rncf")
         _common.at_least("--vms", args.vms, 1)
         _common.at_least("--mds", args.mds, 0)
         _common.at_least("--modes", args.modes, args.vms)
@@ -135,6 +137,7 @@ def register(sub) -> None:
                         "outputs, a sparse factorisation each) or dynamic (the linearised error equation over every "
                         "output, a factorisation each: minutes, but it flags a basis whose error grows as drift; "
                         "estimate_valid_until_s says where its linearisation stopped holding)")
+    _common.add_estimate_samples(t)
     t.add_argument("--reference", choices=("rncf",), default=None,
                    help="dynamics, nr-rncf: also run the full RNCF model and report chi_rel and the speed-up")
     t.add_argument("--t-end", type=float, default=10.0, help="dynamics: end time [s]")

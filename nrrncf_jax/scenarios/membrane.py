@@ -214,7 +214,8 @@ def run_membrane(case: str = "in-plane", omega_s: float | None = None, formulati
                  spec: MembraneSpec = MembraneSpec(), vms=None, mds=None, n_modes: int = 24, T_s: float = 2.0,
                  t_end: float = 3.0, dt_out: float = 0.01, rho_inf: float = 0.9, rtol: float = 1e-5,
                  atol: float = 1e-7, reference: "bool | MembraneRun" = False, progress: bool = False,
-                 max_steps: int = 500_000, tol: float | None = None, estimate_method: str = "static") -> MembraneRun:
+                 max_steps: int = 500_000, tol: float | None = None, estimate_method: str = "static",
+                 estimate_samples: int = 16) -> MembraneRun:
     """The rotating membrane's ``case`` (``CASES``) at the steady rate ``omega_s`` (default 7 rad/s
     in-plane, 4 rad/s bending-torsion) with the full RNCF model (``'rncf'``, sparse solver above
     1000 DOFs) or NR-RNCF (``'nr-rncf'``). The NR-RNCF basis defaults to the paper's
@@ -232,8 +233,8 @@ def run_membrane(case: str = "in-plane", omega_s: float | None = None, formulati
     full model's steps grow from 97 to 348). The default 1e-5 is the compromise.
 
     ``tol``: the basis chosen to a target χ_rel in per cent instead of the paper's (``run_forced``).
-    ``estimate_method``: the NR-RNCF run's error estimate, ``"static"`` or ``"dynamic"``
-    (``run_forced``)."""
+    ``estimate_method``: the NR-RNCF run's error estimate, ``"static"`` or ``"dynamic"``, and
+    ``estimate_samples`` the static one's sampled outputs (``run_forced``)."""
 
     if case not in CASES:
         raise ValueError(f"case must be one of {CASES}, got {case!r}")
@@ -255,7 +256,8 @@ def run_membrane(case: str = "in-plane", omega_s: float | None = None, formulati
         modes_s = time.perf_counter() - t0
     run = run_forced(full, formulation, ts, membrane.rim_point, vms=vms, mds=mds, n_modes=n_modes,
                      spin_state=False, modes=modes, rho_inf=rho_inf, rtol=rtol, atol=atol, progress=progress,
-                     max_steps=max_steps, tol=tol, estimate_method=estimate_method, cls=MembraneRun, case=case,
+                     max_steps=max_steps, tol=tol, estimate_method=estimate_method,
+                     estimate_samples=estimate_samples, cls=MembraneRun, case=case,
                      omega_s=float(omega_s))
     if run.offline_s is not None:
         run.offline_s += modes_s

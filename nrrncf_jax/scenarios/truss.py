@@ -262,7 +262,8 @@ def run_truss(formulation: str = "nr-rncf", spec: TrussSpec = TrussSpec(), F0: f
               frequency: float | None = None, deflection: float = 0.05, t_end: float = 10.0, dt_out: float = 0.02,
               vms: int | str = 4, mds=6, n_modes: int = 12, rho_inf: float = 0.9, rtol: float = 1e-4,
               atol: float = 1e-6, reference: "bool | TrussRun" = False, progress: bool = False,
-              max_steps: int = 500_000, tol: float | None = None, estimate_method: str = "static") -> TrussRun:
+              max_steps: int = 500_000, tol: float | None = None, estimate_method: str = "static",
+              estimate_samples: int = 16) -> TrussRun:
     """The truss excited at its free end by ``F0 sin(2π f t)`` along y (default: f the first
     bending frequency and F0 from ``resonant_force`` for a tip deflection of ``deflection`` times
     the length at ``t_end``), run with the full RNCF model (``'rncf'``, sparse solver) or NR-RNCF
@@ -270,7 +271,8 @@ def run_truss(formulation: str = "nr-rncf", spec: TrussSpec = TrussSpec(), F0: f
     output times; with ``tol``, the basis chosen to a target χ_rel in per cent instead,
     ``run_forced``). With ``reference`` (True, or a full ``TrussRun`` on the same output times)
     χ_rel and the speed-up are filled in. ``estimate_method``: the NR-RNCF run's error estimate,
-    ``"static"`` or ``"dynamic"`` (``run_forced``)."""
+    ``"static"`` or ``"dynamic"``, and ``estimate_samples`` the static one's sampled outputs
+    (``run_forced``)."""
 
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
@@ -282,7 +284,7 @@ def run_truss(formulation: str = "nr-rncf", spec: TrussSpec = TrussSpec(), F0: f
         frequency = f_auto if frequency is None else frequency
     run = run_forced(truss_model(truss, F0, frequency), formulation, ts, truss.tip_positions, vms=vms, mds=mds,
                      n_modes=n_modes, rho_inf=rho_inf, rtol=rtol, atol=atol, progress=progress, max_steps=max_steps,
-                     tol=tol, estimate_method=estimate_method, cls=TrussRun)
+                     tol=tol, estimate_method=estimate_method, estimate_samples=estimate_samples, cls=TrussRun)
     if reference is False or reference is None:
         return run
     ref = run_truss("rncf", spec, F0, frequency, t_end=t_end, dt_out=dt_out, rho_inf=rho_inf, rtol=rtol, atol=atol,
