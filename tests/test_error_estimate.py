@@ -184,6 +184,8 @@ def test_sample_indices_and_bad_input(spin):
             nr_rncf(full, TS, tol=bad)
     with pytest.raises(ValueError, match="safety"):
         nr_rncf(full, TS, tol=1.0, training=dict(safety=0.0))
+    with pytest.raises(ValueError, match="prune must be True or False"):
+        nr_rncf(full, TS, tol=1.0, training=dict(prune=1))
 
 
 def test_greedy_order_ranks_by_interaction_and_breaks_ties_by_index():

@@ -234,6 +234,7 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         raise ValueError("nr_rncf_to_tolerance reduces a RotatingFrameModel (RNCF); got " + type(full).__name__)
     _validate.positive("tol (a target χ_rel in per cent)", tol)
     _validate.positive("safety", safety)
+    _validate.boolean("prune", prune)
     if max_dofs is not None and int(max_dofs) < 1:
         raise ValueError(f"max_dofs must be at least 1, got {max_dofs}")
     ts = np.asarray(ts, dtype=float)
