@@ -31,7 +31,6 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from nrrncf_jax.reduction.basis_to_tolerance import _name  # noqa: E402
 from nrrncf_jax.scenarios.spinup import run_nr_rncf_spinup, run_spinup  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -49,8 +48,7 @@ TIGHT = 1e-6
 
 def _row(name, om, tol, res, paper, basis=None):
     s = res.reduction.search
-    trials = ", ".join((f"{t.columns}" if not t.dropped else f"−{_name(t.dropped[-1])}")
-                       + f"→{t.dofs}: {t.chi_rel_estimate_percent:.3g}" for t in s.trials)
+    trials = s.trials_line()
     off = res.reduction.offline_s
     return (name, om, tol, res.dofs, paper, s.met, s.chosen.chi_rel_estimate_percent, res.chi_rel_percent, basis,
             trials, off["greedy"] + off.get("prune", 0.0), res.run_s)

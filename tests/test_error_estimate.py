@@ -215,7 +215,7 @@ def test_pruning_drops_what_the_prefix_does_not_need():
     """``_pruned``: from the lowest ranked up, a candidate goes where the basis without it still
     passes with no more DOFs; a VM stays while an MD of its pairs does; the first never goes, and
     the last is not tried alone (that is the shorter prefix, which failed)."""
-    from nrrncf_jax.reduction.basis_to_tolerance import Trial, _pruned
+    from nrrncf_jax.reduction.basis_to_tolerance import BasisSearch, Trial, _pruned
 
     needed = {0, (0, 0), 2}
     calls = []
@@ -235,6 +235,9 @@ def test_pruning_drops_what_the_prefix_does_not_need():
     # The last (φ2) is the failing shorter prefix's; dropping θ1,1 passes but adds DOFs; θ0,1 goes;
     # φ1 stays for θ1,1; θ0,0 is needed.
     assert calls == [((1, 1),), ((0, 1),), ((0, 1), (0, 0))]
+    search = BasisSearch(tol=1.0, safety=2.0, met=True, trials=[start, evaluate(items[:-1], None, ((0, 1),))],
+                         chosen=start, order=items, estimate=None)
+    assert search.trials_line() == "6→6: 0.1, −θ0,1→5: 1.1"  # the second lacks φ2: 0.1 + 1
 
 
 @pytest.mark.slow

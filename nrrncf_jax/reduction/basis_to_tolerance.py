@@ -181,6 +181,12 @@ class BasisSearch:
                                   "dropped": [_name(c) for c in t.dropped]}
                                  for t in self.trials]}
 
+    def trials_line(self, digits: int = 3) -> str:
+        """Every trial on one line, in the order made: a prefix as ``n→DOFs: estimate`` (n its
+        length), a pruning trial as ``−candidate→DOFs: estimate`` (the candidate it dropped)."""
+        return ", ".join((f"{t.columns}" if not t.dropped else f"−{_name(t.dropped[-1])}")
+                         + f"→{t.dofs}: {t.chi_rel_estimate_percent:.{digits}g}" for t in self.trials)
+
     def describe(self) -> str:
         """What was chosen and why: the tolerance, the verdict and every trial."""
         c = self.chosen

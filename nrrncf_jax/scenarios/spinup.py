@@ -153,10 +153,8 @@ class SpinupResult(RunRecord):
                 rows.insert(-1, ("reduced coordinates", self.reduction.describe()))
             if self.basis_search is not None:
                 b = self.basis_search
-                tried = ", ".join(f"{t.dofs}: {t.chi_rel_estimate_percent:.3g} %"
-                                  for t in sorted(b.trials, key=lambda t: t.columns))
                 rows.insert(-1, ("basis to tol [%]", f"{b.tol:g}: {'met' if b.met else 'NOT MET (largest kept)'}; "
-                                 f"tried DOFs: estimate {tried}"))
+                                 f"tried (prefix length or −dropped→DOFs: estimate %) {b.trials_line()}"))
             c = s["spin_check"]
             if c is not None:
                 added = (f"added spinning mode(s) {c['spin_vms']} and MDs "
