@@ -13,7 +13,7 @@ import pytest
 
 import nrrncf_jax.cli as cli
 from nrrncf_jax.cli import build_parser, main
-from nrrncf_jax.cli._common import BEAM_NAMES
+from nrrncf_jax.cli._common import BEAM_NAMES, ESTIMATE_METHODS
 from nrrncf_jax.reduction import SpinCheck
 from nrrncf_jax.reduction.pipeline import Reduction, nr_rncf
 from nrrncf_jax.scenarios import BEAMS
@@ -313,6 +313,12 @@ def test_progress_lines_go_to_stderr_only_when_asked(capsys):
 
 def test_beam_names_are_the_presets():
     assert BEAM_NAMES == tuple(sorted(BEAMS))
+
+
+def test_estimate_methods_are_the_library_s():
+    from nrrncf_jax.reduction.error_estimate import METHODS
+
+    assert ESTIMATE_METHODS == METHODS
 
 
 def test_basis_summary_accounts_for_every_coordinate():

@@ -21,6 +21,10 @@ STEP_CONTROL_NAMES = ("plain", "pi")
 """``tuple(nrrncf_jax.integrate.STEP_CONTROLS)``, spelt out so that building the parser imports no
 JAX."""
 
+ESTIMATE_METHODS = ("static", "dynamic")
+"""``nrrncf_jax.reduction.error_estimate.METHODS``, spelt out so that building the parser imports no
+JAX (a test checks that the two agree)."""
+
 MODE_INDICES = "Mode indices are 0-based (mode 0 is the lowest), as in the Python API"
 """The one convention for mode numbers in the command line's tables and JSON."""
 
@@ -99,9 +103,11 @@ def add_step_control(parser) -> None:
                              "benchmarks/results/step_control.md)")
 
 
-def add_estimate_samples(parser) -> None:
-    """``--estimate-samples N``: the static error estimate's sampled outputs (the scenario
-    runners' ``estimate_samples``; default theirs, 16)."""
+def add_estimate_options(parser, method_help: str) -> None:
+    """``--estimate-method`` (``ESTIMATE_METHODS``, help ``method_help``: what each costs on the
+    command's model) and ``--estimate-samples N``, the static estimate's sampled outputs (the
+    scenario runners' ``estimate_samples``; default theirs, 16; checked by ``estimate_samples``)."""
+    parser.add_argument("--estimate-method", choices=ESTIMATE_METHODS, default="static", help=method_help)
     parser.add_argument("--estimate-samples", type=int, default=None, metavar="N",
                         help="nr-rncf: output times at which the static error estimate factors the full tangent, "
                              ">= 2 (default 16; fewer cost less and integrate the chi_rel norm more coarsely: "

@@ -171,12 +171,11 @@ def register(sub) -> None:
                         "estimate's effectivity")
     t.add_argument("--no-estimate", action="store_true",
                    help="nr-rncf: skip the error estimate from the run alone (chi_rel_estimate_percent)")
-    t.add_argument("--estimate-method", choices=("static", "dynamic"), default="static",
-                   help="nr-rncf: static (each beam's quasi-static correction at 16 sampled outputs: cheap, blind to "
-                        "the drift of the chain's swing) or dynamic (the linearised error equation over every "
-                        "output: tracks the drift while its linearisation holds, reports where it stopped holding "
-                        "as estimate_valid_until_s; costs a few full-model steps an output)")
-    _common.add_estimate_samples(t)
+    _common.add_estimate_options(t, method_help=(
+        "nr-rncf: static (each beam's quasi-static correction at 16 sampled outputs: cheap, blind to "
+        "the drift of the chain's swing) or dynamic (the linearised error equation over every "
+        "output: tracks the drift while its linearisation holds, reports where it stopped holding "
+        "as estimate_valid_until_s; costs a few full-model steps an output)"))
     t.add_argument("--reference-rtol", type=float, default=None,
                    help="the reference run's relative tolerance (default: --rtol; its atol scaled alike): the full "
                         "model is the reference and may need a tighter one than the reduced model's")

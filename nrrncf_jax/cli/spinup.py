@@ -103,12 +103,11 @@ def register(sub) -> None:
                    help="nr-rncf: spinning-state enrichment (beyond the paper): 'auto' adds the spinning beam's "
                         "first mode and MDs when the rest basis misses its frequency by > 0.2 %%; 'off' is the "
                         "paper's basis")
-    s.add_argument("--estimate-method", choices=("static", "dynamic"), default="static",
-                   help="nr-rncf: the error estimate's model: the quasi-static correction at 16 sampled outputs "
-                        "(static), or the linearised error equation over every output (dynamic; where it stops "
-                        "being valid the JSON says so in estimate_valid_until_s); static: the run ends a step on "
-                        "each sample; dynamic: on a repetition of the run that ends a step on every output")
-    _common.add_estimate_samples(s)
+    _common.add_estimate_options(s, method_help=(
+        "nr-rncf: the error estimate's model: the quasi-static correction at 16 sampled outputs "
+        "(static), or the linearised error equation over every output (dynamic; where it stops "
+        "being valid the JSON says so in estimate_valid_until_s); static: the run ends a step on "
+        "each sample; dynamic: on a repetition of the run that ends a step on every output"))
     s.add_argument("--estimate-integration", action="store_true",
                    help="nr-rncf: also estimate the run's own time-integration error, by repeating the run at "
                         "rtol/10 (costs more than the run)")

@@ -132,12 +132,11 @@ def register(sub) -> None:
     t.add_argument("--tol", type=float, default=None, metavar="P",
                    help="dynamics, nr-rncf: choose the basis to a target chi_rel of P per cent (the smallest prefix of "
                         "the MMI ranking whose run's error estimate is <= P/2; --vms and --mds are then not used)")
-    t.add_argument("--estimate-method", choices=("static", "dynamic"), default="static",
-                   help="dynamics, nr-rncf: the error estimate: static (the quasi-static correction at 16 sampled "
-                        "outputs, a sparse factorisation each) or dynamic (the linearised error equation over every "
-                        "output, a factorisation each: minutes, but it flags a basis whose error grows as drift; "
-                        "estimate_valid_until_s says where its linearisation stopped holding)")
-    _common.add_estimate_samples(t)
+    _common.add_estimate_options(t, method_help=(
+        "dynamics, nr-rncf: the error estimate: static (the quasi-static correction at 16 sampled "
+        "outputs, a sparse factorisation each) or dynamic (the linearised error equation over every "
+        "output, a factorisation each: minutes, but it flags a basis whose error grows as drift; "
+        "estimate_valid_until_s says where its linearisation stopped holding)"))
     t.add_argument("--reference", choices=("rncf",), default=None,
                    help="dynamics, nr-rncf: also run the full RNCF model and report chi_rel and the speed-up")
     t.add_argument("--t-end", type=float, default=10.0, help="dynamics: end time [s]")

@@ -107,9 +107,10 @@ def _pruned(evaluate, items, chosen, limit):
     for c in reversed(items[1:-1]):
         if isinstance(c, int) and any(not isinstance(x, int) and c in x for x in kept):
             continue
-        t = evaluate([x for x in kept if x != c], ("pruned", *dropped, c), (*dropped, c))
+        rest = [x for x in kept if x != c]
+        t = evaluate(rest, ("pruned", *dropped, c), (*dropped, c))
         if t.chi_rel_estimate_percent <= limit and t.dofs <= chosen.dofs:
-            kept, dropped, key, chosen = [x for x in kept if x != c], t.dropped, ("pruned", *t.dropped), t
+            kept, dropped, key, chosen = rest, t.dropped, ("pruned", *t.dropped), t
     return key
 
 
