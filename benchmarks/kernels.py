@@ -73,7 +73,7 @@ def forms(t: ElasticTensors):
         "packed": lambda p: t.force_and_jacobian(p)[1],
         "dense": lambda p: t.K + 2.0 * (t.L @ p) + 3.0 * (N_sq @ jnp.outer(p, p).reshape(-1)).reshape(km, km),
     }
-    t3, t2 = t.N3.shape[1], t.N2u.shape[0]
+    t3, t2 = t.N3.shape[0], t.N2u.shape[0]
     flops = {("force", "packed"): 2 * (km * t3 + km * km + km**3) + 3 * t3,
              ("force", "dense"): 2 * (km**4 + km**3 + km**2) + km**3,
              ("force", "nested"): 2 * (km**4 + km**3 + km**3 + km**2),

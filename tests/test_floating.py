@@ -299,7 +299,11 @@ def test_closed_form_kinematics_are_the_maps_derivatives():
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum
 
     system, _ = build_reduced_pendulum(PendulumSpec(elements=2), n_vms=2, pairs=[(0, 0)])
-    assert system.stacked is not None
+    # equal beams: their basis and tensors kept once (not mapped), their frames' origins stacked
+    assert system.stacked.basis.ndim == 2 and system.stacked.tensors.N3.ndim == 2
+    assert system.stacked.R0.shape == (3, 3)
+    # a stiffness changed on one beam only: its tensors differ, and the run stacks them
+    assert system.stiffened(2.0, bodies=[1]).stacked.tensors.N3.ndim == 3
     rng = np.random.default_rng(1)
     z = system.reference() + 0.1 * rng.normal(size=system.n_dof)
     v, a = rng.normal(size=(2, system.n_dof))
@@ -449,14 +453,15 @@ def test_turned_systems_keep_their_joints_and_turn_every_vector():
         assert np.abs(np.asarray(turned.constraints(turned.reference()))).max() < 1e-14 * np.abs(x0).max()
     turned = floating.turned(axis, angle)
     # Rodrigues' A against the Euler parameters' product, and the stacked (vmapped) turn against
-    # the loop: different operations on numbers of order 1, so a few tens of eps apart at most
+    # the loop: different operations on numbers of order 1, so a few tens of eps apart at most.
+    # The beams' origins differ, so R0 is stacked; their orientations are one, so e0 is kept once.
+    assert turned.stacked.R0.shape == (3, 3) and turned.stacked.e0.shape == (4,)
     for k, b in enumerate(turned.bodies):
         np.testing.assert_allclose(np.asarray(rotation(b.e0)), A @ np.asarray(rotation(floating.bodies[k].e0)),
                                    atol=1e-14)
         assert abs(float(b.e0 @ b.e0) - 1.0) < 1e-14
-        for name in ("R0", "e0"):
-            np.testing.assert_allclose(np.asarray(getattr(turned.stacked, name))[k], np.asarray(getattr(b, name)),
-                                       rtol=0, atol=1e-14)
+        np.testing.assert_allclose(np.asarray(turned.stacked.R0)[k], np.asarray(b.R0), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(np.asarray(turned.stacked.e0), np.asarray(b.e0), rtol=0, atol=1e-14)
     assert eqx.tree_equal(floating.turned(axis, 0.0).bodies[0].body, floating.bodies[0].body)
 
 

@@ -141,6 +141,7 @@ class FloatingBody(AbstractBodyKind):
 
     body: Body
     basis: Float[Array, "ndof k"]
+    basis_rows: Float[Array, "k ndof"]  # Ψᵀ: Ψ p as the row p Ψᵀ (``_rows``)
     tensors: ElasticTensors  # or full_order_frame.NodalElasticForce: n_coordinates, force, force_and_jacobian
     R0: Float[Array, " 3"]
     e0: Float[Array, " 4"]
@@ -181,6 +182,7 @@ class FloatingBody(AbstractBodyKind):
         if awaiting_mds and modes is None:
             raise ValueError("a body awaiting its modal derivatives must record the vibration modes that choose them")
         self.body, self.basis, self.tensors, self.free, self.modes = body, basis, tensors, free, modes
+        self.basis_rows = jnp.asarray(np.asarray(basis).T.copy())
         self.awaiting_mds = bool(awaiting_mds)
         self.R0 = jnp.asarray(R0, dtype=float).reshape(3)
         self.e0 = jnp.asarray(euler_parameters(np.eye(3) if A0 is None else A0))
@@ -206,8 +208,15 @@ class FloatingBody(AbstractBodyKind):
     def n_z(self) -> int:
         return 7 + self.k
 
+    def _deflection(self, p):
+        """Ψ p as nodal vectors, computed as the row p Ψᵀ: under ``vmap`` over bodies that share
+        Ψ (``mechanism._stacks``), or over a batch, XLA's CPU backend runs that as one matrix
+        product, where Ψ p becomes a product with a transposed operand that runs several times
+        slower (``benchmarks/results/kernels.md``)."""
+        return (p @ self.basis_rows).reshape(-1, 3)
+
     def _local(self, p):
-        return self.body.q_hat + (self.basis @ p).reshape(-1, 3)
+        return self.body.q_hat + self._deflection(p)
 
     def nodal_vectors(self, z: Float[Array, " nz"]) -> Float[Array, "nv 3"]:
         """x = f(z) = R (on position vectors) + Â(e) (q̂ + Ψ p): the nodal vectors in the inertial
@@ -222,7 +231,7 @@ class FloatingBody(AbstractBodyKind):
         e, p = z[3:7], z[7:]
         nv = self.body.n_vectors
         Psi = self.basis.reshape(nv, 3, -1)
-        u, pos = self.body.q_hat + jnp.einsum("vik,k->vi", Psi, p), self.is_position
+        u, pos = self._local(p), self.is_position
         if rows is not None:
             rows = jnp.asarray(rows, dtype=int)
             u, pos, Psi = u[rows], pos[rows], Psi[rows]
@@ -236,7 +245,7 @@ class FloatingBody(AbstractBodyKind):
         e, p = z[3:7], z[7:]
         A_de = jnp.einsum("k,kij->ij", dz[3:7], _dA_hat(e))
         return (self.is_position[:, None] * dz[None, :3] + _times_transpose(self._local(p), A_de)
-                + _times_transpose((self.basis @ dz[7:]).reshape(-1, 3), _A_hat(e)))
+                + _times_transpose(self._deflection(dz[7:]), _A_hat(e)))
 
     def acceleration(self, z, v, a) -> Float[Array, "nv 3"]:
         """ẍ = J z̈ + J̇ ż, with J̇ ż = Ä u + 2 Ȧ u̇, Ä = ∂²Â(ė, ė), Ȧ = ∂Â ė, u̇ = Ψ ṗ."""
@@ -244,7 +253,7 @@ class FloatingBody(AbstractBodyKind):
         A_dd = 2.0 * jnp.einsum("k,l,klij->ij", de, de, jnp.asarray(_B))
         A_d = jnp.einsum("k,kij->ij", de, _dA_hat(e))
         return (self.tangent(z, a) + _times_transpose(self._local(p), A_dd)
-                + 2.0 * _times_transpose((self.basis @ dp).reshape(-1, 3), A_d))
+                + 2.0 * _times_transpose(self._deflection(dp), A_d))
 
     def generalized(self, z, F: Float[Array, "nv 3"]) -> Float[Array, " nz"]:
         """J ᵀF (J not formed): Σ F_α over the position vectors, Σ_α u_αᵀ ∂Â/∂e_kᵀ F_α, and
@@ -252,7 +261,7 @@ class FloatingBody(AbstractBodyKind):
         e, p = z[3:7], z[7:]
         F_R = self.is_position @ F
         F_e = jnp.einsum("kij,ij->k", _dA_hat(e), F.T @ self._local(p))
-        F_p = self.basis.T @ _times_transpose(F, _A_hat(e).T).reshape(-1)
+        F_p = _times_transpose(F, _A_hat(e).T).reshape(-1) @ self.basis
         return jnp.concatenate([F_R, F_e, F_p])
 
     def mass_matrix(self, z: Float[Array, " nz"]) -> Float[Array, "nz nz"]:

@@ -75,11 +75,39 @@ def _runs(bodies) -> tuple[tuple[int, int], ...]:
     return tuple((first, n) for first, n in runs)
 
 
+def _same_array(x, y) -> bool:
+    """Whether two leaves are known to hold the same numbers: one object, or equal concrete arrays
+    (a traced leaf, e.g. a stiffness under ``grad``, is never compared)."""
+    if x is y:
+        return True
+    if isinstance(x, jax.core.Tracer) or isinstance(y, jax.core.Tracer):
+        return False
+    return np.array_equal(np.asarray(x), np.asarray(y))
+
+
 def _stacks(bodies, runs) -> tuple:
-    """Each run's bodies' arrays stacked into one body (leading axis: the body); None for a run
-    of one body."""
-    return tuple(None if n == 1 else jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *bodies[first:first + n])
-                 for first, n in runs)
+    """Each run's bodies' arrays stacked into one body (leading axis: the body); None for a run of
+    one body. A leaf equal in every body of the run (equal beams share their basis and their
+    reduced tensors; only their frames differ) is kept once, unstacked, and not mapped
+    (``_stack_axes``): the run's contractions then read it once for all its bodies (a matrix
+    times several vectors instead of one product a body), and these small models' steps are
+    bound by reading such constants (``benchmarks/results/design_notes.md``)."""
+    stacks = []
+    for first, n in runs:
+        if n == 1:
+            stacks.append(None)
+            continue
+        flat, treedef = zip(*[jax.tree_util.tree_flatten(b) for b in bodies[first:first + n]])
+        stacks.append(jax.tree_util.tree_unflatten(
+            treedef[0], [leaves[0] if all(_same_array(leaves[0], y) for y in leaves[1:]) else jnp.stack(leaves)
+                         for leaves in zip(*flat)]))
+    return tuple(stacks)
+
+
+def _stack_axes(stack, body):
+    """``vmap``'s axes over a run's stack (``_stacks``): 0 for a stacked leaf, None for a shared
+    one, told apart by shape (a stacked leaf has the body's shape behind the run's axis)."""
+    return jax.tree_util.tree_map(lambda s, b: None if jnp.shape(s) == jnp.shape(b) else 0, stack, body)
 
 
 class Mechanism(AbstractConstrainedModel):
@@ -197,7 +225,8 @@ class Mechanism(AbstractConstrainedModel):
         return x[o:o + n]
 
     def _vmap(self, run, stack, fn, *vectors):
-        """``fn`` over a run's stacked bodies, its outputs with the body as their leading axis.
+        """``fn`` over a run's stacked bodies (its shared leaves unmapped, ``_stacks``), its
+        outputs with the body as their leading axis.
         Equal bodies have equal coordinate counts, so a vector's parts are a reshape of its run's
         slice (of the whole vector for a chain of equal bodies), not slices and a stack, whose
         copies are a noticeable share of a small model's operations (figures:
@@ -210,7 +239,8 @@ class Mechanism(AbstractConstrainedModel):
                 return jnp.stack(x[first:first + n])
             return (x if x.shape[0] == n * size else x[o:o + n * size]).reshape(n, -1)
 
-        return jax.vmap(fn)(stack, *(parts(x) for x in vectors))
+        axes = _stack_axes(stack, self.bodies[first])
+        return jax.vmap(fn, in_axes=(axes,) + (0,) * len(vectors))(stack, *(parts(x) for x in vectors))
 
     def _concat_map(self, fn, *vectors) -> Float[Array, " n"]:
         """``jnp.concatenate(self._map(fn, *vectors))`` (each part a vector, or flattened)."""

@@ -21,15 +21,22 @@ from ..bodies.body import DENSE_MASS_MAX_VECTORS, Body
 
 
 class ElasticTensors(eqx.Module):
-    """f, K, L, N of Eq. 24, with N also kept in packed symmetric forms for evaluation.
+    """f, K, L, N of Eq. 24, with L and N also kept in packed forms for evaluation.
 
     ``N`` is symmetric in (j, k, l), so only the Km(Km+1)(Km+2)/6 distinct triples matter:
     ``N3`` holds them (multiplicities folded in) for the force alone. The force derives from the
     strain energy, so N is in fact symmetric in all four indices and the Jacobian's cubic part
-    ``3 N p p`` is a symmetric matrix: ``N2u`` holds N on the Km(Km+1)/2 distinct (i, j) rows
-    and (k, l) columns, and ``unpack`` maps a symmetric (i, j) back to its row. The contraction
+    ``3 N p p`` is a symmetric matrix: ``N2u`` holds N on the Km(Km+1)/2 distinct (k, l) rows
+    and (i, j) columns, and ``unpack`` maps a symmetric (i, j) back to its column. The contraction
     is memory-bound, so reading about a sixth (force) or a quarter (Jacobian) of the Km⁴ entries
     makes it that much cheaper (``benchmarks/results/design_notes.md``).
+
+    The packed forms (and ``L_rows``, L with its contracted index first) put the index that is
+    summed over on their rows: the contractions are a row vector times a matrix, ``x @ A``.
+    Under ``vmap`` over bodies that share the tensors (a chain of equal beams) or over a batch,
+    XLA's CPU backend runs that as one matrix product of the stacked rows, where ``A @ x`` became
+    a product with the matrix's transpose that runs at a fraction of the speed
+    (``benchmarks/results/kernels.md``).
     """
 
     full_order: ClassVar[bool] = False
@@ -39,8 +46,9 @@ class ElasticTensors(eqx.Module):
     K: Float[Array, "km km"]
     L: Float[Array, "km km km"]  # symmetric in (j, k)
     N: Float[Array, "km km km km"]  # symmetric in (j, k, l)
-    N3: Float[Array, "km t3"]
-    N2u: Float[Array, "t2 t2"]
+    L_rows: Float[Array, "km km2"]  # L_rows[k, i km + j] = L_ijk
+    N3: Float[Array, "t3 km"]
+    N2u: Float[Array, "t2 t2"]  # (k, l) rows, (i, j) columns
     triples: Int[Array, "3 t3"]
     pairs: Int[Array, "2 t2"]
     unpack: Int[Array, "km km"]
@@ -54,8 +62,9 @@ class ElasticTensors(eqx.Module):
         mult2 = np.where(t2[0] == t2[1], 1.0, 2.0)
         self.triples = jnp.asarray(t3, dtype=int)
         self.pairs = jnp.asarray(t2, dtype=int)
-        self.N3 = N[:, t3[0], t3[1], t3[2]] * mult3
-        self.N2u = N[t2[0], t2[1]][:, t2[0], t2[1]] * mult2
+        self.L_rows = L.reshape(km * km, km).T
+        self.N3 = (N[:, t3[0], t3[1], t3[2]] * mult3).T
+        self.N2u = (N[t2[0], t2[1]][:, t2[0], t2[1]] * mult2).T
         unpack = np.zeros((km, km), dtype=int)
         unpack[t2[0], t2[1]] = unpack[t2[1], t2[0]] = np.arange(t2.shape[1])
         self.unpack = jnp.asarray(unpack)
@@ -67,13 +76,23 @@ class ElasticTensors(eqx.Module):
     def scaled(self, s) -> "ElasticTensors":
         """The tensors times ``s``: κ is linear in Young's modulus, so with the basis held fixed
         ``tensors(E) = (E / E0) · tensors(E0)``; differentiable in ``s``."""
-        return eqx.tree_at(lambda t: (t.f, t.K, t.L, t.N, t.N3, t.N2u), self,
-                           (s * self.f, s * self.K, s * self.L, s * self.N, s * self.N3, s * self.N2u))
+        return eqx.tree_at(lambda t: (t.f, t.K, t.L, t.N, t.L_rows, t.N3, t.N2u), self,
+                           (s * self.f, s * self.K, s * self.L, s * self.N, s * self.L_rows, s * self.N3,
+                            s * self.N2u))
+
+    def _Lp(self, p: Float[Array, " km"]) -> Float[Array, "km km"]:
+        """L p (contracted over L's last index)."""
+        km = p.shape[0]
+        return (p @ self.L_rows).reshape(km, km)
+
+    def _Nppp(self, p: Float[Array, " km"]) -> Float[Array, " km"]:
+        """N p p p over the distinct triples."""
+        j, k, l = self.triples
+        return _plain_operand(p[j] * p[k] * p[l]) @ self.N3
 
     def force(self, p: Float[Array, " km"]) -> Float[Array, " km"]:
         """F(p) = f + K p + L p p + N p p p (Eq. 24)."""
-        j, k, l = self.triples
-        return self.f + self.K @ p + (self.L @ p) @ p + self.N3 @ (p[j] * p[k] * p[l])
+        return self.f + self.K @ p + self._Lp(p) @ p + self._Nppp(p)
 
     def energy(self, p: Float[Array, " km"]) -> Float[Array, ""]:
         """The strain energy U(p) − U(0) = p·(f + K p / 2 + L p p / 3 + N p p p / 4), whose
@@ -81,18 +100,27 @@ class ElasticTensors(eqx.Module):
         d are p·(their force)/d). Exact, not an approximation of the reduced model's energy: equal
         to the body's element strain energy at q̂ + Ψp, minus its value at q̂ (round-off,
         ``tests/test_floating.py``), for a few contractions instead of every element's quadrature."""
-        j, k, l = self.triples
-        return p @ (self.f + self.K @ p / 2.0 + (self.L @ p) @ p / 3.0 + self.N3 @ (p[j] * p[k] * p[l]) / 4.0)
+        return p @ (self.f + self.K @ p / 2.0 + self._Lp(p) @ p / 3.0 + self._Nppp(p) / 4.0)
 
     def force_and_jacobian(self, p: Float[Array, " km"]):
         """``(F(p), ∂F/∂p)`` (Eq. 25) sharing the contractions."""
         k, l = self.pairs
-        Npp = (self.N2u @ (p[k] * p[l]))[self.unpack]  # N p p, symmetric
+        Npp = (_plain_operand(p[k] * p[l]) @ self.N2u)[self.unpack]  # N p p, symmetric
         # L p as a dot (faster than a broadcast sum, batched or not); the last product as an
         # elementwise sum, which XLA fuses with the additions around it.
-        Lp = self.L @ p
+        Lp = self._Lp(p)
         F = self.f + jnp.sum((self.K + Lp + Npp) * p, axis=1)  # f + (K + L p + N p p) p
         return F, self.K + 2.0 * Lp + 3.0 * Npp
+
+
+def _plain_operand(x):
+    """x as the product's operand, its layout left to XLA. Under ``vmap`` the gathered products
+    p_j p_k (p_l) come out with the batch axis innermost, and XLA's CPU backend, left to itself,
+    folds that layout into the product (it contracts the operand's first axis), which then runs
+    at a fraction of a plain product's speed. The barrier (removed again before code generation)
+    keeps the layout change a small copy of its own and the product a plain one
+    (``benchmarks/results/kernels.md``)."""
+    return lax.optimization_barrier(x)
 
 
 def _fact(counts):
