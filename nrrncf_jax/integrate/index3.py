@@ -101,20 +101,22 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
         stage = self._stage(model, t1, h, state)
         n = state.q.shape[0]
 
-        def equations(z):
-            a1, lam = z[:n], z[n:]
-            q1, v1, a1, _ = stage(a1)
-            r, C = model.dae_residual(t1, q1, v1, a1, lam)
+        def kinematics(z):
+            return stage(z[:n])[:3]
+
+        def equations(z, kin=None):
+            q1, v1, a1 = kinematics(z) if kin is None else kin
+            r, C = model.dae_residual(t1, q1, v1, a1, z[n:])
             return jnp.concatenate([r, C / c_K]), q1, v1, a1
 
         z0 = jnp.concatenate([state.a, state.lam])
 
         # The contraction test in both variants (module docstring): modified Newton converges
         # linearly, and the error its last correction leaves is known from the observed rate.
-        def solve(update, max_rate=None):
+        def solve(update, max_rate=None, prepare=None):
             return newton_iteration(update, lambda dz: norm(c_K * dz[:n]), z0, newton.tol, newton.max_iter,
                                     contraction_test=True, divergence_test=newton.divergence_test,
-                                    max_rate=max_rate)
+                                    max_rate=max_rate, prepare=prepare)
 
         fac = fresh = None
         if newton.variant == "full":
@@ -127,7 +129,7 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
             _, q1p, v1p, a1p = equations(z0)
             sol, fac, fresh = self._modified(
                 newton, matrix, h, lambda: model.factor_augmented(t1, q1p, v1p, state.lam, c_C, c_K, a=a1p),
-                lambda fac, max_rate: solve(lambda z: fac.solve(equations(z)[0]), max_rate))
+                lambda fac, max_rate: solve(lambda z, kin: fac.solve(equations(z, kin)[0]), max_rate, kinematics))
         a1, lam1 = sol.x[:n], sol.x[n:]
         q1, v1, a1, abar1 = stage(a1)
         if model.project_velocities:

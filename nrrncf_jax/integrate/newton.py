@@ -65,18 +65,27 @@ _CODES = (NewtonResult.converged, NewtonResult.max_iterations, NewtonResult.dive
 
 
 def newton(update: Callable, norm: Callable, x0, tol, max_iter: int, *, contraction_test: bool = False,
-           divergence_test: bool = False, max_rate: float | None = None) -> NewtonSolution:
+           divergence_test: bool = False, max_rate: float | None = None, prepare: Callable | None = None
+           ) -> NewtonSolution:
     """Solve r(x) = 0 from ``x0`` (see the module docstring). Works under ``jit``, ``vmap`` and
     forward-mode differentiation. ``max_rate``: also fail (as diverged) when a correction is more
-    than this fraction of the one before (a kept iteration matrix that no longer fits)."""
+    than this fraction of the one before (a kept iteration matrix that no longer fits).
+
+    ``prepare``: what the residual needs of x (a step's positions and velocities from its
+    acceleration), computed once after each correction and carried by the loop; ``update`` is
+    then called as ``update(x, prepare(x))``. Carried, it is an array in memory that the
+    residual's kernels read; computed inside them, XLA's CPU backend recomputes it in each
+    kernel that reads it, once for every element read (the packed cubic force reads each modal
+    coordinate hundreds of times: ``benchmarks/results/kernels.md``)."""
 
     def cond(s):
         return s[3] == 0
 
     def body(s):
-        x, prev, i, _, _ = s
-        d = update(x)
+        (x, aux), prev, i, _, _ = s
+        d = update(x) if prepare is None else update(x, aux)
         x = x - d
+        aux = None if prepare is None else prepare(x)
         n = norm(d)
         theta = n / prev
         done = n < tol
@@ -90,11 +99,11 @@ def newton(update: Callable, norm: Callable, x0, tol, max_iter: int, *, contract
         # status: 0 iterating, then 1 + the index of the ending in _CODES
         status = jnp.where(done, 1, jnp.where(~jnp.isfinite(n), 4, jnp.where(diverged, 3,
                                                                              jnp.where(i >= max_iter, 2, 0))))
-        return x, n, i, status, theta
+        return (x, aux), n, i, status, theta
 
     inf = jnp.asarray(jnp.inf, x0.dtype)
-    s0 = (x0, inf, jnp.array(0), jnp.array(0), jnp.zeros((), x0.dtype))
-    x, _, iters, status, rate = lax.while_loop(cond, body, s0)
+    s0 = ((x0, None if prepare is None else prepare(x0)), inf, jnp.array(0), jnp.array(0), jnp.zeros((), x0.dtype))
+    (x, _), _, iters, status, rate = lax.while_loop(cond, body, s0)
     result = NewtonResult.converged
     for k, code in enumerate(_CODES):
         result = NewtonResult.where(status == k + 1, code, result)
