@@ -592,3 +592,26 @@ def test_states_at_ends_a_step_on_each_time():
     np.testing.assert_array_equal(np.asarray(run.ys[1]), V[1:])
     with pytest.raises(ValueError, match="increasing"):
         states_at(model, GA, ctrl, [0.0, 0.0])
+
+
+def test_newton_prepare_carries_what_the_update_reads():
+    """``newton(prepare=...)``: the update reads prepare(x) of the current iterate, carried by the
+    loop, and the solve is the one that computes it inside the update (the same operations, so
+    the same numbers)."""
+    from nrrncf_jax.integrate.newton import newton
+
+    b = jnp.array([0.5, 2.0, -1.0])
+    J_inv = 1.0 / (1.0 + 3.0 * jnp.array([0.2, 1.0, -0.7]) ** 2)  # a fixed (modified Newton) inverse
+
+    def cubic(x):
+        return x ** 3
+
+    inside = newton(lambda x: J_inv * (cubic(x) + x - b), lambda d: jnp.max(jnp.abs(d)), jnp.zeros(3), 1e-13, 200)
+
+    def update(x, x3):  # x3 of a stale iterate would change the iterates, and the test would see it
+        return J_inv * (x3 + x - b)
+
+    carried = newton(update, lambda d: jnp.max(jnp.abs(d)), jnp.zeros(3), 1e-13, 200, prepare=cubic)
+    assert bool(inside.converged) and int(carried.iterations) == int(inside.iterations) > 3
+    np.testing.assert_array_equal(np.asarray(carried.x), np.asarray(inside.x))
+    np.testing.assert_allclose(np.asarray(carried.x ** 3 + carried.x), np.asarray(b), rtol=0, atol=1e-12)

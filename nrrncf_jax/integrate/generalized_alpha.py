@@ -227,22 +227,23 @@ class GeneralizedAlpha(AbstractGeneralizedAlpha):
         c_C, c_K = self.derivatives(h)
         stage = self._stage(model, t1, h, state)
 
+        def kinematics(a1):  # carried by Newton's loop (``newton.newton``'s ``prepare``)
+            return stage(a1)[:3]
+
         def solve(update, max_rate=None):
             return newton_iteration(update, lambda da: norm(c_K * da), state.a, newton.tol, newton.max_iter,
                                     contraction_test=newton.variant == "full",
-                                    divergence_test=newton.divergence_test, max_rate=max_rate)
+                                    divergence_test=newton.divergence_test, max_rate=max_rate, prepare=kinematics)
 
         if newton.variant == "full":
-            def update(a1):
-                q1, v1, a1, _ = stage(a1)
-                return model.newton_update(t1, q1, v1, a1, 1.0, c_C, c_K)
+            def update(_, kin):
+                return model.newton_update(t1, *kin, 1.0, c_C, c_K)
 
             return self._account(solve(update), newton, matrix, None, None, h), stage, c_C, c_K
 
         def modified_update(fac):
-            def update(a1):
-                q1, v1, a1, _ = stage(a1)
-                return fac.solve(model.residual(t1, q1, v1, a1))
+            def update(_, kin):
+                return fac.solve(model.residual(t1, *kin))
             return update
 
         q1p, v1p, _, _ = stage(state.a)

@@ -101,11 +101,11 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
         stage = self._stage(model, t1, h, state)
         n = state.q.shape[0]
 
-        def kinematics(z):
+        def kinematics(z):  # carried by Newton's loop (``newton.newton``'s ``prepare``)
             return stage(z[:n])[:3]
 
-        def equations(z, kin=None):
-            q1, v1, a1 = kinematics(z) if kin is None else kin
+        def equations(z, kin):
+            q1, v1, a1 = kin
             r, C = model.dae_residual(t1, q1, v1, a1, z[n:])
             return jnp.concatenate([r, C / c_K]), q1, v1, a1
 
@@ -113,23 +113,23 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
 
         # The contraction test in both variants (module docstring): modified Newton converges
         # linearly, and the error its last correction leaves is known from the observed rate.
-        def solve(update, max_rate=None, prepare=None):
+        def solve(update, max_rate=None):
             return newton_iteration(update, lambda dz: norm(c_K * dz[:n]), z0, newton.tol, newton.max_iter,
                                     contraction_test=True, divergence_test=newton.divergence_test,
-                                    max_rate=max_rate, prepare=prepare)
+                                    max_rate=max_rate, prepare=kinematics)
 
         fac = fresh = None
         if newton.variant == "full":
-            def update(z):
-                F, q1, v1, a1 = equations(z)
+            def update(z, kin):
+                F, q1, v1, a1 = equations(z, kin)
                 return model.factor_augmented(t1, q1, v1, z[n:], c_C, c_K, a=a1).solve(F)
 
             sol = solve(update)
         else:
-            _, q1p, v1p, a1p = equations(z0)
+            q1p, v1p, a1p = kinematics(z0)
             sol, fac, fresh = self._modified(
                 newton, matrix, h, lambda: model.factor_augmented(t1, q1p, v1p, state.lam, c_C, c_K, a=a1p),
-                lambda fac, max_rate: solve(lambda z, kin: fac.solve(equations(z, kin)[0]), max_rate, kinematics))
+                lambda fac, max_rate: solve(lambda z, kin: fac.solve(equations(z, kin)[0]), max_rate))
         a1, lam1 = sol.x[:n], sol.x[n:]
         q1, v1, a1, abar1 = stage(a1)
         if model.project_velocities:
