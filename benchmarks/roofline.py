@@ -1,15 +1,24 @@
 """The reduced pendulum's arithmetic a step against its time a step: a roofline row (issue 35).
 
-    python benchmarks/roofline.py [--rtols 1e-4 1e-3] [--repeats 3] [--out benchmarks/results/roofline.md]
+    python benchmarks/roofline.py [--cases 1e-4:plain 1e-3:plain 2e-3:pi] [--repeats 5] [--no-accuracy]
+                                  [--out benchmarks/results/roofline.md]
+
+Each case is an error tolerance (rtol; atol = rtol/10) and a step-size controller by name
+(``integrate.STEP_CONTROLS``: ``plain``, ``pi``).
 
 The arithmetic comes from the optimized HLO of the compiled run (the same program ``hlo_ops.py``
 counts): every dot's 2·(output size)·(contracted size) and every LAPACK call's own count (an LU of
 m × n, m ≥ n, 2(m n² − n³/3); a triangular solve n² a right-hand side; both per system of a
 batch), in the adaptive loop's body outside the Newton loop (once per attempted step) and in the
-Newton loop's body (once per iteration). Element-wise fusions are left out of the arithmetic (their multiply-adds are of
-the order of their output sizes, listed beside it, and on this model far fewer than the dots'); so
-the GFLOP/s below is the dots' and the factorisations' rate, an upper bound of what the step
-could reach if nothing else cost time.
+Newton loop's body (once per iteration); a product that XLA fused into a library-call fusion is
+counted inside it. Element-wise fusions are left out of the arithmetic (their multiply-adds are of
+the order of their output sizes, and on this model far fewer than the dots'); so the GFLOP/s
+below is the dots' and the factorisations' rate.
+
+The accuracy of each case (issue 35's conditions): χ_rel (every node's displacement, outputs every
+10 ms) against the full-order ANCF run on the same mesh (rtol 1e-4, ``pendulum.md``'s reference),
+and its own time-integration error, χ_rel against the same reduced model at rtol 1e-6
+(``scenarios.pendulum.run_pendulum``, the same integrator options).
 
 The time is the whole compiled run's (``simulate``, compiled first; median of ``--repeats``)
 divided among its attempted steps. The machine's reach, for the roofline: a large float64 matrix
@@ -37,8 +46,9 @@ sys.path.insert(0, os.path.dirname(__file__))
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 from hlo_ops import computations, counts, loop_bodies  # noqa: E402
 
-from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate  # noqa: E402
-from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum  # noqa: E402
+from nrrncf_jax.integrate import GeneralizedAlphaIndex3, Newton, adaptive_step_size, simulate  # noqa: E402
+from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
+from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, run_pendulum  # noqa: E402
 
 _SHAPE = re.compile(r"^\s*(?:ROOT )?%?([\w.\-]+) = (\w+)\[([\d,]*)\]")
 
@@ -82,6 +92,17 @@ def line_flops(line: str, shapes) -> tuple[str, float]:
     return "other", 0.0
 
 
+def _with_fused(line: str, comps, shapes):
+    """``(kind, flops)`` of an instruction and, for a fusion, of the instructions it calls (XLA's
+    CPU backend fuses most products of the reduced step into library-call fusions, whose dots
+    are inside)."""
+    yield line_flops(line, shapes)
+    m = re.search(r"calls=%?([\w.\-]+)", line) if " fusion(" in line else None
+    if m and m.group(1) in comps:
+        for inner in comps[m.group(1)]:
+            yield from _with_fused(inner, comps, shapes)
+
+
 def arithmetic(hlo: str) -> dict:
     """Flops of the step outside Newton and of a Newton iteration, by kind, with their operation
     counts (``hlo_ops.step_operations``' computations)."""
@@ -92,9 +113,9 @@ def arithmetic(hlo: str) -> dict:
     for part, name in (("step", step), ("newton", newton)):
         kinds = {"dot": 0.0, "lu": 0.0, "trsm": 0.0}
         for line in comps[name]:
-            kind, f = line_flops(line, shapes)
-            if kind in kinds:
-                kinds[kind] += f
+            for kind, f in _with_fused(line, comps, shapes):
+                if kind in kinds:
+                    kinds[kind] += f
         out[part] = {"ops": sum(counts(comps, name).values()), **kinds, "flops": sum(kinds.values())}
     return out
 
@@ -119,10 +140,35 @@ def matmul_rate(n_batch: int, m: int, k: int, n: int, reps: int = 200) -> float:
     return 2.0 * n_batch * m * k * n * reps / best / 1e9
 
 
+def _case(text: str) -> tuple[float, str]:
+    rtol, _, control = text.partition(":")
+    return float(rtol), control or "plain"
+
+
+def accuracy(spec, cases) -> dict:
+    """``{(rtol, control): (χ_rel against the full ANCF run, against the reduced run at rtol 1e-6)}``
+    in per cent (module docstring)."""
+    def displacements(r):
+        return r.nodes - r.nodes[0]
+
+    full = displacements(run_pendulum(spec, dt_out=0.01, rtol=1e-4, atol=1e-5))
+    fine = displacements(run_pendulum(spec, dt_out=0.01, rtol=1e-6, atol=1e-7, formulation="nr-rncf"))
+    out = {}
+    for rtol, control in cases:
+        w = displacements(run_pendulum(spec, dt_out=0.01, rtol=rtol, atol=rtol / 10, formulation="nr-rncf",
+                                       step_control=control))
+        out[rtol, control] = (float(chi_rel(full, w)), float(chi_rel(fine, w)))
+        print(rtol, control, out[rtol, control], flush=True)
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--rtols", type=float, nargs="+", default=[1e-4, 1e-3])
-    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--cases", type=_case, nargs="+", default=[(1e-4, "plain"), (1e-3, "plain"), (2e-3, "pi")],
+                    help="RTOL:CONTROLLER each (controller: plain or pi)")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--no-accuracy", action="store_true",
+                    help="skip the χ_rel table (its full-order run is the longest)")
     ap.add_argument("--out", default="benchmarks/results/roofline.md")
     args = ap.parse_args()
     pin_to_one_core()
@@ -134,9 +180,9 @@ def main():
         return jnp.stack([x[-6] for x in model.nodal_vectors(z)])
 
     rows = []
-    for rtol in args.rtols:
-        def run(y0, rtol=rtol):
-            return simulate(model, GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(rtol, rtol / 10), ts,
+    for rtol, control in args.cases:
+        def run(y0, rtol=rtol, control=control):
+            return simulate(model, GeneralizedAlphaIndex3(0.9), adaptive_step_size(rtol, rtol / 10, control), ts,
                             observe=observe, y0=y0, newton=Newton(1e-2), throw=False)
 
         t0 = time.perf_counter()
@@ -153,9 +199,10 @@ def main():
         iters = int(sol.num_newton)
         flops = attempted * arith["step"]["flops"] + iters * arith["newton"]["flops"]
         ops = attempted * arith["step"]["ops"] + iters * arith["newton"]["ops"]
-        rows.append(dict(rtol=rtol, steps=int(sol.num_steps), attempted=attempted, iters=iters, compile_s=compile_s,
-                         run_s=run_s, arith=arith, flops=flops, ops=ops))
-        print(rows[-1], flush=True)
+        rows.append(dict(rtol=rtol, control=control, steps=int(sol.num_steps), attempted=attempted, iters=iters,
+                         compile_s=compile_s, run_s=run_s, times=times, arith=arith, flops=flops, ops=ops))
+        print({k: v for k, v in rows[-1].items() if k != "arith"}, flush=True)
+    acc = None if args.no_accuracy else accuracy(spec, args.cases)
     peak = matmul_rate(1, 1024, 1024, 1024, reps=3)
     small = matmul_rate(3, 198, 20, 1, reps=20000)
     a = rows[0]["arith"]
@@ -180,16 +227,21 @@ def main():
         "",
         "The runs (time: median of the compiled run's repeats; a step: an attempted step):",
         "",
-        "| rtol | steps (attempted) | Newton it. | compile [s] | run [s] | µs a step | operations a step | "
-        "kflop a step | µs an operation | achieved GFLOP/s |",
-        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| rtol | controller | steps (attempted) | Newton it. | compile [s] | run [s] | runs' range [s] | µs a step | "
+        "operations a step | kflop a step | µs an operation | achieved GFLOP/s |"
+        + ("" if acc is None else " χ_rel vs full ANCF [%] | time-integration χ_rel [%] |"),
+        "|---:|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|" + ("" if acc is None else "---:|---:|"),
     ]
     for r in rows:
         us_step = 1e6 * r["run_s"] / r["attempted"]
-        lines.append(f"| {r['rtol']:g} | {r['steps']} ({r['attempted']}) | {r['iters']} | {r['compile_s']:.1f} | "
-                     f"{r['run_s']:.3f} | {us_step:.0f} | {r['ops'] / r['attempted']:.0f} | "
-                     f"{r['flops'] / r['attempted'] / 1e3:.0f} | {1e6 * r['run_s'] / r['ops']:.2f} | "
-                     f"{r['flops'] / r['run_s'] / 1e9:.3f} |")
+        line = (f"| {r['rtol']:g} | {r['control']} | {r['steps']} ({r['attempted']}) | {r['iters']} | "
+                f"{r['compile_s']:.1f} | {r['run_s']:.3f} | {min(r['times']):.3f}-{max(r['times']):.3f} | "
+                f"{us_step:.0f} | {r['ops'] / r['attempted']:.0f} | "
+                f"{r['flops'] / r['attempted'] / 1e3:.0f} | {1e6 * r['run_s'] / r['ops']:.2f} | "
+                f"{r['flops'] / r['run_s'] / 1e9:.3f} |")
+        if acc is not None:
+            line += " {:.3f} | {:.3f} |".format(*acc[r["rtol"], r["control"]])
+        lines.append(line)
     lines += [
         "",
         f"The core's reach: a 1024 × 1024 float64 product {peak:.1f} GFLOP/s; the step's largest product's "

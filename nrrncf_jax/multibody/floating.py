@@ -294,8 +294,9 @@ class FloatingBody(AbstractBodyKind):
 
     def nodal_force(self, z, v, a, gravity) -> Float[Array, "nv 3"]:
         """F = M_b ẍ − ϱ g on the nodal vectors, ẍ = J z̈ + J̇ ż: the inertia and weight whose
-        J ᵀF is the residual's frame and inertia part."""
-        return self.mass @ self.acceleration(z, v, a) - self.weights[:, None] * gravity[None, :]
+        J ᵀF is the residual's frame and inertia part. M_b ẍ is computed as the rows (ẍᵀ M_b)ᵀ (M_b
+        is symmetric), for the reason ``_deflection`` gives."""
+        return (self.acceleration(z, v, a).T @ self.mass).T - self.weights[:, None] * gravity[None, :]
 
     def deformation_tangent(self, z, v, a, F: Float[Array, "nv 3"], c_C, c_K) -> Float[Array, "nz k"]:
         """The columns for p (and ṗ) of the residual's derivative that ``mass_matrix`` and the
