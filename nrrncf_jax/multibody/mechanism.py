@@ -90,8 +90,8 @@ def _stacks(bodies, runs) -> tuple:
     one body. A leaf equal in every body of the run (equal beams share their basis and their
     reduced tensors; only their frames differ) is kept once, unstacked, and not mapped
     (``_stack_axes``): the run's contractions then read it once for all its bodies (a matrix
-    times several vectors instead of one product a body), and these small models' steps are
-    bound by reading such constants (``benchmarks/results/design_notes.md``)."""
+    times several vectors instead of one product a body), where reading three copies of them
+    was a large share of a step (``benchmarks/results/kernels.md``)."""
     stacks = []
     for first, n in runs:
         if n == 1:
