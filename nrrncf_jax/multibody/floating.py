@@ -141,7 +141,7 @@ class FloatingBody(AbstractBodyKind):
 
     body: Body
     basis: Float[Array, "ndof k"]
-    basis_rows: Float[Array, "k ndof"]  # Ψᵀ: Ψ p as the row p Ψᵀ (``_rows``)
+    basis_rows: Float[Array, "k ndof"]  # Ψᵀ: Ψ p as the row p Ψᵀ (``_deflection``)
     tensors: ElasticTensors  # or full_order_frame.NodalElasticForce: n_coordinates, force, force_and_jacobian
     R0: Float[Array, " 3"]
     e0: Float[Array, " 4"]

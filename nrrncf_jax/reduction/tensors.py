@@ -114,11 +114,11 @@ class ElasticTensors(eqx.Module):
 
 
 def _plain_operand(x):
-    """x as the product's operand, its layout left to XLA. Under ``vmap`` the gathered products
-    p_j p_k (p_l) come out with the batch axis innermost, and XLA's CPU backend, left to itself,
-    folds that layout into the product (it contracts the operand's first axis), which then runs
-    at a fraction of a plain product's speed. The barrier (removed again before code generation)
-    keeps the layout change a small copy of its own and the product a plain one
+    """x through ``lax.optimization_barrier``, for the product that reads it. Under ``vmap`` the
+    gathered products p_j p_k (p_l) come out with the batch axis innermost, and XLA's CPU backend,
+    left to itself, folds that layout into the product (it contracts the operand's first axis),
+    which then runs at a fraction of a plain product's speed. The barrier (removed again before
+    code generation) keeps the layout change a small copy of its own and the product a plain one
     (``benchmarks/results/kernels.md``)."""
     return lax.optimization_barrier(x)
 
