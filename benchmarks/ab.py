@@ -34,6 +34,9 @@ The cases on the RNCF model and its NR-RNCF basis (``rncf``, ``nr_rncf``, ``swee
 in one subprocess per revision and repeat, in that order, since the basis (``nr_rncf``'s offline
 stage) costs most of their time; ``ancf`` runs in its own, and the two pendulums in a third.
 Compile and run seconds are each case's own (ahead-of-time compilation, then a blocked run).
+The script and its subprocesses run on one core (the lowest allowed; ``--all-cores`` not to), as
+the other benchmarks: unpinned, the small cases' times on a 2-core VM scattered twofold between
+runs of the same code (``results/ab.md``, its notes).
 
 Results compared: accepted and rejected steps and Newton iterations (must be equal), and to
 ``TOL`` relative: the tip's extremes (min and max of each displacement component in the rotating
@@ -337,6 +340,7 @@ def main(argv=None):
     p.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES)
     p.add_argument("--repeats", type=int, default=2)
     p.add_argument("--out", default=os.path.join(HERE, "results", "ab.md"))
+    p.add_argument("--all-cores", action="store_true", help="do not pin the runs to one core")
     p.add_argument("--worker", nargs="+", choices=CASES, help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     if a.worker:
@@ -344,6 +348,8 @@ def main(argv=None):
         return 0
     if not a.base:
         p.error("--base REV is required")
+    if not a.all_cores and hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})  # the subprocesses inherit it
 
     sha = subprocess.run(["git", "rev-parse", "--verify", f"{a.base}^{{commit}}"], cwd=TREE, capture_output=True,
                          text=True, check=True).stdout.strip()
