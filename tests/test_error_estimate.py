@@ -220,7 +220,7 @@ def test_pruning_drops_what_the_prefix_does_not_need():
     needed = {0, (0, 0), 2}
     calls = []
 
-    def evaluate(items, key, dropped):
+    def evaluate(items, dropped):
         calls.append(dropped)
         spun = dropped[-1] == (1, 1)  # as if the spinning-state check enriched this one: more DOFs
         return Trial(columns=len(items), dofs=len(items) + (3 if spun else 0), vms=(), pairs=(),
@@ -235,7 +235,7 @@ def test_pruning_drops_what_the_prefix_does_not_need():
     # The last (φ2) is the failing shorter prefix's; dropping θ1,1 passes but adds DOFs; θ0,1 goes;
     # φ1 stays for θ1,1; θ0,0 is needed.
     assert calls == [((1, 1),), ((0, 1),), ((0, 1), (0, 0))]
-    search = BasisSearch(tol=1.0, safety=2.0, met=True, trials=[start, evaluate(items[:-1], None, ((0, 1),))],
+    search = BasisSearch(tol=1.0, safety=2.0, met=True, trials=[start, evaluate(items[:-1], ((0, 1),))],
                          chosen=start, order=items, estimate=None)
     assert search.trials_line() == "6→6: 0.1, −θ0,1→5: 1.1"  # the second lacks φ2: 0.1 + 1
 

@@ -105,9 +105,8 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
             return stage(z[:n])[:3]
 
         def equations(z, kin):
-            q1, v1, a1 = kin
-            r, C = model.dae_residual(t1, q1, v1, a1, z[n:])
-            return jnp.concatenate([r, C / c_K]), q1, v1, a1
+            r, C = model.dae_residual(t1, *kin, z[n:])
+            return jnp.concatenate([r, C / c_K])
 
         z0 = jnp.concatenate([state.a, state.lam])
 
@@ -121,15 +120,15 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
         fac = fresh = None
         if newton.variant == "full":
             def update(z, kin):
-                F, q1, v1, a1 = equations(z, kin)
-                return model.factor_augmented(t1, q1, v1, z[n:], c_C, c_K, a=a1).solve(F)
+                q1, v1, a1 = kin
+                return model.factor_augmented(t1, q1, v1, z[n:], c_C, c_K, a=a1).solve(equations(z, kin))
 
             sol = solve(update)
         else:
             q1p, v1p, a1p = kinematics(z0)
             sol, fac, fresh = self._modified(
                 newton, matrix, h, lambda: model.factor_augmented(t1, q1p, v1p, state.lam, c_C, c_K, a=a1p),
-                lambda fac, max_rate: solve(lambda z, kin: fac.solve(equations(z, kin)[0]), max_rate))
+                lambda fac, max_rate: solve(lambda z, kin: fac.solve(equations(z, kin)), max_rate))
         a1, lam1 = sol.x[:n], sol.x[n:]
         q1, v1, a1, abar1 = stage(a1)
         if model.project_velocities:

@@ -99,19 +99,25 @@ def greedy_order(W, candidates) -> list[tuple[int, int] | int]:
 def _pruned(evaluate, items, chosen, limit):
     """Backward elimination from the passing prefix ``items`` (its ``Trial`` ``chosen``): each
     candidate after the first, from the lowest ranked up, is dropped where the basis without it
-    (``evaluate(items, key, dropped)``, a ``Trial``) still has an estimate at most ``limit`` and
+    (``evaluate(items, dropped)``, a ``Trial``) still has an estimate at most ``limit`` and
     no more DOFs (the spinning-state check can enrich a smaller set). A VM is kept while an MD of
     its pairs is. The last candidate is not tried first: without it, the prefix is the shorter one
-    the search found failing. Returns the key of the last basis kept."""
-    kept, dropped, key = list(items), (), chosen.columns
+    the search found failing. Returns the key (``_trial_key``) of the last basis kept."""
+    kept = list(items)
     for c in reversed(items[1:-1]):
         if isinstance(c, int) and any(not isinstance(x, int) and c in x for x in kept):
             continue
         rest = [x for x in kept if x != c]
-        t = evaluate(rest, ("pruned", *dropped, c), (*dropped, c))
+        t = evaluate(rest, (*chosen.dropped, c))
         if t.chi_rel_estimate_percent <= limit and t.dofs <= chosen.dofs:
-            kept, dropped, key, chosen = rest, t.dropped, ("pruned", *t.dropped), t
-    return key
+            kept, chosen = rest, t
+    return _trial_key(chosen.columns, chosen.dropped)
+
+
+def _trial_key(columns: int, dropped: tuple):
+    """A trial's key in the search's records: a prefix by its length, a pruning trial by what it
+    dropped."""
+    return ("pruned", *dropped) if dropped else columns
 
 
 def shortest_passing(trial, length: int, start: int = 1) -> int | None:
@@ -272,8 +278,10 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         return modal_basis(body, free, phi, pairs, vms=vms, extra=[extra], theta=theta[:, cols],
                            deflation_tol=deflation_tol), True
 
-    def evaluate(items, key, dropped=()):
-        """Build, run and estimate the basis of the candidates ``items``; record it under ``key``."""
+    def evaluate(items, dropped=()):
+        """Build, run and estimate the basis of the candidates ``items``, recorded under its
+        ``_trial_key``."""
+        key = _trial_key(len(items), dropped)
         t1 = time.perf_counter()
         vms = tuple(c for c in items if isinstance(c, int))
         cols = [k for k, c in enumerate(all_pairs) if c in items]
@@ -295,7 +303,7 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         return trials[key]
 
     def trial(n):
-        return evaluate(order[:n], n).chi_rel_estimate_percent <= tol / safety
+        return evaluate(order[:n]).chi_rel_estimate_percent <= tol / safety
 
     t0 = time.perf_counter()
     passed = shortest_passing(trial, length, start)
