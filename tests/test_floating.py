@@ -196,6 +196,10 @@ def test_floating_system_refuses_bad_input():
     body = _stiff_floating_beam(n_vms=1)
     with pytest.raises(ValueError, match="basis must be"):
         FloatingBody(body.body, body.basis[:-1], body.tensors)
+    M_e = body.body.groups[0].M_e
+    skew = eqx.tree_at(lambda b: b.groups[0].M_e, body.body, M_e.at[:, 0, 1].add(1e-6 * jnp.abs(M_e).max()))
+    with pytest.raises(ValueError, match="must be symmetric"):
+        FloatingBody(skew, body.basis, body.tensors)
     with pytest.raises(ValueError, match="refers to nodal vector 99"):
         FloatingFrameSystem([body], [Revolute(None, None, None, 0, 99, 4)])
     with pytest.raises(ValueError, match="violates joint equations"):

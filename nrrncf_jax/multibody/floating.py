@@ -190,6 +190,11 @@ class FloatingBody(AbstractBodyKind):
         self.mass = jnp.asarray(body.mass_matrix())
         self.weights = jnp.asarray(body.varrho())
         M, pos, q_hat = np.asarray(self.mass), np.asarray(self.is_position), np.asarray(body.q_hat)
+        # nodal_force takes M_b ẍ as (ẍᵀ M_b)ᵀ and the invariants assume M_b = M_bᵀ: an element's
+        # mass that is not symmetric would make both silently wrong (the bound is far above the
+        # assembly's round-off, far below any real asymmetry)
+        if np.abs(M - M.T).max(initial=0.0) > 1e-12 * np.abs(M).max(initial=0.0):
+            raise ValueError("the body's mass matrix M_b must be symmetric (an element's mass matrix is not)")
         Psi = np.asarray(basis).reshape(body.n_vectors, 3, -1)
         mu = M @ pos
         self.m_total = jnp.asarray(pos @ mu)
