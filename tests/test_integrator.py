@@ -193,6 +193,19 @@ def _oscillator_of(k):
     return LinearModel(M=[[1.0]], K=k, q0=[1.0], v0=[0.0])
 
 
+
+def test_batch_lanes_default_to_all_members_on_an_accelerator_and_a_few_on_a_cpu():
+    """``batch_lanes``: a given width, capped at the members; by default every member on a GPU and
+    at most ``CPU_BATCH_LANES`` on a CPU; a width that is not a positive integer is refused."""
+    from nrrncf_jax.integrate import CPU_BATCH_LANES, batch_lanes
+
+    assert batch_lanes(16, platform="gpu") == 16 and batch_lanes(16, platform="cpu") == CPU_BATCH_LANES
+    assert batch_lanes(2, platform="cpu") == 2 and batch_lanes(16, 8, platform="cpu") == 8
+    assert batch_lanes(3, 8, platform="gpu") == 3
+    for bad in (0, -1, 2.5, True):
+        with pytest.raises(ValueError, match="width must be a positive integer"):
+            batch_lanes(4, bad)
+
 @pytest.mark.slow
 def test_batch_members_keep_their_own_steps_and_end():
     """``simulate_batch``: each member equals its own run (the stiffer ones take more steps and

@@ -7,7 +7,8 @@
   ``adaptive_step_size`` by name), ``ConstantStepSize``;
 - ``Newton``: each step's implicit solve (modified or full Newton, ``newton``; ``reuse=True`` keeps
   the iteration matrix across steps, ``base.IterationMatrix``);
-- ``simulate``, ``simulate_batch`` (a batch of models in one loop, each with its own steps),
+- ``simulate``, ``simulate_batch`` (a batch of models in one loop, each with its own steps;
+  ``batch_lanes``, how many advance together by default),
   ``simulate_timed`` (compile and run timed apart); ``Solution`` and ``SimulationResult``;
   ``states_at`` (states at given times, each the end of a step, not an interpolated output);
   ``kernel_options`` (XLA's options for programs of small kernels, for a user's own ``jax.jit``);
@@ -41,8 +42,10 @@ from .newton import NewtonResult as NewtonResult
 from .newton import NewtonSolution as NewtonSolution
 from .results import SimulationError as SimulationError
 from .results import SimulationResult as SimulationResult
+from .simulate import CPU_BATCH_LANES as CPU_BATCH_LANES
 from .simulate import SMALL_KERNEL_OPTIONS as SMALL_KERNEL_OPTIONS
 from .simulate import Solution as Solution
+from .simulate import batch_lanes as batch_lanes
 from .simulate import kernel_options as kernel_options
 from .simulate import simulate as simulate
 from .simulate import simulate_batch as simulate_batch

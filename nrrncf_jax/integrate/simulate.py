@@ -196,11 +196,12 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
     initial states, and the loop runs in forward mode (``jax.jvp``/``jacfwd`` pass through; use
     ``simulate`` with ``adjoint="reverse"`` for reverse mode).
 
-    ``width``: how many members the loop advances together (its lanes; default all of them).
-    With fewer lanes than members, the others wait in a queue, in their order in ``params``: a
-    member that ends hands its lane to the next one, so the loop keeps ``width`` members busy
-    until the queue is empty instead of running until its slowest member is done with the rest
-    idle. Put the costliest members first.
+    ``width``: how many members the loop advances together (its lanes; default ``batch_lanes``:
+    all of them on an accelerator, at most ``CPU_BATCH_LANES`` on a CPU). With fewer lanes than
+    members, the others wait in a queue, in their order in ``params``: a member that ends hands its
+    lane to the next one, so the loop keeps ``width`` members busy until the queue is empty instead
+    of running until its slowest member is done with the rest idle. Put the costliest members
+    first.
 
     ``small_kernels=True`` compiles the batch with ``SMALL_KERNEL_OPTIONS`` on a CPU, as a single
     run of a reduced model is: it compiles faster, but a batch's wider fused kernels may run slower
@@ -220,10 +221,7 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
         raise ValueError("params must be a pytree of arrays sharing a non-empty leading batch axis, got leading "
                          f"sizes {sorted(sizes)}")
     (n,) = sizes
-    if width is None:
-        width = n
-    elif isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
-        raise ValueError(f"width must be a positive integer (lanes of the batched loop), got width={width!r}")
+    width = batch_lanes(n, width)
     member = model_fn(jtu.tree_map(lambda x: x[0], params))  # one member, for the checks
     _, solver, controller, ts_, t0_, _, options, config = _prepare(member, solver, controller, ts, observe, newton,
                                                                    t0, None, "forward", max_steps, False, step_ts)
@@ -236,8 +234,30 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
                              "options only to the outermost program; pass compiler_options=kernel_options(True) "
                              "to your jax.jit instead")
         program = _simulate_batch_small
-    sol = program(model_fn, params, solver, controller, ts_, t0_, options, config, width=min(int(width), n))
+    sol = program(model_fn, params, solver, controller, ts_, t0_, options, config, width=width)
     return _check(sol, throw)
+
+
+CPU_BATCH_LANES = 4
+"""``simulate_batch``'s default lanes on a CPU. On one CPU core a batched member-step costs about
+what it costs alone whatever the lane count, so what a batch gains or loses is its padding: lanes
+that keep stepping, masked, after their member is done, while the slowest member runs on. A few
+lanes fed from the queue leave little padding and still share each kernel's overhead: on the
+reduced pendulum 4 lanes ran a batch of 16 much faster than 16 lanes, and no span or model
+measured ran much slower with them (figures: ``benchmarks/results/pendulum_batch.md``, "Lanes",
+and ``sweep.md``). On an accelerator every member gets a lane: its cost is time per
+batched step, which wide batches amortise."""
+
+
+def batch_lanes(n: int, width: int | None = None, platform: str | None = None) -> int:
+    """The lanes of a batched loop of ``n`` members: ``width`` (at most ``n``) when given; by
+    default all ``n`` on an accelerator and at most ``CPU_BATCH_LANES`` on a CPU (``platform``,
+    default JAX's default backend)."""
+    if width is None:
+        return n if (platform or jax.default_backend()) != "cpu" else min(n, CPU_BATCH_LANES)
+    if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
+        raise ValueError(f"width must be a positive integer (lanes of the batched loop), got width={width!r}")
+    return min(int(width), n)
 
 
 def simulate_timed(model: "AbstractModel", solver: AbstractSolver, controller: AbstractStepSizeController, ts,

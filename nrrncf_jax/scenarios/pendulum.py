@@ -36,7 +36,15 @@ from ..bodies.body import beam_body
 from ..bodies.mesh import straight_reference
 from ..elements.material import Material
 from ..elements.section import TubeSection
-from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, adaptive_step_size, simulate, simulate_batch
+from ..integrate import (
+    AdaptiveStepSize,
+    GeneralizedAlphaIndex3,
+    Newton,
+    adaptive_step_size,
+    batch_lanes,
+    simulate,
+    simulate_batch,
+)
 from ..integrate.simulate import kernel_options, simulate_timed
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody import (
@@ -502,13 +510,13 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
     """The chain ``system`` (any of ``FORMULATIONS``; its reference state straight along +x)
     released from rest at each of ``angles`` [rad] about the ground hinge's Z axis
     (``system.turned``), all in one compiled, batched run (``integrate.simulate_batch``: every
-    member keeps its own adaptive steps; ``lanes`` of them advance together, the rest queue, all
-    at once by default). Index-3 generalized-α as in ``run_chain``; returns a ``ReleaseSweep``
-    with the tips. A member that fails (Newton, step size) is flagged in ``ok``, not raised.
+    member keeps its own adaptive steps; ``lanes`` of them advance together, the rest queue;
+    default ``integrate.batch_lanes``: all at once on an accelerator, a few on a CPU). Index-3
+    generalized-α as in ``run_chain``; returns a ``ReleaseSweep`` with the tips. A member that
+    fails (Newton, step size) is flagged in ``ok``, not raised.
     ``small_kernels``: compile with ``integrate.SMALL_KERNEL_OPTIONS`` on a CPU (``simulate_batch``'s
     option of that name: faster to compile, its run possibly slower; off by default)."""
     import time
-
 
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
     angles = np.asarray(angles, dtype=float).reshape(-1)
@@ -516,7 +524,7 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
         raise ValueError(f"angles must be a non-empty sequence of finite release angles [rad], got {angles!r}")
     _, vectors, nodes = _chain(system)
     tip = nodes[-1]
-    lanes = angles.size if lanes is None else positive_int("lanes", lanes)
+    lanes = batch_lanes(angles.size, None if lanes is None else positive_int("lanes", lanes))
     _validate.boolean("small_kernels", small_kernels)
 
     def observe(t, x, v):
