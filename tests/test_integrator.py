@@ -193,7 +193,6 @@ def _oscillator_of(k):
     return LinearModel(M=[[1.0]], K=k, q0=[1.0], v0=[0.0])
 
 
-
 def test_batch_lanes_default_to_all_members_on_an_accelerator_and_a_few_on_a_cpu():
     """``batch_lanes``: a given width, capped at the members; by default every member on a GPU and
     at most ``CPU_BATCH_LANES`` on a CPU; a width that is not a positive integer is refused."""
@@ -205,6 +204,7 @@ def test_batch_lanes_default_to_all_members_on_an_accelerator_and_a_few_on_a_cpu
     for bad in (0, -1, 2.5, True):
         with pytest.raises(ValueError, match="width must be a positive integer"):
             batch_lanes(4, bad)
+
 
 @pytest.mark.slow
 def test_batch_members_keep_their_own_steps_and_end():
