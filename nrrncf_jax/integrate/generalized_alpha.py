@@ -246,7 +246,7 @@ class GeneralizedAlpha(AbstractGeneralizedAlpha):
                 return fac.solve(model.residual(t1, *kin))
             return update
 
-        q1p, v1p, _, _ = stage(state.a)
+        q1p, v1p, _ = kinematics(state.a)
         sol, fac, fresh = self._modified(newton, matrix, h,
                                          lambda: model.factor_iteration_matrix(t1, q1p, v1p, 1.0, c_C, c_K),
                                          lambda fac, max_rate: solve(modified_update(fac), max_rate))

@@ -512,9 +512,9 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
     (``system.turned``), all in one compiled, batched run (``integrate.simulate_batch``: every
     member keeps its own adaptive steps; ``lanes`` of them advance together, the rest queue;
     default ``integrate.batch_lanes``: all at once on an accelerator, a few on a CPU; the highest
-    releases queue first, the costliest as a rule). Index-3
-    generalized-α as in ``run_chain``; returns a ``ReleaseSweep`` with the tips. A member that
-    fails (Newton, step size) is flagged in ``ok``, not raised.
+    releases queue first, the costliest as a rule). Index-3 generalized-α as in ``run_chain``;
+    returns a ``ReleaseSweep`` with the tips. A member that fails (Newton, step size) is flagged in
+    ``ok``, not raised.
     ``small_kernels``: compile with ``integrate.SMALL_KERNEL_OPTIONS`` on a CPU (``simulate_batch``'s
     option of that name: faster to compile, its run possibly slower; off by default)."""
     import time
@@ -548,9 +548,13 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
     t1 = time.perf_counter()
     sol = jax.block_until_ready(compiled(args))
     t2 = time.perf_counter()
-    return ReleaseSweep(angles=angles, ts=ts, tips=np.asarray(sol.ys)[back], steps=np.asarray(sol.num_steps)[back],
-                        rejected=np.asarray(sol.num_rejected)[back], newton_iters=np.asarray(sol.num_newton)[back],
-                        ok=np.asarray(sol.succeeded)[back], compile_s=t1 - t0, run_s=t2 - t1, lanes=int(lanes))
+
+    def in_given_order(x):
+        return np.asarray(x)[back]
+
+    return ReleaseSweep(angles=angles, ts=ts, tips=in_given_order(sol.ys), steps=in_given_order(sol.num_steps),
+                        rejected=in_given_order(sol.num_rejected), newton_iters=in_given_order(sol.num_newton),
+                        ok=in_given_order(sol.succeeded), compile_s=t1 - t0, run_s=t2 - t1, lanes=int(lanes))
 
 
 __all__ = ["FORMULATIONS", "LEFT_END_FRAME", "LEFT_SECTION_FRAME", "REFERENCE_CONDITIONS", "SHAPE_TIMES",
