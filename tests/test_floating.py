@@ -43,7 +43,7 @@ from nrrncf_jax.integrate import (
 )
 from nrrncf_jax.models import RotatingFrameModel
 from nrrncf_jax.motion import Stationary
-from nrrncf_jax.multibody import FloatingBody, FloatingFrameSystem, Revolute
+from nrrncf_jax.multibody import FloatingBody, FloatingFrameSystem, Marker, Spherical, hinge
 from nrrncf_jax.multibody.floating import euler_parameters, rotation
 from nrrncf_jax.reduction import elastic_tensors, excited_modes, plane_loads, vibration_modes
 from nrrncf_jax.scenarios.pendulum import REFERENCE_CONDITIONS
@@ -113,7 +113,8 @@ def test_stiff_floating_beam_has_the_compound_pendulums_exact_period():
     as the ANCF version in test_multibody. ρ∞ = 1, rtol 1e-6: 5.9e-5 (1.7e-4, 5.9e-5, 3.1e-5 at
     rtol 1e-5, 1e-6, 1e-7: the integration error, falling with the tolerance)."""
     body = _stiff_floating_beam(n_vms=1)
-    system = FloatingFrameSystem([body], [Revolute(None, None, None, 0, 0, 4)], gravity=(0.0, -G, 0.0))
+    system = FloatingFrameSystem([body], [hinge(None, Marker(0, (0.0, 0.0, 0.0)), (0.0, 0.0, 1.0))],
+                                 gravity=(0.0, -G, 0.0))
     tip = body.body.n_vectors - 6
     ts = jnp.linspace(0.0, 1.6, 1601)
     sol = simulate(system, GeneralizedAlphaIndex3(1.0), AdaptiveStepSize(1e-6, 1e-6), ts,
@@ -138,7 +139,8 @@ def test_hinged_floating_body_conserves_energy_with_rho_inf_1(monkeypatch):
     from nrrncf_jax.integrate.simulate import SimulationError
 
     body = _stiff_floating_beam(n_vms=1)
-    system = FloatingFrameSystem([body], [Revolute(None, None, None, 0, 0, 4)], gravity=(0.0, -G, 0.0))
+    system = FloatingFrameSystem([body], [hinge(None, Marker(0, (0.0, 0.0, 0.0)), (0.0, 0.0, 1.0))],
+                                 gravity=(0.0, -G, 0.0))
     ts = jnp.linspace(0.0, 1.0, 101)
 
     def run(rtol):
@@ -201,9 +203,9 @@ def test_floating_system_refuses_bad_input():
     with pytest.raises(ValueError, match="must be symmetric"):
         FloatingBody(skew, body.basis, body.tensors)
     with pytest.raises(ValueError, match="refers to nodal vector 99"):
-        FloatingFrameSystem([body], [Revolute(None, None, None, 0, 99, 4)])
+        FloatingFrameSystem([body], [Spherical(0, 99)])
     with pytest.raises(ValueError, match="violates joint equations"):
-        FloatingFrameSystem([body], [Revolute(None, None, None, 0, 0, 4, point=(0.0, 1.0, 0.0))])
+        FloatingFrameSystem([body], [Spherical(0, 0, point=(0.0, 1.0, 0.0))])
     from nrrncf_jax.scenarios.pendulum import run_chain
 
     with pytest.raises(ValueError, match="must be a jointed system"):

@@ -27,7 +27,7 @@ from nrrncf_jax.integrate import (
     GeneralizedAlphaIndex3,
     simulate,
 )
-from nrrncf_jax.multibody import Fixed, MultibodySystem, Revolute, Spherical, placed
+from nrrncf_jax.multibody import Fixed, Marker, MultibodySystem, Spherical, hinge, placed
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum
 
 G = 9.81
@@ -43,7 +43,8 @@ def test_stiff_hinged_beam_has_the_compound_pendulums_exact_period():
     A 5 mm steel-stiff rod deflects by micrometres, so what is left is the integrator's error:
     5.1e-4, 4.3e-5 and 3e-6 at rtol = atol = 1e-4, 1e-5 and 1e-6 (it follows the tolerance)."""
     beam = _beam()
-    system = MultibodySystem([beam], [Revolute(None, None, None, 0, 0, 4)], gravity=(0.0, -G, 0.0))
+    system = MultibodySystem([beam], [hinge(None, Marker(0, (0.0, 0.0, 0.0)), (0.0, 0.0, 1.0))],
+                             gravity=(0.0, -G, 0.0))
     tip = beam.n_vectors - 6
     ts = jnp.linspace(0.0, 1.6, 1601)
     sol = simulate(system, GeneralizedAlphaIndex3(0.5), AdaptiveStepSize(1e-5, 1e-5), ts,
@@ -282,13 +283,13 @@ def test_multipliers_are_the_reactions():
 
 def test_bad_systems_are_refused():
     beam = _beam()
-    hinge = Revolute(None, None, None, 0, 0, 4)
+    pin = hinge(None, Marker(0, (0.0, 0.0, 0.0)), (0.0, 0.0, 1.0))
     with pytest.raises(ValueError, match="refers to body 1"):
-        MultibodySystem([beam], [hinge, Spherical(1, 0)])
+        MultibodySystem([beam], [pin, Spherical(1, 0)])
     with pytest.raises(ValueError, match="refers to nodal vector 99"):
         MultibodySystem([beam], [Spherical(0, 99)])
     with pytest.raises(ValueError, match=r"bodies \[1\] are held by no joint"):
-        MultibodySystem([beam, placed(beam, translation=(2.0, 0.0, 0.0))], [hinge])
+        MultibodySystem([beam, placed(beam, translation=(2.0, 0.0, 0.0))], [pin])
     with pytest.raises(ValueError, match="redundant"):
         MultibodySystem([beam], [Spherical(0, 0), Spherical(0, 0)])
     with pytest.raises(ValueError, match="violates joint equations"):

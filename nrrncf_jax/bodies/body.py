@@ -213,6 +213,14 @@ class Body(eqx.Module):
         return self.n_vectors // self.vectors_per_node
 
     @property
+    def section_slots(self) -> tuple[int, ...]:
+        """The slots of a node's two section vectors (``AbstractElement.section_slots``), where
+        every element group's element agrees and lays out its nodes as the body does; else none."""
+        slots = {g.element.section_slots if g.element.vectors_per_node == self.vectors_per_node else ()
+                 for g in self.groups}
+        return slots.pop() if len(slots) == 1 else ()
+
+    @property
     def n_elements(self) -> int:
         return sum(g.n_elements for g in self.groups)
 

@@ -92,6 +92,11 @@ class RigidBody(eqx.Module):
     def n_nodes(self) -> int:
         return self.n_vectors // VECTORS_PER_NODE
 
+    @property
+    def section_slots(self) -> tuple[int, ...]:
+        """Two of a node's axes, g₁ and g₂: its frame for joints (``multibody.section_frame``)."""
+        return (1, 2)
+
     def mass(self) -> Float[Array, ""]:
         return self.mass_value
 

@@ -38,13 +38,17 @@ class AbstractElement(eqx.Module):
     """An element type: nodal layout (class constants) and ``integrals`` of one element.
 
     ``nodes``: nodes per element; ``vectors_per_node``: nodal vectors a node carries (each a
-    3-vector); ``position_slots``: which of a node's vectors are positions. An element's nodal
+    3-vector); ``position_slots``: which of a node's vectors are positions; ``section_slots``:
+    which two span its cross-section, if it has one. An element's nodal
     vectors are ordered node by node, ``nodes × vectors_per_node`` of them.
     """
 
     nodes: ClassVar[int]
     vectors_per_node: ClassVar[int]
     position_slots: ClassVar[tuple[int, ...]]
+    section_slots: ClassVar[tuple[int, ...]] = ()
+    """Which two of a node's vectors span its cross-section (a beam's r_y, r_z): the section frame
+    that joints hold a node by (``multibody.section_frame``); empty for a node without one."""
 
     @property
     def vectors(self) -> int:

@@ -170,6 +170,7 @@ class C1Beam(AbstractElement):
     nodes: ClassVar[int] = 2
     vectors_per_node: ClassVar[int] = NODAL_VECTORS_PER_NODE
     position_slots: ClassVar[tuple[int, ...]] = (0,)
+    section_slots: ClassVar[tuple[int, ...]] = (2, 4)  # r_y, r_z
 
     def integrals(self, q_hat: Float[Array, "12 3"], length: Float[Array, ""]) -> ElementIntegrals:
         return ElementIntegrals(*beam_element_integrals(q_hat, length, self.material, self.section, self.n_axial))

@@ -12,7 +12,8 @@
   ``simulate_timed`` (compile and run timed apart); ``Solution`` and ``SimulationResult``;
   ``states_at`` (states at given times, each the end of a step, not an interpolated output);
   ``kernel_options`` (XLA's options for programs of small kernels, for a user's own ``jax.jit``);
-- ``static_equilibrium``: load-stepped static solutions; ``compilation_cache``: JAX's persistent
+- ``static_equilibrium``: load-stepped static solutions; ``constrained_equilibrium``: a
+  mechanism's static state and joint reactions; ``compilation_cache``: JAX's persistent
   compilation cache as a context manager.
 
 The whole simulation is one jit-compiled loop. Each step solves for the new acceleration by Newton
@@ -51,6 +52,8 @@ from .simulate import simulate as simulate
 from .simulate import simulate_batch as simulate_batch
 from .simulate import simulate_timed as simulate_timed
 from .simulate import states_at as states_at
+from .static import Equilibrium as Equilibrium
+from .static import constrained_equilibrium as constrained_equilibrium
 from .static import static_equilibrium as static_equilibrium
 from .step_size import STEP_CONTROLS as STEP_CONTROLS
 from .step_size import AbstractStepSizeController as AbstractStepSizeController

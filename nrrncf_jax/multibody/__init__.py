@@ -1,12 +1,15 @@
 """Multibody systems: bodies joined by joints (index-3 DAE, THEORY §7).
 
-- ``joints``: ``Spherical``, ``Revolute``, ``Fixed`` (to another body or to the ground), on
-  nodal-vector indices.
-- ``markers``: the same joints in physical terms, ``hinge``, ``ball``, ``clamp`` on ``Marker``s (a
-  body and a point of its reference configuration), which a system resolves into ``joints``.
-- ``prismatic``: ``Prismatic``, a slider; ``drivers``: ``AngleDriver``, ``DistanceDriver``, a
-  hinge's angle or a slider's travel prescribed in time (their multipliers the driving torque or
-  force).
+- ``section_frame``: a node's orientation as joints see it, the orthonormal triad of its two
+  section vectors (never a beam's slope r_x, through which a moment does not converge with the
+  mesh); ``Directions`` fixed in it.
+- ``joints``: ``Spherical``, ``Revolute`` (on section frames), ``Fixed`` (nodal vectors
+  prescribed); ``weld``: ``Weld``; ``prismatic``: ``Prismatic``; ``universal``: ``Universal``;
+  ``drivers``: ``AngleDriver``, ``DistanceDriver``, an angle or a slider's travel prescribed in
+  time (their multipliers the driving torque or force).
+- ``markers``: the joints in physical terms, ``hinge``, ``ball``, ``clamp``, ``slider``,
+  ``universal``, ``angle_driver`` on ``Marker``s (a body and a point of its reference
+  configuration) with axes in any direction, which a system resolves into joints.
 - ``forces``: force elements, ``SpringDamper`` and ``Actuator`` on a measure (``Distance``,
   ``HingeAngle``, ``Travel``), or on markers: ``spring``, ``torsion_spring``, ``motor``,
   ``actuator`` (its law a function of time, its own measure and rate, parameters and, with
@@ -77,14 +80,19 @@ from .joints import Revolute as Revolute
 from .joints import Spherical as Spherical
 from .kinds import AbstractBodyKind as AbstractBodyKind
 from .markers import Marker as Marker
+from .markers import angle_driver as angle_driver
 from .markers import ball as ball
 from .markers import clamp as clamp
 from .markers import hinge as hinge
 from .markers import slider as slider
+from .markers import universal as universal
 from .mechanism import FloatingFrameSystem as FloatingFrameSystem
 from .mechanism import Mechanism as Mechanism
 from .point_mass import PointMass as PointMass
 from .prismatic import Prismatic as Prismatic
 from .rigid import rigid_floating_body as rigid_floating_body
+from .section_frame import Directions as Directions
 from .system import MultibodySystem as MultibodySystem
 from .system import placed as placed
+from .universal import Universal as Universal
+from .weld import Weld as Weld

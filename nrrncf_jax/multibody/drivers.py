@@ -3,17 +3,19 @@ constraint, C(x, t) = 0; MULTIBODY.md).
 
 - ``AngleDriver``: the angle of body b about a hinge's axis relative to body a (or the ground)
   follows φ(t) = θ(t) − θ(0), θ from a motion (``motion.SteadySpin``, ``SpinUp``, ``FourierSpinUp``
-  or any module whose ``motion(t)[0]`` is the angle). With u_a, w_a = axis × u_a two of a's
-  gradient vectors normal to the axis and u_b b's gradient vector along u_a in the reference:
+  or any module whose ``motion(t)[0]`` is the angle). With u_a, w_a = axis × u_a two directions
+  normal to the axis fixed in a's section frame and u_b the one fixed in b's that is u_a in the
+  reference (``measures.HingeAngle``, ``section_frame``):
 
       u_b · (cos φ w_a − sin φ u_a) = 0,
 
   one equation, which together with the hinge (``joints.Revolute``) fixes b's rotation. Its
-  multiplier λ is the driving torque: the force −λ n on u_b (n = axis × u_b) is the moment
-  u_b × (−λ n) = −λ |u_b| axis, so the torque the driver applies to b about the axis is −λ (exact
-  for a rigid body's unit directors, to the section vectors' stretch on a flexible one).
-- ``DistanceDriver``: the distance of b's point along a's axis vector d_a (or a fixed axis) from
-  a's point follows s(t) − s(0) from its reference value:
+  multiplier λ is the driving torque: a rotation δθ of b's section changes the equation by
+  δθ·(u_b × c) = δθ·axis (c = cos φ w_a − sin φ u_a), so the torque the driver applies to b
+  about the axis is −λ, exactly: the directions are unit vectors of orthonormal section frames,
+  and the torque acts on the cross-section, not through a beam's slope.
+- ``DistanceDriver``: the distance of b's point along an axis d_a fixed in a's section frame (or
+  a fixed axis) from a's point follows s(t) − s(0) from its reference value:
 
       (r_b − r_a) · d_a − s_ref − (s(t) − s(0)) = 0;
 
@@ -40,8 +42,7 @@ def _motion_value(motion, t):
 
 class AngleDriver(AbstractJoint):
     """b's rotation about a hinge's axis prescribed (see the module docstring), on the directions
-    of a ``measures.HingeAngle``. ``body_a=None``: relative to the fixed directions ``ground``
-    (2 × 3: u and w = axis × u)."""
+    of a ``measures.HingeAngle``."""
 
     hinge: HingeAngle
     motion: eqx.Module
@@ -49,10 +50,10 @@ class AngleDriver(AbstractJoint):
     n_equations = 1
     rheonomic = True
 
-    def __init__(self, body_a, u_a, w_a, body_b: int, u_b: int, motion, ground=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))):
+    def __init__(self, hinge: HingeAngle, motion):
         if not callable(motion):
             raise ValueError("a driver's motion must be callable: motion(t)[0] is the prescribed angle")
-        self.hinge = HingeAngle(body_a, u_a, w_a, body_b, u_b, ground=ground)
+        self.hinge = hinge
         self.motion = motion
 
     def references(self):
@@ -76,9 +77,8 @@ class AngleDriver(AbstractJoint):
 
 
 class DistanceDriver(AbstractJoint):
-    """b's point's distance along a's axis vector prescribed (see the module docstring), a
-    ``measures.Travel`` held to its reference value ``s_ref`` plus the motion. ``body_a=None``:
-    along the fixed ``axis`` from the fixed ``point``."""
+    """b's point's distance along a's axis prescribed (see the module docstring), a
+    ``measures.Travel`` held to its reference value ``s_ref`` plus the motion."""
 
     travel: Travel
     motion: eqx.Module
@@ -87,11 +87,10 @@ class DistanceDriver(AbstractJoint):
     n_equations = 1
     rheonomic = True
 
-    def __init__(self, body_a, position_a, axis_a, body_b: int, position_b: int, motion, s_ref=0.0,
-                 point=(0.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0)):
+    def __init__(self, travel: Travel, motion, s_ref=0.0):
         if not callable(motion):
             raise ValueError("a driver's motion must be callable: motion(t)[0] is the prescribed distance")
-        self.travel = Travel(body_a, position_a, axis_a, body_b, position_b, point=point, axis=axis)
+        self.travel = travel
         self.motion = motion
         self.s_ref = jnp.asarray(s_ref, dtype=float)
 

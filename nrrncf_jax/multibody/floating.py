@@ -372,12 +372,8 @@ class FloatingBody(AbstractBodyKind):
         return self
 
     def geometry(self) -> BodyGeometry:
-        Psi = np.asarray(self.basis).reshape(self.body.n_vectors, 3 * self.basis.shape[1])
-        size = np.abs(Psi).max(axis=1) if Psi.size else np.zeros(Psi.shape[0])
-        # zero rows of the basis, to its round-off (an SVD-deflated basis holds 1e-16 there)
-        rigid = frozenset(int(v) for v in np.flatnonzero(size <= 1e-12 * max(float(size.max(initial=0.0)), 1.0)))
         return BodyGeometry(np.asarray(self.nodal_vectors(self.initial())), np.asarray(self.body.is_position),
-                            self.body.vectors_per_node, rigid)
+                            self.body.vectors_per_node, self.body.section_slots)
 
     def residual(self, z, v, a, gravity) -> Float[Array, " nz"]:
         """J ᵀ(M ẍ − Q) + ∂U/∂z, the elastic force the reduced cubic one (or the elements')."""

@@ -11,13 +11,15 @@ differentiation through its bodies' maps (``Mechanism``). The measures (``measur
 
 - ``Distance``: |r_b − r_a| between two position vectors (or a fixed point);
 - ``HingeAngle``: b's angle about a hinge's axis relative to a (or the ground), from the same
-  directions as ``drivers.AngleDriver``: u_a, w_a = axis × u_a two of a's unit gradient vectors
-  normal to the axis and u_b b's along u_a in the reference, φ = atan2(u_b·w_a, u_b·u_a). Its
-  gradient on u_b is the force (w_a cos φ − u_a sin φ)/|u_b⊥| normal to u_b, whose moment about
-  the axis is exactly 1 for any length of u_b: f is the torque about the axis. φ is taken in
+  directions as ``drivers.AngleDriver``: u_a, w_a = axis × u_a fixed in a's section frame and
+  u_b fixed in b's, u_a in the reference (``section_frame``), φ = atan2(u_b·w_a, u_b·u_a). A
+  rotation δθ of b's section changes φ by δθ·axis (the directions are unit vectors of orthonormal
+  frames, and the hinge keeps u_b normal to the axis): f is the torque about the axis, applied to
+  the cross-section. φ is taken in
   (−π, π]: a spring's angle must stay within π of its rest angle (an actuator's torque that
   depends on t only is unaffected);
-- ``Travel``: (r_b − r_a)·d_a along a's axis vector (or a fixed axis), f the force along it.
+- ``Travel``: (r_b − r_a)·d along an axis fixed in a's section frame (or a fixed axis), f the
+  force along it.
 
 The laws: ``SpringDamper`` (f = −k (g − g₀) − c ġ, potential ½ k (g − g₀)²) and ``Actuator``
 (f = law(t, g, ġ, params), any differentiable function: a motor's torque profile, a
@@ -41,8 +43,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._types import Array, Float, Scalar
-from .markers import BodyGeometry, Marker, hinge_directions
+from .markers import BodyGeometry, Marker, hinge_angle
 from .measures import AbstractMeasure, Distance, HingeAngle, Travel
+from .section_frame import Directions
 from .sensors import ChordDeflection, Position, Velocity
 
 KINEMATIC_SENSORS = (Position, Velocity, ChordDeflection)
@@ -167,14 +170,13 @@ class ForceSpec:
                 return self.make(Distance(None, None, self.b.body, nb, point=self.a))
             return self.make(Distance(a_marker.body, geometry[a_marker.body].node(a_marker), self.b.body, nb))
         if self.measure == "angle":
-            body_a, u_a, w_a, body_b, u_b, ground = hinge_directions(geometry, a_marker, self.b, self.axis)
-            return self.make(HingeAngle(body_a, u_a, w_a, body_b, u_b, ground=ground))
-        axis = np.asarray(self.axis)
+            return self.make(hinge_angle(geometry, a_marker, self.b, self.axis))
+        axis = np.asarray(self.axis)[None]
         if a_marker is None:
-            return self.make(Travel(None, None, None, self.b.body, nb, point=self.b.point, axis=axis))
+            return self.make(Travel(None, None, Directions.ground(axis), self.b.body, nb, point=self.b.point))
         ga = geometry[a_marker.body]
         na = ga.node(a_marker)
-        return self.make(Travel(a_marker.body, na, ga.along(na, axis, "actuator axis"), self.b.body, nb))
+        return self.make(Travel(a_marker.body, na, ga.directions(a_marker.body, na, axis), self.b.body, nb))
 
 
 def _end(a, what: str):

@@ -47,7 +47,8 @@ class InertialBody(AbstractBodyKind):
         return self.body.q_hat.reshape(-1)
 
     def geometry(self) -> BodyGeometry:
-        return BodyGeometry(np.asarray(self.body.q_hat), np.asarray(self.body.is_position), self.body.vectors_per_node)
+        return BodyGeometry(np.asarray(self.body.q_hat), np.asarray(self.body.is_position), self.body.vectors_per_node,
+                            self.body.section_slots)
 
     def nodal_vectors(self, z):
         return z.reshape(-1, 3)

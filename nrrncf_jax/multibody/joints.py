@@ -2,11 +2,14 @@
 vectors (an index-3 DAE with Lagrange multipliers λ, THEORY §7).
 
 A joint refers to nodal vectors of its bodies by ``(body index, nodal-vector index)``; ``None``
-as a body is the ground. Every equation is a polynomial of degree ≤ 2 in the nodal vectors, as
-the gradient-based (ANCF) description makes natural: positions coincide, and an axis is kept
-by the dot products of one body's axis vector with two vectors of the other that span the plane
-normal to it (e.g. a C1 beam's section vector r_z against the slope r_x and section vector r_y
-of the other beam's end; the MULTIBODY.md form with A_i e_z → the nodal vectors themselves).
+as a body is the ground. Positions coincide as nodal vectors; orientations are compared through
+each node's *section frame* (``section_frame``): the orthonormal triad of its two section vectors
+(a C1 beam's r_y, r_z; a rigid body's axes), never the centre-line slope r_x, so that a reaction
+moment acts on the cross-section as in the continuum and the joint converges under mesh
+refinement. A hinge keeps an axis fixed in body b's section normal to two directions fixed in
+a's (``Revolute``); ``weld.Weld``, ``prismatic.Prismatic``, ``universal.Universal`` and the
+``drivers`` are written the same way. ``Fixed`` prescribes nodal vectors themselves (a
+boundary condition of a full-order model), and ``Spherical`` positions only.
 
 The multipliers are the joints' reactions: with the equations of motion written
 ``M a + F(q) − Q + C_xᵀ λ = 0`` (THEORY §3), the force a joint applies to the nodal vectors of
@@ -22,13 +25,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._types import Array, Float
+from .section_frame import Directions
 
 GROUND = None
 """The ground as a joint's body: fixed points and directions in space."""
 
 
-def _normals(axis) -> np.ndarray:
-    """Two unit vectors spanning the plane normal to ``axis`` (2 × 3)."""
+def normals(axis) -> np.ndarray:
+    """Two unit vectors n₁, n₂ = e × n₁ spanning the plane normal to ``axis`` e (2 × 3)."""
     e = np.asarray(axis, dtype=float).reshape(3)
     if not np.all(np.isfinite(e)) or np.linalg.norm(e) == 0:
         raise ValueError(f"axis must be a finite nonzero 3-vector, got {axis!r}")
@@ -101,61 +105,55 @@ class Spherical(AbstractJoint):
 
 
 class Revolute(AbstractJoint):
-    """A hinge: the position vectors coincide (``Spherical``) and body b's axis vector ``axis_b``
-    stays normal to the two vectors ``normals_a`` of body a (e.g. the slope r_x and section
-    vector r_y at a beam's end, for a hinge about that end's section vector r_z). With body a the
-    ground (``body_a=None``), body b's position vector stays at ``point`` and its axis vector
-    along ``axis``. Five equations."""
+    """A hinge: the positions coincide (``Spherical``) and the hinge's axis, fixed in body b's
+    section frame, stays normal to two directions fixed in body a's that span the plane normal to
+    it in the reference (``section_frame``): (R_a n_i)·(R_b e) = 0, i = 1, 2. Body a the ground
+    (``body_a=None``): b's position stays at ``point`` and its axis normal to the fixed ``normals``.
+    Five equations; their multipliers are the reaction force and the two reaction moments normal to
+    the axis, which act on the section vectors (never on a beam's slope r_x, whose moment loads one
+    element's shear: ``section_frame``)."""
 
     body_a: int | None = eqx.field(static=True)
     position_a: int | None = eqx.field(static=True)
-    normals_a: tuple[int, int] | None = eqx.field(static=True)
     body_b: int = eqx.field(static=True)
     position_b: int = eqx.field(static=True)
-    axis_b: int = eqx.field(static=True)
+    normals: Directions
+    axis: Directions
     point: Float[Array, " 3"]
-    ground_normals: Float[Array, "2 3"]
 
     n_equations: ClassVar[int] = 5
 
-    def __init__(self, body_a: int | None, position_a: int | None, normals_a, body_b: int, position_b: int,
-                 axis_b: int, point=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0)):
-        if body_a is None:
-            if position_a is not None or normals_a is not None:
-                raise ValueError("a hinge to the ground takes point and axis, not position_a and normals_a")
-            self.body_a, self.position_a, self.normals_a = None, None, None
-        else:
-            normals_a = tuple(int(v) for v in normals_a)
-            if len(normals_a) != 2 or position_a is None:
-                raise ValueError("normals_a must be two nodal vectors of body a, and position_a its joint point")
-            self.body_a, self.position_a, self.normals_a = int(body_a), int(position_a), normals_a
-        self.body_b, self.position_b, self.axis_b = int(body_b), int(position_b), int(axis_b)
+    def __init__(self, body_a: int | None, position_a: int | None, normals: Directions, body_b: int,
+                 position_b: int, axis: Directions, point=(0.0, 0.0, 0.0)):
+        if (body_a is None) != (position_a is None) or normals.body != body_a or axis.body != int(body_b):
+            raise ValueError("a hinge's normals are body a's directions (fixed ones for the ground, body_a=None) and "
+                             "its axis body b's")
+        if normals.local.shape[0] != 2 or axis.local.shape[0] != 1:
+            raise ValueError("a hinge takes two normal directions on body a and one axis on body b")
+        self.body_a, self.position_a = (None, None) if body_a is None else (int(body_a), int(position_a))
+        self.body_b, self.position_b = int(body_b), int(position_b)
+        self.normals, self.axis = normals, axis
         self.point = jnp.asarray(point, dtype=float).reshape(3)
-        self.ground_normals = jnp.asarray(_normals(axis))
 
     def references(self):
-        refs = [(self.body_b, self.position_b), (self.body_b, self.axis_b)]
-        if self.body_a is not None:
-            refs += [(self.body_a, self.position_a)] + [(self.body_a, v) for v in self.normals_a]
-        return refs
+        refs = [(self.body_b, self.position_b)] + self.axis.references() + self.normals.references()
+        return refs + ([] if self.body_a is None else [(self.body_a, self.position_a)])
 
     def turned(self, A):
-        return eqx.tree_at(lambda j: (j.point, j.ground_normals), self, (A @ self.point, self.ground_normals @ A.T))
+        return eqx.tree_at(lambda j: (j.point, j.normals), self, (A @ self.point, self.normals.turned(A)))
 
     def __call__(self, xs, t=0.0):
-        d = _vector(xs, self.body_b, self.axis_b)
         r_b = _vector(xs, self.body_b, self.position_b)
-        if self.body_a is None:
-            return jnp.concatenate([r_b - self.point, self.ground_normals @ d])
-        n = jnp.stack([_vector(xs, self.body_a, v) for v in self.normals_a])
-        return jnp.concatenate([_vector(xs, self.body_a, self.position_a) - r_b, n @ d])
+        gap = r_b - self.point if self.body_a is None else _vector(xs, self.body_a, self.position_a) - r_b
+        return jnp.concatenate([gap, self.normals(xs) @ self.axis(xs)[0]])
 
 
 class Fixed(AbstractJoint):
-    """A rigid joint: body a's nodal vectors ``vectors_a`` (a position and the gradient vectors
-    at it) equal body b's ``vectors_b`` (with ``mixing``, k × k: ``mixing`` times them, for nodes
-    whose gradient vectors point different ways in the reference), or their reference values
-    ``values`` in space when body b is the ground (a clamp). Three equations per vector."""
+    """Nodal vectors prescribed: body a's ``vectors_a`` equal body b's ``vectors_b`` (with
+    ``mixing``, k × k: ``mixing`` times them), or their values ``values`` in space when body b is
+    the ground. Three equations per vector. A boundary condition on a model's coordinates (a
+    full-order cantilever's clamped nodal vectors, a shared node); a rigid connection between
+    bodies in physical terms is ``markers.clamp`` (``weld.Weld``, on section frames)."""
 
     body_a: int = eqx.field(static=True)
     vectors_a: tuple[int, ...] = eqx.field(static=True)
@@ -202,4 +200,4 @@ class Fixed(AbstractJoint):
         return (a - b).reshape(-1)
 
 
-__all__ = ["GROUND", "AbstractJoint", "Fixed", "Revolute", "Spherical"]
+__all__ = ["GROUND", "AbstractJoint", "Fixed", "Revolute", "Spherical", "normals"]

@@ -3,9 +3,13 @@ force element acts along (``forces``) and what a driver prescribes (``drivers``)
 
 - ``Distance``: |r_b − r_a| between two position vectors (or a fixed point);
 - ``HingeAngle``: b's angle about a hinge's axis relative to a (or the ground): u_a, w_a =
-  axis × u_a two of a's unit gradient vectors normal to the axis and u_b b's along u_a in the
-  reference, φ = atan2(u_b·w_a, u_b·u_a) (``forces`` says why its gradient is a torque);
-- ``Travel``: (r_b − r_a)·d_a along a's axis vector (or a fixed axis).
+  axis × u_a two directions normal to the axis fixed in a's section frame and u_b the one fixed
+  in b's that is u_a in the reference, φ = atan2(u_b·w_a, u_b·u_a) (``forces`` says why its
+  gradient is a torque);
+- ``Travel``: (r_b − r_a)·d along an axis d fixed in a's section frame (or a fixed axis).
+
+Directions are read from the nodes' section frames (``section_frame``), never from a beam's
+slope r_x: a moment through r_x loads one element's shear and does not converge with the mesh.
 """
 
 import abc
@@ -15,6 +19,7 @@ import jax.numpy as jnp
 
 from .._types import Array, Float
 from .joints import _vector
+from .section_frame import Directions
 
 
 class AbstractMeasure(eqx.Module):
@@ -63,35 +68,28 @@ class Distance(AbstractMeasure):
 
 
 class HingeAngle(AbstractMeasure):
-    """b's angle about a hinge's axis relative to a (module docstring); ``body_a=None``: relative
-    to the fixed directions ``ground`` (2 × 3: u and w = axis × u)."""
+    """b's angle about a hinge's axis relative to a (module docstring): ``frame_a`` holds u and
+    w = axis × u fixed in a's section frame (fixed in space for the ground), ``u_b`` the
+    direction fixed in b's section frame that is u in the reference (``section_frame``)."""
 
-    body_a: int | None = eqx.field(static=True)
-    u_a: int | None = eqx.field(static=True)
-    w_a: int | None = eqx.field(static=True)
-    body_b: int = eqx.field(static=True)
-    u_b: int = eqx.field(static=True)
-    ground: Float[Array, "2 3"]
+    frame_a: Directions
+    u_b: Directions
 
-    def __init__(self, body_a, u_a, w_a, body_b: int, u_b: int, ground=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))):
-        self.body_a, self.u_a, self.w_a = (None, None, None) if body_a is None else (int(body_a), int(u_a), int(w_a))
-        self.body_b, self.u_b = int(body_b), int(u_b)
-        self.ground = jnp.asarray(ground, dtype=float).reshape(2, 3)
+    def __init__(self, frame_a: Directions, u_b: Directions):
+        if frame_a.local.shape[0] != 2 or u_b.local.shape[0] != 1 or u_b.body is None:
+            raise ValueError("a hinge angle reads two directions (u, w) on body a or the ground and one on body b")
+        self.frame_a, self.u_b = frame_a, u_b
 
     def references(self):
-        refs = [(self.body_b, self.u_b)]
-        return refs + ([] if self.body_a is None else [(self.body_a, self.u_a), (self.body_a, self.w_a)])
+        return self.u_b.references() + self.frame_a.references()
 
     def turned(self, A):
-        return eqx.tree_at(lambda m: m.ground, self, self.ground @ A.T)
+        return eqx.tree_at(lambda m: m.frame_a, self, self.frame_a.turned(A))
 
     def directions(self, xs):
-        """``(u_a, w_a, u_b)`` in the current configuration (u_a, w_a fixed for the ground)."""
-        if self.body_a is None:
-            u_a, w_a = self.ground[0], self.ground[1]
-        else:
-            u_a, w_a = _vector(xs, self.body_a, self.u_a), _vector(xs, self.body_a, self.w_a)
-        return u_a, w_a, _vector(xs, self.body_b, self.u_b)
+        """``(u_a, w_a, u_b)`` in the current configuration."""
+        u_a, w_a = self.frame_a(xs)
+        return u_a, w_a, self.u_b(xs)[0]
 
     def __call__(self, xs):
         u_a, w_a, u_b = self.directions(xs)
@@ -99,40 +97,35 @@ class HingeAngle(AbstractMeasure):
 
 
 class Travel(AbstractMeasure):
-    """(r_b − r_a)·d_a: b's position vector ``vector_b`` along a's axis vector ``axis_a`` from a's
-    ``vector_a``, or along the fixed ``axis`` from the fixed ``point`` (``body_a=None``)."""
+    """(r_b − r_a)·d: b's position vector ``vector_b`` along the axis d fixed in a's section frame
+    (``axis``, ``section_frame``) from a's position vector ``vector_a``, or along a fixed axis
+    from the fixed ``point`` (``body_a=None``, ``axis`` fixed in space)."""
 
     body_a: int | None = eqx.field(static=True)
     vector_a: int | None = eqx.field(static=True)
-    axis_a: int | None = eqx.field(static=True)
     body_b: int = eqx.field(static=True)
     vector_b: int = eqx.field(static=True)
+    axis: Directions
     point: Float[Array, " 3"]
-    axis: Float[Array, " 3"]
 
-    def __init__(self, body_a, vector_a, axis_a, body_b: int, vector_b: int, point=(0.0, 0.0, 0.0),
-                 axis=(1.0, 0.0, 0.0)):
-        if body_a is None:
-            self.body_a, self.vector_a, self.axis_a = None, None, None
-        else:
-            self.body_a, self.vector_a, self.axis_a = int(body_a), int(vector_a), int(axis_a)
+    def __init__(self, body_a, vector_a, axis: Directions, body_b: int, vector_b: int, point=(0.0, 0.0, 0.0)):
+        if (body_a is None) != (vector_a is None) or axis.body != body_a or axis.local.shape[0] != 1:
+            raise ValueError("a travel's axis is one direction of body a (a fixed one for the ground, body_a=None)")
+        self.body_a, self.vector_a = (None, None) if body_a is None else (int(body_a), int(vector_a))
         self.body_b, self.vector_b = int(body_b), int(vector_b)
+        self.axis = axis
         self.point = jnp.asarray(point, dtype=float).reshape(3)
-        self.axis = jnp.asarray(axis, dtype=float).reshape(3)
 
     def references(self):
-        refs = [(self.body_b, self.vector_b)]
-        return refs + ([] if self.body_a is None else [(self.body_a, self.vector_a), (self.body_a, self.axis_a)])
+        refs = [(self.body_b, self.vector_b)] + self.axis.references()
+        return refs + ([] if self.body_a is None else [(self.body_a, self.vector_a)])
 
     def turned(self, A):
-        return eqx.tree_at(lambda m: (m.point, m.axis), self, (A @ self.point, A @ self.axis))
+        return eqx.tree_at(lambda m: (m.point, m.axis), self, (A @ self.point, self.axis.turned(A)))
 
     def __call__(self, xs):
-        if self.body_a is None:
-            r_a, d = self.point, self.axis
-        else:
-            r_a, d = _vector(xs, self.body_a, self.vector_a), _vector(xs, self.body_a, self.axis_a)
-        return (_vector(xs, self.body_b, self.vector_b) - r_a) @ d
+        r_a = self.point if self.body_a is None else _vector(xs, self.body_a, self.vector_a)
+        return (_vector(xs, self.body_b, self.vector_b) - r_a) @ self.axis(xs)[0]
 
 
 __all__ = ["AbstractMeasure", "Distance", "HingeAngle", "Travel"]

@@ -84,7 +84,8 @@ class MultibodySystem(AbstractConstrainedModel):
         joints = tuple(joints)
         if any(isinstance(j, JointSpec) for j in joints):  # markers: on the bodies' reference nodal vectors
             joints = resolve_joints(joints, tuple(
-                BodyGeometry(np.asarray(b.q_hat), np.asarray(b.is_position), b.vectors_per_node) for b in self.bodies))
+                BodyGeometry(np.asarray(b.q_hat), np.asarray(b.is_position), b.vectors_per_node, b.section_slots)
+                for b in self.bodies))
         self.joints = joints
         if not all(isinstance(j, AbstractJoint) for j in self.joints):
             raise ValueError("joints must be multibody joints (Spherical, Revolute, Fixed, ...) or joints on markers "

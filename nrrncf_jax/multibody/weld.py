@@ -1,18 +1,17 @@
-"""The weld: a rigid connection between two nodes whose directions are rigid (a rigid body's
-node, a floating frame's node held in its frame), or of such a node to the ground.
+"""The weld: a rigid connection between the section frames of two nodes, or of a node to the
+ground (``markers.clamp``).
 
-A clamp on gradient vectors (``joints.Fixed``: position and three gradient vectors equal, twelve
-equations) is right when one side's gradient vectors are free coordinates (an ANCF node). Where
-both sides' directions only turn with their frames, nine equations on the directions hold three
-rotational degrees of freedom and are redundant. The weld keeps the positions equal and the
-relative rotation that of the reference with six: with the triads A = [u_a, w_a, u_a × w_a] and
-B = [u_b, w_b, u_b × w_b] of two of each node's directions and R₀ = A₀ᵀB₀ from the reference,
+The positions coincide and the relative rotation stays that of the reference: with R_a, R_b the
+nodes' rotations from the reference (``section_frame``), S = R_aᵀ R_b is I in the reference and
+I + [θ]× for a small relative rotation θ, so
 
-    r_a − r_b = 0,      skew(Aᵀ B R₀ᵀ) = 0         (three equations: S₃₂ − S₂₃, S₁₃ − S₃₁, S₂₁ − S₁₂),
+    r_a − r_b = 0,      skew(S) = 0         (three equations: S₃₂ − S₂₃, S₁₃ − S₃₁, S₂₁ − S₁₂)
 
-since S = Aᵀ B R₀ᵀ is I in the reference and I + [θ]× for a small relative rotation θ (its skew
-part 2θ: full rank). The multipliers of the first three are the reaction force, of the last
-three, half the reaction moment (in a's triad).
+six equations, of full rank (skew(S) = 2θ to first order). The multipliers of the first three
+are the reaction force, of the last three half the reaction moment in a's frame. The moment acts
+on the section vectors: a beam's slope r_x and its stretch and shear stay free at the weld, as at
+the clamped end of a shear-deformable (Timoshenko, Simo-Reissner) beam, so the clamp converges
+under mesh refinement. ``joints.Fixed`` is the other kind of clamp: nodal vectors prescribed.
 """
 
 import equinox as eqx
@@ -21,69 +20,55 @@ import numpy as np
 
 from .._types import Array, Float
 from .joints import AbstractJoint, _vector
+from .section_frame import Directions
 
 N_EQUATIONS = 6
 
 
-def _triad(u, w):
-    return jnp.stack([u, w, jnp.cross(u, w)], axis=1)
-
-
 class Weld(AbstractJoint):
-    """b's node welded to a's (see the module docstring): ``dirs_a``, ``dirs_b`` two direction
-    vectors of each node, ``R0`` the triads' reference relation A₀ᵀB₀. ``body_a=None``: to the
-    ground, at ``point`` with the fixed directions ``ground`` (2 × 3)."""
+    """b's node welded to a's (see the module docstring): ``frame_a``, ``frame_b`` the space's
+    axes fixed in each node's section frame in the reference (3 × 3: rows R e_k, so that
+    ``frame_a(xs) @ frame_b(xs).T`` is R_aᵀR_b). ``body_a=None``: to the ground at ``point``."""
 
     body_a: int | None = eqx.field(static=True)
     position_a: int | None = eqx.field(static=True)
-    dirs_a: tuple[int, int] | None = eqx.field(static=True)
     body_b: int = eqx.field(static=True)
     position_b: int = eqx.field(static=True)
-    dirs_b: tuple[int, int] = eqx.field(static=True)
+    frame_a: Directions
+    frame_b: Directions
     point: Float[Array, " 3"]
-    ground: Float[Array, "2 3"]
-    R0: Float[Array, "3 3"]
 
     n_equations = N_EQUATIONS
 
-    def __init__(self, body_a, position_a, dirs_a, body_b: int, position_b: int, dirs_b, R0,
-                 point=(0.0, 0.0, 0.0), ground=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))):
-        if body_a is None:
-            self.body_a, self.position_a, self.dirs_a = None, None, None
-        else:
-            self.body_a, self.position_a = int(body_a), int(position_a)
-            self.dirs_a = tuple(int(v) for v in dirs_a)
+    def __init__(self, body_a, position_a, frame_a: Directions, body_b: int, position_b: int, frame_b: Directions,
+                 point=(0.0, 0.0, 0.0)):
+        if (body_a is None) != (position_a is None) or frame_a.body != body_a or frame_b.body != int(body_b):
+            raise ValueError("a weld's frames are body a's (fixed axes for the ground, body_a=None) and body b's")
+        if frame_a.local.shape[0] != 3 or frame_b.local.shape[0] != 3:
+            raise ValueError("a weld takes the three axes in each node's frame")
+        self.body_a, self.position_a = (None, None) if body_a is None else (int(body_a), int(position_a))
         self.body_b, self.position_b = int(body_b), int(position_b)
-        self.dirs_b = tuple(int(v) for v in dirs_b)
-        if (self.dirs_a is not None and len(self.dirs_a) != 2) or len(self.dirs_b) != 2:
-            raise ValueError("a weld takes two direction vectors on each node")
-        self.R0 = jnp.asarray(R0, dtype=float).reshape(3, 3)
+        self.frame_a, self.frame_b = frame_a, frame_b
         self.point = jnp.asarray(point, dtype=float).reshape(3)
-        self.ground = jnp.asarray(ground, dtype=float).reshape(2, 3)
 
     @staticmethod
-    def reference_relation(dirs_a: np.ndarray, dirs_b: np.ndarray) -> np.ndarray:
-        """R₀ with A₀ᵀ B₀ R₀ᵀ = I for the reference directions (2 × 3 each)."""
-        A0, B0 = (np.stack([d[0], d[1], np.cross(d[0], d[1])], axis=1) for d in (dirs_a, dirs_b))
-        return np.linalg.inv(A0.T @ B0).T
+    def axes(body, vectors, reference) -> Directions:
+        """The space's axes fixed in a node's section frame (``reference``: its two section
+        vectors' reference values), or in the ground (``body=None``)."""
+        if body is None:
+            return Directions.ground(np.eye(3))
+        return Directions.in_section(body, vectors, reference, np.eye(3))
 
     def references(self):
-        refs = [(self.body_b, self.position_b)] + [(self.body_b, v) for v in self.dirs_b]
-        if self.body_a is not None:
-            refs += [(self.body_a, self.position_a)] + [(self.body_a, v) for v in self.dirs_a]
-        return refs
+        refs = [(self.body_b, self.position_b)] + self.frame_b.references() + self.frame_a.references()
+        return refs + ([] if self.body_a is None else [(self.body_a, self.position_a)])
 
     def turned(self, A):
-        return eqx.tree_at(lambda j: (j.point, j.ground), self, (A @ self.point, self.ground @ A.T))
+        return eqx.tree_at(lambda j: (j.point, j.frame_a), self, (A @ self.point, self.frame_a.turned(A)))
 
     def __call__(self, xs, t=0.0):
-        if self.body_a is None:
-            r_a, Ta = self.point, _triad(self.ground[0], self.ground[1])
-        else:
-            r_a = _vector(xs, self.body_a, self.position_a)
-            Ta = _triad(*(_vector(xs, self.body_a, v) for v in self.dirs_a))
-        Tb = _triad(*(_vector(xs, self.body_b, v) for v in self.dirs_b))
-        S = Ta.T @ Tb @ self.R0.T
+        r_a = self.point if self.body_a is None else _vector(xs, self.body_a, self.position_a)
+        S = self.frame_a(xs) @ self.frame_b(xs).T
         skew = jnp.stack([S[2, 1] - S[1, 2], S[0, 2] - S[2, 0], S[1, 0] - S[0, 1]])
         return jnp.concatenate([r_a - _vector(xs, self.body_b, self.position_b), skew])
 
