@@ -24,7 +24,9 @@ the paper's rotating membrane is a 15-ring hexagonal disk of them (``scenarios.m
 """
 
 from ..elements.material import Material as Material
+from ..elements.section import RectangleSection as RectangleSection
 from ..elements.section import TubeSection as TubeSection
+from ..elements.section import sectional as sectional
 from .body import Body as Body
 from .body import ElementGroup as ElementGroup
 from .body import beam_body as beam_body

@@ -5,7 +5,8 @@ shape functions and the element integrals κ, M, ϱ, m; and what they are made o
 - ``beam.C1Beam``: the C1 spatial ANCF beam, six nodal vectors a node (r, r_x, r_y, r_xy, r_z,
   r_xz; 18 coordinates). Its constant fourth-order elastic tensor κ and inertia integrals (m, ϱ_α,
   M_αβ) come from Green-Lagrange strains by Gauss quadrature along the element and over the
-  section (``section.TubeSection``: a tube, or a solid circle), on straight and curved references
+  section (``section``: a tube or solid circle, a rectangle with Saint-Venant's torsion and a shear
+  correction, or a section given by its stiffnesses), on straight and curved references
   (``bodies.mesh``: circular arcs in or out of plane, any framed curve). The locking-free D of
   ``material`` keeps it free of Poisson and shear locking: the cantilever's frequencies converge
   to Euler-Bernoulli's, up to the rotary inertia and shear that theory leaves out
@@ -39,4 +40,8 @@ from .joint_cell import JointCell as JointCell
 from .joint_link import JointLink as JointLink
 from .material import Material as Material
 from .plate import TrianglePlate as TrianglePlate
+from .section import AbstractSection as AbstractSection
+from .section import RectangleSection as RectangleSection
 from .section import TubeSection as TubeSection
+from .section import rectangle_torsion_constant as rectangle_torsion_constant
+from .section import sectional as sectional

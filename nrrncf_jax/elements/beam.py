@@ -35,7 +35,7 @@ import numpy as np
 from .._types import Array, Float
 from .base import AbstractElement, ElementIntegrals, local_frame
 from .material import Material
-from .section import TubeSection
+from .section import AbstractSection
 
 NODAL_VECTORS_PER_NODE = 6
 """Per node: r, r_x, r_y, r_xy, r_z, r_xz."""
@@ -122,7 +122,7 @@ def beam_element_integrals(
     q_hat: Float[Array, "12 3"],
     length: Float[Array, ""],
     material: Material,
-    section: TubeSection,
+    section: AbstractSection,
     n_axial: int = 5,
 ) -> tuple[Float[Array, "12 12 12 12"], Float[Array, "12 12"], Float[Array, " 12"], Float[Array, ""]]:
     """κ^{αβμν}, M_αβ, ϱ_α and m of one element (THEORY §1-2) by Gauss quadrature.
@@ -134,7 +134,6 @@ def beam_element_integrals(
     xs, wxs = np.polynomial.legendre.leggauss(n_axial)
     s_pts = jnp.asarray(0.5 * (xs + 1.0))
     w_ax = jnp.asarray(0.5 * wxs) * length
-    ys, zs, w_sec = section.quadrature()
     D = material.beam_D()
 
     def at_point(s, y, z):
@@ -143,13 +142,25 @@ def beam_element_integrals(
         T = jnp.linalg.solve(J, local_frame(J))
         return S, _voigt_B(dS @ T), jnp.linalg.det(J)
 
-    pts = jax.vmap(lambda s: jax.vmap(lambda y, z: at_point(s, y, z))(ys, zs))
-    S, B, detJ = pts(s_pts)  # (n_ax, n_sec, ...)
-    W = (w_ax[:, None] * w_sec[None, :] * detJ).reshape(-1)  # dV weights
-    S = S.reshape(-1, 12)
-    B = B.reshape(-1, 6, 12, 12)
-    # κ^{αβμν} = ∫ B^a_{αβ} D_ab B^b_{μν} dV   (THEORY §2)
-    kappa = jnp.einsum("q,qaij,ab,qbkl->ijkl", W, B, D, B)
+    def over(quadrature):
+        ys, zs, w_sec = quadrature
+        S, B, detJ = jax.vmap(lambda s: jax.vmap(lambda y, z: at_point(s, y, z))(ys, zs))(s_pts)
+        W = (w_ax[:, None] * w_sec[None, :] * detJ).reshape(-1)  # dV weights
+        return S.reshape(-1, 12), B.reshape(-1, 6, 12, 12), W
+
+    S, B, W = over(section.quadrature())
+    shear = section.shear_quadrature()
+    if shear is None:
+        # κ^{αβμν} = ∫ B^a_{αβ} D_ab B^b_{μν} dV   (THEORY §2)
+        kappa = jnp.einsum("q,qaij,ab,qbkl->ijkl", W, B, D, B)
+    else:
+        # the normal strains over the section, the shear strains over the section's shear
+        # quadrature with its moduli factors (``section.RectangleSection``); D has no coupling
+        # between the two (``Material.beam_D``)
+        _, B_s, W_s = over(shear)
+        D_s = D[3:, 3:] * section.shear_moduli_factors()[:, None]
+        kappa = jnp.einsum("q,qaij,ab,qbkl->ijkl", W, B[:, :3], D[:3, :3], B[:, :3]) + \
+            jnp.einsum("q,qaij,ab,qbkl->ijkl", W_s, B_s[:, 3:], D_s, B_s[:, 3:])
     rho = material.rho
     M = rho * jnp.einsum("q,qi,qj->ij", W, S, S)  # M_αβ = ∫ρ S_α S_β
     varrho = rho * jnp.einsum("q,qi->i", W, S)  # ϱ_α = ∫ρ S_α
@@ -160,11 +171,11 @@ def beam_element_integrals(
 class C1Beam(AbstractElement):
     """The C1 spatial ANCF beam of this module as an element type: two nodes of six nodal vectors
     ``[r, r_x, r_y, r_xy, r_z, r_xz]``, of which r is the position; ``material`` and
-    ``section`` (a tube) define it, ``n_axial`` Gauss points along the axis (5 integrate the
-    straight element exactly)."""
+    ``section`` (``TubeSection``, ``RectangleSection``) define it, ``n_axial`` Gauss points along
+    the axis (5 integrate the straight element exactly)."""
 
     material: Material
-    section: TubeSection
+    section: AbstractSection
     n_axial: int = eqx.field(static=True, default=5)
 
     nodes: ClassVar[int] = 2

@@ -130,14 +130,26 @@ def beam_strain_stress(element: C1Beam, q_hat_e: Float[Array, "12 3"], q_e: Floa
 def beam_section_resultants(element: C1Beam, q_hat_e: Float[Array, "12 3"], q_e: Float[Array, "12 3"], s,
                             length) -> Float[Array, " 6"]:
     """``BEAM_RESULTANTS`` (N, V2, V3, T, M2, M3) of one element at ``s = ξ/l``: the stresses of
-    ``beam_strain_stress`` integrated over the section by the element's own quadrature
-    (``TubeSection.quadrature``) with its volume Jacobian, so that they are the element's force
-    resultants (module docstring)."""
-    ys, zs, w = element.section.quadrature()
-    _, S, det_J = jax.vmap(lambda y, z: _beam_point(element, q_hat_e, q_e, s, y, z, length))(ys, zs)
-    w = w * det_J
-    S11, S13, S12 = S[:, 0], S[:, 4], S[:, 5]
-    return jnp.stack([w @ S11, w @ S12, w @ S13, w @ (ys * S13 - zs * S12), w @ (zs * S11), -(w @ (ys * S11))])
+    ``beam_strain_stress`` integrated over the section by the element's own quadratures
+    (``quadrature``, and ``shear_quadrature`` with its moduli factors for the shear forces and the
+    torque where the section has one) with its volume Jacobian, so that they are the element's
+    force resultants (module docstring)."""
+    def stresses(quadrature):
+        ys, zs, w = quadrature
+        _, S, det_J = jax.vmap(lambda y, z: _beam_point(element, q_hat_e, q_e, s, y, z, length))(ys, zs)
+        return ys, zs, w * det_J, S
+
+    y, z, w, S = stresses(element.section.quadrature())
+    S11 = S[:, 0]
+    shear = element.section.shear_quadrature()
+    if shear is not None:  # the shear stresses where the element integrates them (``RectangleSection``)
+        y, z, w_s, S = stresses(shear)
+        S = S.at[:, 3:].multiply(element.section.shear_moduli_factors())
+    else:
+        w_s = w
+    y_n, z_n, _ = element.section.quadrature()
+    S13, S12 = S[:, 4], S[:, 5]
+    return jnp.stack([w @ S11, w_s @ S12, w_s @ S13, w_s @ (y * S13 - z * S12), w @ (z_n * S11), -(w @ (y_n * S11))])
 
 
 def _group(body, kind):
@@ -290,7 +302,8 @@ class SectionResultant(_MarkerSensor):
     """A mechanism's sensor (``multibody.sensors``): a C1 beam body's section resultant at the
     marker's node, at an interior node the mean of its two elements' ends (as
     ``beam_resultants``): ``quantity`` one of
-    ``post.stress.BEAM_RESULTANTS`` ("N", "V2", "V3", "T", "M2", "M3"), or None for all six. The
+    ``post.stress.BEAM_RESULTANTS`` ("N", "V2", "V3", "T", "M2", "M3"), "V" or "M" (the shear
+    force's or the bending moment's magnitude), or None for all six. The
     strain is the Green-Lagrange strain of the inertial nodal vectors against the body's
     stress-free ones (rigid motion of the body or its frame drops out), so full-order (ANCF) and
     floating-frame (RNCF, NR-RNCF) bodies read alike. The elements' lengths are their chords
@@ -301,8 +314,9 @@ class SectionResultant(_MarkerSensor):
     stations: tuple[tuple[int, float], ...] | None = eqx.field(static=True, default=None, kw_only=True)
 
     def __check_init__(self):
-        if self.quantity is not None and self.quantity not in BEAM_RESULTANTS:
-            raise ValueError(f"quantity must be one of {BEAM_RESULTANTS} or None, got {self.quantity!r}")
+        if self.quantity is not None and self.quantity not in BEAM_RESULTANTS + ("V", "M"):
+            raise ValueError(f"quantity must be one of {BEAM_RESULTANTS + ('V', 'M')} or None, got "
+                             f"{self.quantity!r}")
 
     @staticmethod
     def _beam(system, b):
@@ -332,6 +346,9 @@ class SectionResultant(_MarkerSensor):
         idx, lengths = np.asarray(g.elements), _beam_lengths(g, body.q_hat, None)
         r = sum(beam_section_resultants(g.element, body.q_hat[idx[e]], x[idx[e]], s, lengths[e])
                 for e, s in self.stations) / len(self.stations)
+        if self.quantity in ("V", "M"):  # the magnitude of the shear force or the bending moment
+            k = 1 if self.quantity == "V" else 4
+            return jnp.hypot(r[k], r[k + 1])
         return r if self.quantity is None else r[BEAM_RESULTANTS.index(self.quantity)]
 
 
