@@ -10,6 +10,7 @@
     nrrncf membrane --case bending-torsion --formulation nr-rncf --reference rncf --plot rim.png
     nrrncf pendulum --elements 10 --out tips.csv --plot pendulum.png --animate pendulum.gif
     nrrncf run slider_crank --param formulation=nr-rncf --t-end 0.1 --out F.csv --json
+    nrrncf static princeton_beam --param load=8.896 --param angle_deg=45 --json
 
 Each subcommand lives in its own module of this package, with a ``register(subparsers)`` that
 sets ``func`` (the run) and ``check`` (the checks of its arguments). ``main`` parses, runs the
@@ -56,7 +57,8 @@ import sys
 
 from ._common import HelpFormatter
 
-SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "sweep-merge", "truss", "membrane", "pendulum", "run")
+SUBCOMMANDS = ("spinup", "modes", "identify", "sweep", "sweep-merge", "truss", "membrane", "pendulum", "run",
+               "static")
 """The subcommands, each a module of this package (its name with ``_`` for ``-``) with
 ``register(subparsers)``; their order is the help's."""
 

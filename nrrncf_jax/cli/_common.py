@@ -129,6 +129,15 @@ def estimate_samples(args, reduced: bool) -> dict:
     return {"estimate_samples": args.estimate_samples}
 
 
+def model_parser(sub, name: str, help: str, description: str):
+    """A subcommand on a model file or a bundled example (``run``, ``static``): its parser with the
+    ``model`` argument and ``--param KEY=VALUE`` (``mechanism(**params)``'s keywords)."""
+    t = sub.add_parser(name, help=help, description=description, formatter_class=HelpFormatter)
+    t.add_argument("model", help="a model file (.py) or a bundled example's name")
+    t.add_argument("--param", action="append", metavar="KEY=VALUE", help="a keyword parameter of mechanism()")
+    return t
+
+
 def at_least(flag: str, value: int | None, minimum: int) -> None:
     """An integer option (None: not given) that must be at least ``minimum``."""
     if value is not None and value < minimum:

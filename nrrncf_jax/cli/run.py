@@ -6,17 +6,17 @@
                      [--no-progress]
 
 ``MODEL``: a Python file defining ``mechanism(**params) -> MechanismSetup``, or the name of a
-bundled example (``nrrncf_jax/examples/``: ``slider_crank``, ``rotor``, ``two_link_arm``). ``--param`` passes keyword
-parameters (numbers parsed as numbers). ``--out`` writes the sensors at the output times as CSV
-columns ``t`` and each sensor's name (a vector sensor as ``name_0, name_1, ...``); ``--vtk`` the
-bodies' nodes and edges (``post.outline``) over time as a ParaView series (.vtu files and a .pvd),
-``--animate`` an animated GIF of them in the XY plane. ``--json``
-prints one JSON object as the last line: ``formulation, dofs, steps, rejected, newton_iters,
-compile_s, run_s``; with ``--reference full`` (the model run again with ``formulation=ancf``,
-its full-order model) also ``reference_dofs, reference_run_s, speedup`` and ``chi_rel_percent``
-(Eq. 40, of each compared sensor's change from its initial value: the model's ``compare``, e.g.
-positions and deflections, not reactions, whose high-frequency content differs between the
-models; the largest, and per sensor as ``chi_rel_percent_<name>``).
+bundled example (``nrrncf_jax/examples/``: ``slider_crank``, ``rotor``, ``two_link_arm``,
+``fourbar``). ``--param`` passes keyword parameters (numbers parsed as numbers). ``--out`` writes
+the sensors at the output times as CSV columns ``t`` and each sensor's name (a vector sensor as
+``name_0, name_1, ...``); ``--vtk`` the bodies' nodes and edges (``post.outline``) over time as a
+ParaView series (.vtu files and a .pvd), ``--animate`` an animated GIF of them in the XY plane.
+``--json`` prints one JSON object as the last line: ``formulation, dofs, steps, rejected,
+newton_iters, compile_s, run_s``; with ``--reference full`` (the model run again with
+``formulation=ancf``, its full-order model) also ``reference_dofs, reference_run_s, speedup`` and
+``chi_rel_percent`` (Eq. 40, of each compared sensor's change from its initial value: the model's
+``compare``, e.g. positions and deflections, not reactions, whose high-frequency content differs
+between the models; the largest, and per sensor as ``chi_rel_percent_<name>``).
 """
 
 from . import _common
@@ -92,13 +92,11 @@ def _check(args) -> None:
 
 
 def register(sub) -> None:
-    t = sub.add_parser("run", help="a mechanism from a model file or a bundled example (slider_crank, rotor, ...)",
-                       description="Run a mechanism defined in a Python file (mechanism(**params) returning a "
-                                   "scenarios.MechanismSetup) or a bundled example by name (slider_crank, rotor, "
-                                   "two_link_arm).",
-                       formatter_class=_common.HelpFormatter)
-    t.add_argument("model", help="a model file (.py) or a bundled example's name")
-    t.add_argument("--param", action="append", metavar="KEY=VALUE", help="a keyword parameter of mechanism()")
+    t = _common.model_parser(sub, "run",
+                             "a mechanism from a model file or a bundled example (slider_crank, rotor, ...)",
+                             "Run a mechanism defined in a Python file (mechanism(**params) returning a "
+                             "scenarios.MechanismSetup) or a bundled example by name (slider_crank, rotor, "
+                             "two_link_arm, fourbar).")
     t.add_argument("--t-end", type=float, default=None, help="end time [s] (default: the model's)")
     t.add_argument("--rtol", type=float, default=None, help="step tolerance (default: the model's; atol = rtol/10 m)")
     t.add_argument("--rho-inf", type=float, default=None,

@@ -8,4 +8,6 @@ with ``nrrncf run <name>`` (``scenarios.mechanism_file``).
   motor torque (full ANCF or NR-RNCF beams).
 - ``two_link_arm``: a flexible two-link arm on driven hinges with a payload, and the trajectory
   optimisation that removes its residual vibration (Adam on forward-mode gradients).
+- ``fourbar``: the spatial four-bar of the validation set of Bauchau et al. (2016), square steel
+  bars, a hinge tilted by 5° that only flexibility lets move, the crank driven at 0.6 rad/s.
 """

@@ -13,8 +13,8 @@
   ``states_at`` (states at given times, each the end of a step, not an interpolated output);
   ``kernel_options`` (XLA's options for programs of small kernels, for a user's own ``jax.jit``);
 - ``static_equilibrium``: load-stepped static solutions; ``constrained_equilibrium``: a
-  mechanism's static state and joint reactions; ``compilation_cache``: JAX's persistent
-  compilation cache as a context manager.
+  mechanism's static state and joint reactions, ``stability`` its stiffness there;
+  ``compilation_cache``: JAX's persistent compilation cache as a context manager.
 
 The whole simulation is one jit-compiled loop. Each step solves for the new acceleration by Newton
 (full Newton stops on the error its last update leaves, estimated from the observed contraction;
@@ -54,6 +54,7 @@ from .simulate import simulate_timed as simulate_timed
 from .simulate import states_at as states_at
 from .static import Equilibrium as Equilibrium
 from .static import constrained_equilibrium as constrained_equilibrium
+from .static import stability as stability
 from .static import static_equilibrium as static_equilibrium
 from .step_size import STEP_CONTROLS as STEP_CONTROLS
 from .step_size import AbstractStepSizeController as AbstractStepSizeController

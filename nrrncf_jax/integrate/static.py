@@ -160,3 +160,24 @@ def constrained_equilibrium(model, t=0.0, load_steps: int = 1, tol: float = 1e-1
                 "joints hold every rigid motion (a free mechanism has no static state)")
     n = model.n_dof
     return Equilibrium(z=y[:n], lam=y[n:], iterations=iters)
+
+
+def stability(model, equilibrium: Equilibrium, t=0.0, count: int = 1) -> np.ndarray:
+    """The ``count`` lowest eigenvalues of a mechanism's stiffness at its static ``equilibrium``
+    (``constrained_equilibrium`` at time ``t``) on the joints' tangent space: the Hessian of the
+    Lagrangian U − W + λ·C (the augmented Jacobian's first block, the joints' curvature λ·C_zz
+    included) projected on C_z's null space. All positive: the equilibrium is stable; one crosses
+    zero where it buckles (a limit or bifurcation point). Dense, on the host (SciPy)."""
+    import scipy.linalg
+
+    n = model.n_dof
+    zero = jnp.zeros(n)
+
+    def equations(y):
+        r, C = model.dae_residual(t, y[:n], zero, zero, y[n:])
+        return jnp.concatenate([r, C])
+
+    J = np.asarray(jax.jacfwd(equations)(jnp.concatenate([equilibrium.z, equilibrium.lam])))
+    H, B = J[:n, :n], J[n:, :n]
+    Z = scipy.linalg.null_space(B)
+    return np.linalg.eigvalsh(Z.T @ (0.5 * (H + H.T)) @ Z)[:int(count)]

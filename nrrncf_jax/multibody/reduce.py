@@ -18,7 +18,8 @@ The recipe it runs, the one the paper's examples run by hand:
    as maximum modal interaction needs that motion), deflated by SVD (``reduction.modal_basis``);
    ``basis="craig-bampton"``: the extended Craig-Bampton basis instead, the other interfaces'
    positions its boundary coordinates (``reduction.craig_bampton``); with ``interface_modes``
-   the free basis holds those positions' static modes too (``reduction.static_modes``);
+   the free basis holds those positions' static modes too (``reduction.static_modes``); with
+   ``interface_rotations`` the interfaces' section vectors too (their moments' attachment modes);
    ``basis="full"``: every
    free coordinate kept, the elements' own force (the full-order RNCF reference,
    ``full_order_frame``);
@@ -29,8 +30,8 @@ import numpy as np
 
 from ..bodies.body import Body
 from ..elements.beam import NODAL_VECTORS_PER_NODE, mirror_even
+from ..reduction import attachment_modes, elastic_tensors, modal_basis, vibration_modes
 from ..reduction import craig_bampton as craig_bampton_basis
-from ..reduction import elastic_tensors, modal_basis, static_modes, vibration_modes
 from .floating import FloatingBody
 from .full_order_frame import full_floating_body
 from .markers import BodyGeometry, Marker
@@ -42,7 +43,8 @@ def _point(p):
 
 
 def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free", plane_normal=None,
-           interface_modes: bool = False, deflation_tol: float = 1e-6) -> FloatingBody:
+           interface_modes: bool = False, deflation_tol: float = 1e-6, interface_rotations: bool = False,
+           interface_mds: bool = False) -> FloatingBody:
     """``body`` (placed in space: its ``q_hat`` the stress-free, initial state) as a floating-frame
     body of a mechanism, its deformation reduced (see the module docstring). ``interfaces``: the
     points (or ``Marker``s) where it is joined, the first one holding its frame.
@@ -51,7 +53,14 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     only), or None. ``interface_modes`` (with ``basis="free"``): the other interfaces' static
     modes too, the body's static deflections under unit forces on their positions
     (``reduction.static_modes``), so that a joint's load is carried as Craig-Bampton carries it,
-    without its boundary coordinates."""
+    without its boundary coordinates. ``interface_rotations``: the joints' moments too, so that the
+    basis carries them (a joint that carries a moment otherwise bends the body only as far as its
+    vibration modes reach): with ``interface_modes`` the attachment modes of unit moments on the
+    other interfaces' sections (``moment_loads``: on the section vectors r_y, r_z, where a hinge's
+    or a clamp's reaction moments act, ``section_frame``), with Craig-Bampton the section vectors'
+    coordinates among the boundary coordinates. ``interface_mds`` (with ``interface_modes``): the
+    modal derivatives of the interface modes with each other and with the vibration modes, for a
+    body whose joints' loads deform it beyond the linear range of its attachment modes."""
     if not isinstance(body, Body):
         raise ValueError(f"reduce takes a flexible bodies.Body, got {type(body).__name__}")
     if basis not in ("free", "craig-bampton", "full"):
@@ -59,7 +68,8 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     points = [_point(p) for p in interfaces]
     if not points:
         raise ValueError("reduce needs at least one interface point (the first one holds the body's frame)")
-    geometry = BodyGeometry(np.asarray(body.q_hat), np.asarray(body.is_position), body.vectors_per_node)
+    geometry = BodyGeometry(np.asarray(body.q_hat), np.asarray(body.is_position), body.vectors_per_node,
+                            body.section_slots)
     nodes = [geometry.node(Marker(0, p)) for p in points]
     frame = nodes[0]
     gradients = geometry.unit_gradients(frame)
@@ -95,20 +105,51 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
                          "with an explicit list of pairs")
     if any(not 0 <= i <= j < vms for i, j in pairs):
         raise ValueError(f"mds must be pairs (i, j) with 0 <= i <= j < vms = {vms}")
-    boundary = [3 * v + c for v in nodes[1:] for c in range(3) if free[3 * v + c]]  # the other interfaces
+    positions = [3 * v + c for v in nodes[1:] for c in range(3) if free[3 * v + c]]  # the other interfaces
+    sections = [3 * u + c for v in nodes[1:] for u in geometry.section(0, v) for c in range(3) if free[3 * u + c]] \
+        if interface_rotations else []
     if basis == "craig-bampton":
-        if interface_modes:
-            raise ValueError("interface_modes goes with basis='free' (Craig-Bampton holds the interfaces' static "
-                             "modes already)")
-        if not boundary:
+        if interface_modes or interface_mds:
+            raise ValueError("interface_modes (and interface_mds) goes with basis='free' (Craig-Bampton holds the "
+                             "interfaces' static modes already)")
+        if not positions:
             raise ValueError("a Craig-Bampton basis needs a second interface (its boundary coordinates)")
-        Psi = np.asarray(craig_bampton_basis(local, free, boundary, vms, pairs, deflate_tol=deflation_tol).basis)
+        Psi = np.asarray(craig_bampton_basis(local, free, positions + sections, vms, pairs,
+                                             deflate_tol=deflation_tol).basis)
         return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free)
-    if interface_modes and not boundary:
+    if (interface_modes or interface_mds) and not positions:
         raise ValueError("interface_modes needs a second interface (the point whose static modes are added)")
-    extra = [static_modes(local, free, boundary)] if interface_modes else []
-    return modal_body(local, free, np.asarray(vibration_modes(local, free, vms).phi), pairs, R0, A0, deflation_tol,
-                      extra, awaiting_mds=mds == "mmi")
+    if interface_mds and not interface_modes:
+        raise ValueError("interface_mds needs interface_modes (the modes whose derivatives it adds)")
+    phi = np.asarray(vibration_modes(local, free, vms).phi)
+    if not interface_modes:
+        return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, awaiting_mds=mds == "mmi")
+    loads = [np.eye(local.n_dof)[:, positions]]
+    if interface_rotations:
+        loads += [moment_loads(local, geometry.section(0, v)) for v in nodes[1:]]
+    attached = attachment_modes(local, free, np.concatenate(loads, axis=1))
+    if not interface_mds:
+        return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, [attached])
+    # the interface modes' derivatives: every pair with at least one interface mode, beside `pairs`
+    both = np.concatenate([phi, attached / np.abs(attached).max(axis=0)], axis=1)
+    k = both.shape[1]
+    pairs = list(pairs) + [(i, j) for i in range(k) for j in range(max(i, vms), k)]
+    return modal_body(local, free, both, pairs, R0, A0, deflation_tol)
+
+
+def moment_loads(body: Body, section) -> np.ndarray:
+    """The generalized forces of a unit moment about each axis on the node whose section vectors
+    are ``section`` (two body indices; unit and normal in the reference): the forces on r_y, r_z
+    whose virtual work on the section's rotation δθ e (δr = δθ e × r) is δθ, split between the two
+    as their lever arms |e × r|² (n_dof × 3)."""
+    q = np.asarray(body.q_hat)
+    F = np.zeros((body.n_dof, 3))
+    for k, e in enumerate(np.eye(3)):
+        arms = [np.cross(e, q[v]) for v in section]
+        c = 1.0 / sum(a @ a for a in arms)
+        for v, a in zip(section, arms):
+            F[3 * v:3 * v + 3, k] = c * a
+    return F
 
 
 def modal_body(local: Body, free, phi, pairs, R0, A0, deflation_tol: float = 1e-6, extra=(),
@@ -123,4 +164,4 @@ def modal_body(local: Body, free, phi, pairs, R0, A0, deflation_tol: float = 1e-
                         awaiting_mds=awaiting_mds)
 
 
-__all__ = ["modal_body", "reduce"]
+__all__ = ["modal_body", "moment_loads", "reduce"]

@@ -8,6 +8,8 @@ A sensor is a function of the system and its state, ``sensor(system, t, z, v) ->
 - ``ChordDeflection(a, b, m, normal)``: the signed distance of marker m's point from the chord
   through a's and b's points, positive to the left of the direction from a to b about ``normal``
   (a flexible link's transverse deflection);
+- ``SectionAngle(marker, axis)``: how far the section at a marker's node has turned about an axis
+  (a beam's twist, a slope);
 - ``JointReaction(index)``: the multipliers λ of the system's joint ``index`` (``joints`` gives
   their sign; the consistent ones of the state, ``reactions``); ``DriverEffort(index)``: the
   torque or force a driver (``drivers``) applies to its body;
@@ -92,6 +94,28 @@ class ChordDeflection(_MarkerSensor):
         return (xm - xa) @ left
 
 
+class SectionAngle(eqx.Module):
+    """The angle by which the section frame at a marker's node has turned about ``axis`` (in space,
+    from the reference; ``section_frame``): a beam's twist about its axis, a slope about a section
+    axis; atan2 of the turned reference direction normal to the axis, in (−π, π]."""
+
+    marker: Marker = eqx.field(static=True)
+    axis: tuple[float, float, float] = eqx.field(static=True)
+    measure: object = eqx.field(default=None, kw_only=True)
+
+    def resolve(self, system) -> "SectionAngle":
+        from .markers import hinge_angle  # the measure of a hinge's angle, relative to the ground
+
+        _node(system, self.marker)
+        geometry = tuple(b.geometry() for b in system.bodies)
+        return dataclasses.replace(self, measure=hinge_angle(geometry, None, self.marker, self.axis))
+
+    def __call__(self, system, t, z, v) -> Float[Array, ""]:
+        if self.measure is None:
+            raise ValueError("a sensor on markers must be resolved against its system first (sensors.observe)")
+        return self.measure(system.nodal_vectors(z))
+
+
 class JointReaction(eqx.Module):
     """The multipliers of joint ``index`` at the state (``system.reactions``)."""
 
@@ -170,7 +194,8 @@ def observe(system, sensors: dict):
     for name, sensor in sensors.items():
         if not callable(sensor):
             raise ValueError(f"sensor {name!r} is not callable (a sensor is sensor(system, t, z, v))")
-    sensors = {name: s.resolve(system) if isinstance(s, _MarkerSensor) else s for name, s in sensors.items()}
+    sensors = {name: s.resolve(system) if isinstance(s, (_MarkerSensor, SectionAngle)) else s
+               for name, s in sensors.items()}
 
     def fn(t, z, v):
         return {name: jnp.asarray(sensor(system, t, z, v)) for name, sensor in sensors.items()}
@@ -179,4 +204,4 @@ def observe(system, sensors: dict):
 
 
 __all__ = ["AngularMomentum", "ChordDeflection", "DriverEffort", "ElementForce", "Energy", "JointReaction", "Position",
-           "Velocity", "observe"]
+           "SectionAngle", "Velocity", "observe"]

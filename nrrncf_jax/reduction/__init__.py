@@ -46,6 +46,7 @@ from .basis_to_tolerance import BasisSearch as BasisSearch
 from .basis_to_tolerance import greedy_order as greedy_order
 from .basis_to_tolerance import nr_rncf_to_tolerance as nr_rncf_to_tolerance
 from .craig_bampton import CraigBampton as CraigBampton
+from .craig_bampton import attachment_modes as attachment_modes
 from .craig_bampton import craig_bampton as craig_bampton
 from .craig_bampton import static_modes as static_modes
 from .deflation import deflate as deflate

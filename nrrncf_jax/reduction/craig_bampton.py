@@ -79,6 +79,22 @@ def craig_bampton(body: Body, free, boundary, n_vms: int, pairs="all", q_eq=None
                         omega=modes.omega)
 
 
+def attachment_modes(body: Body, free, loads, q_eq=None) -> np.ndarray:
+    """The static deflections of ``body`` at ``q_eq`` (default its reference), held on its
+    reference conditions (``free``'s complement), under each column of ``loads`` (n_dof × m
+    generalized forces, zero where the body is held): K_ff⁻¹ F, the attachment modes of those
+    loads (a unit force on a coordinate, ``static_modes``; a moment on a node's section,
+    ``multibody.reduce``'s ``interface_rotations``)."""
+    free = np.asarray(free, dtype=bool).reshape(-1)
+    F = np.asarray(loads, dtype=float).reshape(body.n_dof, -1)
+    if np.abs(F[~free]).max(initial=0.0) > 0:
+        raise ValueError("attachment_modes: a load acts on coordinates the reference conditions hold")
+    K = np.asarray(body.stiffness_matrix(body.q_hat if q_eq is None else q_eq))[np.ix_(free, free)]
+    psi = np.zeros_like(F)
+    psi[free] = np.linalg.solve(K, F[free])
+    return psi
+
+
 def static_modes(body: Body, free, dofs, q_eq=None) -> np.ndarray:
     """The static deflections of ``body`` at ``q_eq`` (default its reference), held on its
     reference conditions (``free``'s complement), under a unit force on each of the free
@@ -91,12 +107,9 @@ def static_modes(body: Body, free, dofs, q_eq=None) -> np.ndarray:
     dofs = np.asarray(dofs, dtype=int).reshape(-1)
     if any(not 0 <= d < body.n_dof or not free[d] for d in dofs):
         raise ValueError(f"static_modes: the loaded DOFs must be free coordinates of the body, got {dofs.tolist()}")
-    K = np.asarray(body.stiffness_matrix(body.q_hat if q_eq is None else q_eq))[np.ix_(free, free)]
     F = np.zeros((body.n_dof, len(dofs)))
     F[dofs, np.arange(len(dofs))] = 1.0
-    psi = np.zeros_like(F)
-    psi[free] = np.linalg.solve(K, F[free])
-    return psi
+    return attachment_modes(body, free, F, q_eq)
 
 
-__all__ = ["CraigBampton", "craig_bampton", "static_modes"]
+__all__ = ["CraigBampton", "attachment_modes", "craig_bampton", "static_modes"]
