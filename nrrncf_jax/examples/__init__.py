@@ -10,4 +10,8 @@ with ``nrrncf run <name>`` (``scenarios.mechanism_file``).
   optimisation that removes its residual vibration (Adam on forward-mode gradients).
 - ``fourbar``: the spatial four-bar of the validation set of Bauchau et al. (2016), square steel
   bars, a hinge tilted by 5° that only flexibility lets move, the crank driven at 0.6 rad/s.
+- ``rotating_shaft``: the same set's shaft with an unbalanced disk, spun up through its first
+  critical speed (a driven hinge, a cylindrical bearing, a welded rigid disk).
+- ``princeton_beam``: the same set's static cantilever strip under a turned tip load
+  (``nrrncf static``).
 """

@@ -13,7 +13,8 @@
   ``states_at`` (states at given times, each the end of a step, not an interpolated output);
   ``kernel_options`` (XLA's options for programs of small kernels, for a user's own ``jax.jit``);
 - ``static_equilibrium``: load-stepped static solutions; ``constrained_equilibrium``: a
-  mechanism's static state and joint reactions, ``stability`` its stiffness there;
+  mechanism's static state and joint reactions, ``stability`` its stiffness there and
+  ``vibration_frequencies`` its natural frequencies about it;
   ``compilation_cache``: JAX's persistent compilation cache as a context manager.
 
 The whole simulation is one jit-compiled loop. Each step solves for the new acceleration by Newton
@@ -56,6 +57,7 @@ from .static import Equilibrium as Equilibrium
 from .static import constrained_equilibrium as constrained_equilibrium
 from .static import stability as stability
 from .static import static_equilibrium as static_equilibrium
+from .static import vibration_frequencies as vibration_frequencies
 from .step_size import STEP_CONTROLS as STEP_CONTROLS
 from .step_size import AbstractStepSizeController as AbstractStepSizeController
 from .step_size import AdaptiveStepSize as AdaptiveStepSize

@@ -162,12 +162,10 @@ def constrained_equilibrium(model, t=0.0, load_steps: int = 1, tol: float = 1e-1
     return Equilibrium(z=y[:n], lam=y[n:], iterations=iters)
 
 
-def stability(model, equilibrium: Equilibrium, t=0.0, count: int = 1) -> np.ndarray:
-    """The ``count`` lowest eigenvalues of a mechanism's stiffness at its static ``equilibrium``
-    (``constrained_equilibrium`` at time ``t``) on the joints' tangent space: the Hessian of the
-    Lagrangian U − W + λ·C (the augmented Jacobian's first block, the joints' curvature λ·C_zz
-    included) projected on C_z's null space. All positive: the equilibrium is stable; one crosses
-    zero where it buckles (a limit or bifurcation point). Dense, on the host (SciPy)."""
+def _tangent_space(model, equilibrium: Equilibrium, t):
+    """The stiffness H (the augmented Jacobian's first block: the Hessian of the Lagrangian
+    U − W + λ·C, the joints' curvature λ·C_zz included, symmetrised) and an orthonormal basis Z
+    of C_z's null space, the joints' tangent space, at the equilibrium (NumPy)."""
     import scipy.linalg
 
     n = model.n_dof
@@ -179,5 +177,26 @@ def stability(model, equilibrium: Equilibrium, t=0.0, count: int = 1) -> np.ndar
 
     J = np.asarray(jax.jacfwd(equations)(jnp.concatenate([equilibrium.z, equilibrium.lam])))
     H, B = J[:n, :n], J[n:, :n]
-    Z = scipy.linalg.null_space(B)
-    return np.linalg.eigvalsh(Z.T @ (0.5 * (H + H.T)) @ Z)[:int(count)]
+    return 0.5 * (H + H.T), scipy.linalg.null_space(B)
+
+
+def stability(model, equilibrium: Equilibrium, t=0.0, count: int = 1) -> np.ndarray:
+    """The ``count`` lowest eigenvalues of a mechanism's stiffness at its static ``equilibrium``
+    (``constrained_equilibrium`` at time ``t``) on the joints' tangent space (``_tangent_space``).
+    All positive: the equilibrium is stable; one crosses zero where it buckles (a limit or
+    bifurcation point). Dense, on the host (SciPy)."""
+    H, Z = _tangent_space(model, equilibrium, t)
+    return np.linalg.eigvalsh(Z.T @ H @ Z)[:int(count)]
+
+
+def vibration_frequencies(model, equilibrium: Equilibrium, t=0.0, count: int = 6) -> np.ndarray:
+    """The ``count`` lowest natural frequencies ω [rad/s] of a mechanism's small vibration about its
+    static ``equilibrium``: Zᵀ H Z v = ω² Zᵀ M Z v on the joints' tangent space (``_tangent_space``;
+    M the mass matrix there), without gyroscopic or damping terms. A mechanism's free rigid motion
+    gives ω = 0; an unstable equilibrium a negative ω² (returned as −√|ω²|). Dense (SciPy)."""
+    import scipy.linalg
+
+    H, Z = _tangent_space(model, equilibrium, t)
+    M = np.asarray(model.mass_matrix(equilibrium.z))
+    w2 = scipy.linalg.eigh(Z.T @ H @ Z, Z.T @ (0.5 * (M + M.T)) @ Z, eigvals_only=True)[:int(count)]
+    return np.sign(w2) * np.sqrt(np.abs(w2))

@@ -11,7 +11,8 @@ precessing axis). The RNCF model (``models.RotatingFrameModel``), the ANCF model
 driven (``models.InertialFrameModel``) and the reduced model agree under such a motion to round-off
 (``tests/test_motion.py``). ``profiles.FourierSpinUp`` adds to Eq. 43's θ̈ a Fourier correction that
 vanishes at 0 and Ts and keeps the end speed, the control variable of ``studies.control``
-(``notebooks/04_optimal_spinup.ipynb``)."""
+(``notebooks/04_optimal_spinup.ipynb``); ``profiles.SpinSchedule`` moves a spin rate between
+plateaus by half-cosine ramps (the validation set's rotating shaft)."""
 
 from .prescribed import AbstractAxisMotion as AbstractAxisMotion
 from .prescribed import AbstractMotion as AbstractMotion
@@ -26,3 +27,4 @@ from .prescribed import spin_up_angle as spin_up_angle
 from .prescribed import unit_axis as unit_axis
 from .profiles import FourierSpinUp as FourierSpinUp
 from .profiles import RestToRest as RestToRest
+from .profiles import SpinSchedule as SpinSchedule

@@ -153,3 +153,39 @@ def _check_coeffs(coeffs) -> None:
                          f"coefficients), got shape {c.shape}")
     if not np.all(np.isfinite(c)):
         raise ValueError("coeffs must be finite (got NaN or Inf)")
+
+
+class SpinSchedule(AbstractAxisMotion):
+    """A spin rate that moves between plateaus by half-cosine ramps: ``ramps`` rows (t₀, t₁, ω₀,
+    ω₁), in time order and not overlapping, take the rate from ω₀ to ω₁ over [t₀, t₁] as
+    ω = ω₀ + (ω₁ − ω₀)(1 − cos πs)/2, s = (t − t₀)/(t₁ − t₀); between ramps the rate holds (the
+    first ramp's ω₀ before it). θ̇ is C¹ and θ̈ continuous; θ is the exact integral,
+    ω₀τ + (ω₁ − ω₀)(τ − (T/π) sin(πτ/T))/2 over a ramp (τ = t − t₀, T = t₁ − t₀), in closed form
+    (the validation set's rotating shaft: 0 → 48 rad/s over 0-0.5 s, 48 → 72 over 1-1.25 s)."""
+
+    ramps: Float[Array, "k 4"]
+    axis: Float[Array, " 3"]
+
+    def __init__(self, ramps, axis=(1.0, 0.0, 0.0)):
+        r = np.asarray(ramps, dtype=float).reshape(-1, 4)
+        if not r.size or not np.all(np.isfinite(r)) or np.any(r[:, 1] <= r[:, 0]) or np.any(r[1:, 0] < r[:-1, 1]):
+            raise ValueError("ramps must be rows (t0, t1, omega0, omega1) with t0 < t1, in time order, not "
+                             f"overlapping; got {ramps!r}")
+        if np.any(np.abs(r[1:, 2] - r[:-1, 3]) > 1e-12 * max(1.0, np.abs(r[:, 2:]).max())):
+            raise ValueError("each ramp must start at the rate the one before it ended at (omega0 = previous omega1)")
+        self.ramps = jnp.asarray(r)
+        self.axis = unit_axis(axis)
+
+    def __call__(self, t):
+        t = jnp.asarray(t, dtype=float)
+        t0, t1, w0, w1 = (self.ramps[:, k] for k in range(4))
+        T = t1 - t0
+        tau = jnp.clip(t[..., None] - t0, 0.0, T)  # time into each ramp, held at its end
+        s = tau / T
+        # each ramp's angle, rate and acceleration beyond the rate it starts from
+        angle = 0.5 * (w1 - w0) * (tau - T / jnp.pi * jnp.sin(jnp.pi * s))
+        angle = angle + (w1 - w0) * jnp.maximum(t[..., None] - t1, 0.0)  # its rate change held after it
+        rate = 0.5 * (w1 - w0) * (1.0 - jnp.cos(jnp.pi * s))
+        inside = (t[..., None] > t0) & (t[..., None] < t1)
+        acc = jnp.where(inside, 0.5 * (w1 - w0) * jnp.pi / T * jnp.sin(jnp.pi * s), 0.0)
+        return (self.ramps[0, 2] * t + angle.sum(-1), self.ramps[0, 2] + rate.sum(-1), acc.sum(-1))

@@ -4,11 +4,12 @@
   section vectors (never a beam's slope r_x, through which a moment does not converge with the
   mesh); ``Directions`` fixed in it.
 - ``joints``: ``Spherical``, ``Revolute`` (on section frames), ``Fixed`` (nodal vectors
-  prescribed); ``weld``: ``Weld``; ``prismatic``: ``Prismatic``; ``universal``: ``Universal``;
+  prescribed); ``weld``: ``Weld``; ``prismatic``: ``Prismatic``; ``cylindrical``: ``Cylindrical``;
+  ``universal``: ``Universal``;
   ``drivers``: ``AngleDriver``, ``DistanceDriver``, an angle or a slider's travel prescribed in
   time (their multipliers the driving torque or force).
 - ``markers``: the joints in physical terms, ``hinge``, ``ball``, ``clamp``, ``slider``,
-  ``universal``, ``angle_driver`` on ``Marker``s (a body and a point of its reference
+  ``cylindrical``, ``universal``, ``angle_driver`` on ``Marker``s (a body and a point of its reference
   configuration) with axes in any direction, which a system resolves into joints.
 - ``forces``: force elements, ``SpringDamper`` and ``Actuator`` on a measure (``Distance``,
   ``HingeAngle``, ``Travel``), or on markers: ``spring``, ``torsion_spring``, ``motor``,
@@ -62,6 +63,7 @@ of the paper, all three ways: ``scenarios.pendulum``, ``notebooks/07_pendulum.ip
 ``benchmarks/results/pendulum.md`` (and what is not met there yet).
 """
 
+from .cylindrical import Cylindrical as Cylindrical
 from .drivers import AngleDriver as AngleDriver
 from .drivers import DistanceDriver as DistanceDriver
 from .floating import FloatingBody as FloatingBody
@@ -83,6 +85,7 @@ from .markers import Marker as Marker
 from .markers import angle_driver as angle_driver
 from .markers import ball as ball
 from .markers import clamp as clamp
+from .markers import cylindrical as cylindrical
 from .markers import hinge as hinge
 from .markers import slider as slider
 from .markers import universal as universal

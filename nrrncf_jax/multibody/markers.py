@@ -5,7 +5,8 @@ specifications on them, which a system turns into the joints of ``joints``, ``we
 A multibody engineer says "a hinge about Z at the rod's left end"; ``Marker(body, point)`` names
 the point (in the system's frame, in the reference configuration: where the placed body's
 stress-free state puts it), and ``hinge(a, b, axis)``, ``ball(a, b)``, ``clamp(a, b)``,
-``slider(a, b, axis)`` and ``universal(a, b, axis_a, axis_b)`` the joint; a system (``Mechanism``,
+``slider(a, b, axis)``, ``cylindrical(a, b, axis)`` and ``universal(a, b, axis_a, axis_b)`` the
+joint; a system (``Mechanism``,
 ``MultibodySystem``, ``FloatingFrameSystem``) resolves them once, from its bodies' reference
 nodal vectors, before anything is traced:
 
@@ -23,6 +24,7 @@ import dataclasses
 
 import numpy as np
 
+from .cylindrical import Cylindrical
 from .drivers import AngleDriver, DistanceDriver
 from .joints import Revolute, Spherical, normals
 from .measures import HingeAngle, Travel
@@ -144,7 +146,7 @@ class JointSpec:
         gb = geometry[self.b.body]
         nb = gb.node(self.b)
         na = None if self.a is None else geometry[self.a.body].node(self.a)
-        if self.kind == "slider":
+        if self.kind in ("slider", "cylindrical"):
             return self._slider(geometry, nb, na)
         if self.a is not None and np.linalg.norm(geometry[self.a.body].vectors[na] - gb.vectors[nb]) > \
                 POINT_TOL * max(1.0, np.abs(gb.vectors).max()):
@@ -188,20 +190,33 @@ class JointSpec:
             return joint
         return joint, AngleDriver(hinge_angle(geometry, self.a, self.b, e), self.drive)
 
+    def _check_on_axis(self, geometry, nb: int, na: int, e) -> np.ndarray:
+        """b's node's offset from a's, refused unless along the axis (a slider's nodes are on it)."""
+        gb = geometry[self.b.body]
+        gap = gb.vectors[nb] - geometry[self.a.body].vectors[na]
+        if np.linalg.norm(np.cross(gap, e)) > POINT_TOL * max(1.0, np.abs(gb.vectors).max()):
+            raise ValueError(f"the markers' points {_fmt(self.a.point)} and {_fmt(self.b.point)} are not on one line "
+                             "along the axis (the joint's nodes must be)")
+        return gap
+
     def _slider(self, geometry, nb: int, na: int | None):
+        """A slider, or (``kind="cylindrical"``) the slider without its hold on the turn about the axis."""
         e = _unit(self.axis)
         n = normals(e)
         gb = geometry[self.b.body]
+        if self.kind == "cylindrical":
+            normals_a = Directions.ground(n) if self.a is None else geometry[self.a.body].directions(self.a.body, na, n)
+            if self.a is not None:
+                self._check_on_axis(geometry, nb, na, e)
+            return Cylindrical(None if self.a is None else self.a.body, na, normals_a, self.b.body, nb,
+                               gb.directions(self.b.body, nb, [e]), point=self.b.point)
         frame_b = gb.directions(self.b.body, nb, [e, n[0]])
         if self.a is None:
             joint = Prismatic(None, None, Directions.ground(n), self.b.body, nb, frame_b, point=self.b.point)
             travel, s_ref = Travel(None, None, Directions.ground([e]), self.b.body, nb, point=self.b.point), 0.0
         else:
             ga = geometry[self.a.body]
-            gap = gb.vectors[nb] - ga.vectors[na]
-            if np.linalg.norm(np.cross(gap, e)) > POINT_TOL * max(1.0, np.abs(gb.vectors).max()):
-                raise ValueError(f"the markers' points {_fmt(self.a.point)} and {_fmt(self.b.point)} are not on one "
-                                 f"line along the axis (a slider's nodes must be)")
+            gap = self._check_on_axis(geometry, nb, na, e)
             joint = Prismatic(self.a.body, na, ga.directions(self.a.body, na, n), self.b.body, nb, frame_b)
             travel = Travel(self.a.body, na, ga.directions(self.a.body, na, [e]), self.b.body, nb)
             s_ref = float(gap @ e)
@@ -271,6 +286,13 @@ def clamp(a: Marker | None, b: Marker) -> JointSpec:
     return JointSpec("clamp", a, b)
 
 
+def cylindrical(a: Marker | None, b: Marker, axis) -> JointSpec:
+    """A cylindrical joint: b's node stays on the line along ``axis`` through a's node (or through
+    its own point, ``a=None``: a bearing on the ground) and its axis along the line; it turns
+    about it and slides along it freely (``cylindrical.Cylindrical``, four equations)."""
+    return JointSpec("cylindrical", a, b, tuple(float(x) for x in _unit(axis)))
+
+
 def universal(a: Marker | None, b: Marker, axis_a, axis_b) -> JointSpec:
     """A universal (Cardan) joint between the nodes at ``a`` and ``b`` (the same point), or of
     ``b`` to the ground: the positions coincide and the pin ``axis_a`` fixed in a's section frame
@@ -290,5 +312,5 @@ def resolve_joints(joints, geometry: tuple[BodyGeometry, ...]) -> tuple:
     return tuple(out)
 
 
-__all__ = ["ANGLE_TOL", "POINT_TOL", "BodyGeometry", "JointSpec", "Marker", "angle_driver", "ball", "clamp", "hinge",
-           "hinge_angle", "resolve_joints", "slider", "universal"]
+__all__ = ["ANGLE_TOL", "POINT_TOL", "BodyGeometry", "JointSpec", "Marker", "angle_driver", "ball", "clamp",
+           "cylindrical", "hinge", "hinge_angle", "resolve_joints", "slider", "universal"]
