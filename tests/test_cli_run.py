@@ -56,3 +56,5 @@ def test_run_refuses_bad_arguments(tmp_path, capsys):
     assert "KEY=VALUE" in capsys.readouterr().err
     assert main(["run", "slider_crank", "--rtol", "5"]) == 2
     assert "--rtol" in capsys.readouterr().err
+    assert main(["run", "slider_crank", "--dt", "0"]) == 2
+    assert "--dt" in capsys.readouterr().err

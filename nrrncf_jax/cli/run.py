@@ -1,13 +1,15 @@
 """``nrrncf run``: a mechanism of the user's own, from a model file or a bundled example
 (``scenarios.mechanism_file``).
 
-    nrrncf run MODEL [--param KEY=VALUE ...] [--t-end T] [--rtol R] [--rho-inf 0.9] [--n-out 201]
+    nrrncf run MODEL [--param KEY=VALUE ...] [--t-end T] [--rtol R] [--dt H] [--rho-inf 0.9] [--n-out 201]
                      [--out F.csv] [--vtk DIR] [--animate F.gif] [--json] [--reference full]
                      [--no-progress]
 
 ``MODEL``: a Python file defining ``mechanism(**params) -> MechanismSetup``, or the name of a
 bundled example (``nrrncf_jax/examples/``: ``slider_crank``, ``rotor``, ``two_link_arm``,
-``fourbar``). ``--param`` passes keyword parameters (numbers parsed as numbers). ``--out`` writes
+``fourbar``). ``--param`` passes keyword parameters (numbers parsed as numbers). ``--dt H`` runs
+fixed steps of H seconds (as the peers run stiff, quasi-static mechanisms) instead of error-controlled
+ones. ``--out`` writes
 the sensors at the output times as CSV columns ``t`` and each sensor's name (a vector sensor as
 ``name_0, name_1, ...``); ``--vtk`` the bodies' nodes and edges (``post.outline``) over time as a
 ParaView series (.vtu files and a .pvd), ``--animate`` an animated GIF of them in the XY plane.
@@ -48,7 +50,7 @@ def _run(args) -> int:
     setup = load_setup(args.model, params)
     _common.say(args, f"{args.model}: {setup.system.formulation}, {setup.system.n_dof} coordinates, "
                       f"0-{args.t_end or setup.t_end:g} s ...")
-    kw = dict(t_end=args.t_end, rtol=args.rtol, n_out=args.n_out, rho_inf=args.rho_inf)
+    kw = dict(t_end=args.t_end, rtol=args.rtol, n_out=args.n_out, rho_inf=args.rho_inf, dt=args.dt)
     run = run_setup(setup, **kw, positions=bool(args.vtk or args.animate))
     out = run.summary() | {"model": args.model, "params": params}
     if args.out:
@@ -83,6 +85,8 @@ def _check(args) -> None:
         raise ValueError(f"--t-end must be > 0, got {args.t_end:g}")
     if args.rtol is not None and not 0 < args.rtol < 1:
         raise ValueError(f"--rtol must lie in (0, 1), got {args.rtol:g}")
+    if args.dt is not None and not args.dt > 0:
+        raise ValueError(f"--dt must be > 0, got {args.dt:g}")
     if args.rho_inf is not None and not 0.0 <= args.rho_inf <= 1.0:
         raise ValueError(f"--rho-inf must lie in [0, 1], got {args.rho_inf:g}")
     _common.at_least("--n-out", args.n_out, 2)
@@ -99,6 +103,8 @@ def register(sub) -> None:
                              "two_link_arm, fourbar).")
     t.add_argument("--t-end", type=float, default=None, help="end time [s] (default: the model's)")
     t.add_argument("--rtol", type=float, default=None, help="step tolerance (default: the model's; atol = rtol/10 m)")
+    t.add_argument("--dt", type=float, default=None,
+                   help="fixed steps of this size [s] instead of error control (rtol then scales Newton's test)")
     t.add_argument("--rho-inf", type=float, default=None,
                    help="generalized-alpha spectral radius at infinity (default: the model's)")
     t.add_argument("--n-out", type=int, default=201, help="equally spaced output times")

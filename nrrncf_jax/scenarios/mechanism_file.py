@@ -20,7 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, simulate
+from ..integrate import AdaptiveStepSize, ConstantStepSize, GeneralizedAlphaIndex3, simulate
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody.sensors import observe
 from ..post.outline import mechanism_outline
@@ -127,17 +127,22 @@ def examples() -> list[str]:
 
 
 def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | None = None, n_out: int = 201,
-              rho_inf: float | None = None, progress: bool = False, positions: bool = False) -> MechanismRun:
+              rho_inf: float | None = None, progress: bool = False, positions: bool = False,
+              dt: float | None = None) -> MechanismRun:
     """Run ``setup`` to ``t_end`` (its default) at ``rtol`` (atol = rtol/10 of the nodal vectors'
     metres) with ``GeneralizedAlphaIndex3(rho_inf)``, the sensors at ``n_out`` equal output times;
     compile and run timed apart (ahead-of-time compilation, then a blocked run). ``rho_inf``: the
     setup's by default. ``positions``: also record every body's nodes and their edges
-    (``post.outline``: ``points``, ``lines``), for a VTK series or an animation."""
+    (``post.outline``: ``points``, ``lines``), for a VTK series or an animation. ``dt``: fixed
+    steps of that size (``ConstantStepSize``; rtol then scales Newton's test only), as the peers
+    run quasi-static mechanisms, instead of error-controlled ones."""
     t_end = setup.t_end if t_end is None else float(t_end)
     rtol = setup.rtol if rtol is None else float(rtol)
     rho_inf = setup.rho_inf if rho_inf is None else float(rho_inf)
     if not t_end > 0 or not 0 < rtol < 1:
         raise ValueError(f"t_end must be > 0 and 0 < rtol < 1, got {t_end}, {rtol}")
+    if dt is not None and not 0 < float(dt) <= t_end:
+        raise ValueError(f"dt must lie in (0, t_end = {t_end:g}], got {dt}")
     system = setup.system
     awaiting = [b for b, body in enumerate(getattr(system, "bodies", ())) if getattr(body, "awaiting_mds", False)]
     if awaiting:  # it would run with its vibration modes alone, which the model did not ask for
@@ -156,9 +161,12 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
             return sensors_fn(t, z, v) | {_POINTS: jnp.stack([xs[b][i] for b, i in nodes])}
     y0 = setup.y0 if setup.y0 is not None else (system.reference(), 0.0 * system.reference())
 
+    controller = AdaptiveStepSize(rtol, rtol / 10) if dt is None else \
+        ConstantStepSize(float(dt), rtol=rtol, atol=rtol / 10)
+
     def run(y0):
-        return simulate(system, GeneralizedAlphaIndex3(rho_inf), AdaptiveStepSize(rtol, rtol / 10), ts, observe=fn,
-                        y0=y0, progress=progress)
+        return simulate(system, GeneralizedAlphaIndex3(rho_inf), controller, ts, observe=fn, y0=y0,
+                        progress=progress)
 
     t0 = time.perf_counter()
     compiled = jax.jit(run).lower(y0).compile()
