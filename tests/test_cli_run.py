@@ -58,3 +58,6 @@ def test_run_refuses_bad_arguments(tmp_path, capsys):
     assert "--rtol" in capsys.readouterr().err
     assert main(["run", "slider_crank", "--dt", "0"]) == 2
     assert "--dt" in capsys.readouterr().err
+    # a parameter the model refuses: its ValueError as one line, not a traceback
+    assert main(["run", "slider_crank", "--param", "formulation=nr-rncf", "--param", "mds=0"]) == 2
+    assert "mds must be" in capsys.readouterr().err

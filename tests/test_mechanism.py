@@ -442,7 +442,8 @@ def test_reduce_keeps_the_interfaces_static_modes_and_refuses_what_it_cannot_bui
     for kwargs, match in [({"mds": "mmi", "interface_modes": True}, "explicit list of pairs"),
                           ({"basis": "craig-bampton", "interface_modes": True}, "goes with basis='free'"),
                           ({"basis": "modal"}, "basis must be"),
-                          ({"mds": "some"}, "mds must be")]:
+                          ({"mds": "some"}, "mds must be"),
+                          ({"mds": 0}, "mds must be")]:
         with pytest.raises(ValueError, match=match):
             reduce(beam, ends, **kwargs)
     with pytest.raises(ValueError, match="needs a second interface"):

@@ -94,8 +94,9 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
         free &= mirror_even(body.n_vectors // NODAL_VECTORS_PER_NODE, "yz"[axis - 1])
     if basis == "full":
         return full_floating_body(local, free, R0=R0, A0=A0)
-    if isinstance(mds, str) and mds not in ("all", "mmi"):
-        raise ValueError(f"mds must be 'all', 'mmi' or a list of pairs (i, j), got {mds!r}")
+    if (isinstance(mds, str) and mds not in ("all", "mmi")) or not (
+            isinstance(mds, str) or (np.ndim(mds) == 2 and np.shape(mds)[1] == 2) or np.size(mds) == 0):
+        raise ValueError(f"mds must be 'all', 'mmi' or a list of pairs (i, j) ([] for none), got {mds!r}")
     if mds == "mmi" and basis != "free":
         raise ValueError("mds='mmi' goes with basis='free' (the vibration modes whose interaction chooses the pairs)")
     pairs = [(i, j) for i in range(vms) for j in range(i, vms)] if mds == "all" else \
