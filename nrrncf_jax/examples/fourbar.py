@@ -13,7 +13,7 @@ that in a small, decaying ringing (``VALIDATION_SET.md``).
 
 Every joint holds the bars by their section frames (``multibody.section_frame``): a hinge's
 reaction moments and the drive torque act on the cross-sections, and the answer converges under
-mesh refinement (a hinge written on the beam's slope would not: issue 59).
+mesh refinement (a hinge written on the beam's slope would not: ``multibody.section_frame``).
 
 The bars are ``formulation="ancf"`` (``elements`` C1 elements a bar, in the inertial frame) or
 ``"nr-rncf"`` (each bar in a floating frame at its first end, ``vms`` cantilever modes, the

@@ -71,6 +71,17 @@ def _static(model, load_steps: int, tol, max_iter: int, q0=None):
     return q, iters, results
 
 
+def _check_increments(iters, results, load_steps: int, what: str, advice: str) -> None:
+    """``SimulationError`` naming the first load increment whose Newton failed, and how."""
+    if not _validate.is_concrete(iters):
+        return
+    failed = np.flatnonzero(~np.asarray(results == NewtonResult.converged))
+    if failed.size:
+        i = int(failed[0])
+        raise SimulationError(f"{what} did not converge at load increment {i + 1}/{load_steps} "
+                              f"({NewtonResult[jtu.tree_map(lambda x: x[i], results)]}): {advice}")
+
+
 def static_equilibrium(model: "AbstractModel", load_steps: int = 10, tol: float = 1e-10, max_iter: int = 30,
                        q0=None):
     """Equilibrium of ``model`` under its loads (no inertia, t = 0), reached in ``load_steps``
@@ -83,14 +94,7 @@ def static_equilibrium(model: "AbstractModel", load_steps: int = 10, tol: float 
     max_iter = _validate.positive_int("max_iter", max_iter)
     _validate.positive("tol", tol)
     q, iters, results = _static(model, load_steps, jnp.asarray(tol, dtype=float), max_iter, q0)
-    if _validate.is_concrete(iters):
-        failed = np.flatnonzero(~np.asarray(results == NewtonResult.converged))
-        if failed.size:
-            i = int(failed[0])
-            raise SimulationError(
-                f"static Newton did not converge at load increment {i + 1}/{load_steps} "
-                f"({NewtonResult[jtu.tree_map(lambda x: x[i], results)]}); use more load_steps"
-            )
+    _check_increments(iters, results, load_steps, "static Newton", "use more load_steps")
     return q
 
 
@@ -150,14 +154,9 @@ def constrained_equilibrium(model, t=0.0, load_steps: int = 1, tol: float = 1e-1
     lam0 = jnp.zeros(model.n_constraints, z0.dtype)
     y, iters, results = _constrained(model, jnp.asarray(t, dtype=z0.dtype), load_steps,
                                      jnp.asarray(tol, dtype=z0.dtype), max_iter, z0, lam0)
-    if _validate.is_concrete(iters):
-        failed = np.flatnonzero(~np.asarray(results == NewtonResult.converged))
-        if failed.size:
-            i = int(failed[0])
-            raise SimulationError(
-                f"static Newton of the mechanism did not converge at load increment {i + 1}/{load_steps} "
-                f"({NewtonResult[jtu.tree_map(lambda x: x[i], results)]}): use more load_steps, or check that the "
-                "joints hold every rigid motion (a free mechanism has no static state)")
+    _check_increments(iters, results, load_steps, "static Newton of the mechanism",
+                      "use more load_steps, or check that the joints hold every rigid motion (a free mechanism "
+                      "has no static state)")
     n = model.n_dof
     return Equilibrium(z=y[:n], lam=y[n:], iterations=iters)
 

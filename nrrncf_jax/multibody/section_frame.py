@@ -5,8 +5,8 @@ Why not the tangent. A C1 beam node carries the slope r_x and the section vector
 joint that writes a moment through r_x loads the end element's local shear: r_x is the
 centre-line slope, and a generalized force on it is resisted by the shear stiffness of one
 element's length, so the compliance it adds grows like one over the element's length and the
-answer moves away from the truth as the mesh is refined (a tip moment through r_x rotates the
-end by 1.08, 1.14, 1.27, 1.53, 2.05 × L/EI on 2 … 32 elements; issue 59). A moment on the
+answer moves away from the truth as the mesh is refined (``benchmarks/results/validation.md``).
+A moment on the
 section vectors is a moment on the cross-section, which is what the continuum and every
 geometrically exact beam code (Exudyn, MBDyn, Simo-Reissner) apply it to: exact at every mesh.
 
