@@ -9,9 +9,19 @@ prismatic joint along x. At t = 0 the mechanism moves as the rigid one does: the
 rest.
 
 The rod is ``formulation="ancf"`` (C1 beam elements in the inertial frame), ``"nr-rncf"`` (its
-floating frame at the crank pin, ``vms`` in-plane cantilever modes and their modal derivatives,
-``multibody.reduce``), ``"rncf"`` (the same frame, every free coordinate kept) or ``"rigid"``
-(a uniform rigid rod: the closed-form kinematics x_B = r cos θ + √(L² − r² sin² θ) hold).
+floating frame at the crank pin along the chord to the slider's pin, ``vms`` in-plane simply
+supported modes and their modal derivatives, ``multibody.reduce`` with ``conditions="pinned"``;
+``conditions="clamped"`` for the cantilever modes of a frame clamped at the crank pin,
+``basis="craig-bampton"`` for the extended Craig-Bampton basis with the slider pin's boundary
+coordinates), ``"rncf"`` (the same frame, every free coordinate kept) or ``"rigid"`` (a uniform
+rigid rod: the closed-form kinematics x_B = r cos θ + √(L² − r² sin² θ) hold).
+
+Why pinned modes by default: the rod is pinned at both ends, and a frame along its chord leaves
+the modes only the bending between the pins. One simply supported mode and its derivative (23
+DOFs in the mechanism) follow the full rod's midpoint deflection to about 2 %, where the
+cantilever frame needs four modes and ten derivatives (35 DOFs) for the same and takes four
+times the steps: its modes must meet the slider's pin with a sum of high modes
+(``benchmarks/results/mechanisms.md``).
 
 The pins are balls (spherical joints): with hinges at both ends a rigid link in a planar loop is
 over-constrained (its rotation out of the plane is fixed twice), and the system refuses redundant
@@ -36,14 +46,18 @@ from ..scenarios.mechanism_file import MechanismSetup
 CRANK, ROD, SLIDER = 0, 1, 2
 
 
-def mechanism(formulation: str = "ancf", elements: int = 8, vms: int = 4, mds="all", omega: float = 150.0,
+def mechanism(formulation: str = "ancf", elements: int = 8, vms: int = 1, mds="all", omega: float = 150.0,
               E: float = 1.0e10, crank: float = 0.152, rod: float = 0.304, rho: float = 2770.0, nu: float = 0.3,
               radius: float = 0.005, slider_mass: float = 0.033, t_end: float = 0.1, rtol: float = 1e-4,
-              rho_inf: float = 0.5, n_mds: int = 4) -> MechanismSetup:
+              rho_inf: float = 0.5, n_mds: int = 4, conditions: str | None = None, basis: str = "free"
+              ) -> MechanismSetup:
     """The slider-crank (module docstring); ``elements`` C1 elements along the rod (even, so that
     a node sits at its midpoint). The defaults rtol = 1e-4 and ρ∞ = 0.5: the rod's axial
-    vibration (3.6 kHz in the reduced basis, through its modal derivatives) is damped rather
-    than resolved (``benchmarks/results/mechanisms.md``). ``mds="mmi"`` (nr-rncf): the rod's
+    vibration (kHz, through its modal derivatives) is damped rather than resolved
+    (``benchmarks/results/mechanisms.md``). ``conditions`` and ``basis`` (nr-rncf): the rod's
+    reference conditions and basis, ``multibody.reduce``'s (module docstring); by default
+    ``"pinned"``, and ``"clamped"`` with Craig-Bampton (whose boundary coordinates are the
+    slider pin's, which pinned conditions hold). ``mds="mmi"`` (nr-rncf): the rod's
     ``n_mds`` modal derivatives of largest modal interaction in a first run of the mechanism with
     its VMs alone over 0-``t_end`` (``multibody.modal_interaction``)."""
     if formulation not in ("ancf", "nr-rncf", "rncf", "rigid"):
@@ -62,8 +76,9 @@ def mechanism(formulation: str = "ancf", elements: int = 8, vms: int = 4, mds="a
         beam = placed(beam_body(Material(E, rho, nu), TubeSection(radius), straight_reference(L, elements)),
                       translation=A)
         rod_body = beam if formulation == "ancf" else reduce(
-            beam, [A, B], vms=int(vms), mds=mds, basis="full" if formulation == "rncf" else "free",
-            plane_normal=(0.0, 0.0, 1.0))
+            beam, [A, B], vms=int(vms), mds=mds, basis="full" if formulation == "rncf" else basis,
+            plane_normal=(0.0, 0.0, 1.0),
+            conditions=conditions or ("clamped" if basis == "craig-bampton" else "pinned"))
     joints = [hinge(None, Marker(CRANK, (0.0, 0.0, 0.0)), (0.0, 0.0, 1.0), drive=SteadySpin(omega)),
               ball(Marker(CRANK, A), Marker(ROD, A)),
               ball(Marker(ROD, B), Marker(SLIDER, B)),

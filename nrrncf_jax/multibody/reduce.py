@@ -6,8 +6,16 @@ The recipe it runs, the one the paper's examples run by hand:
 
 1. the floating frame: at the first interface's node, its axes the node's unit gradient vectors
    (a C1 beam's tangent and section vectors); the body is expressed in that frame;
-2. the reference conditions: that node's position and its unit gradient vectors but the first
-   (a beam's section vectors: r, r_y, r_z held, the cantilever of the paper's pendulum);
+2. the reference conditions (``conditions``): ``"clamped"``, that node's position and its unit
+   gradient vectors but the first (a beam's section vectors: r, r_y, r_z held, the cantilever of
+   the paper's pendulum); ``"pinned"``, for a body joined at two points by joints that carry no
+   moment (balls, hinges across a planar link): the frame's first axis along the chord from the
+   first interface to the second, the first interface's position, the second's two transverse
+   components and the first section's twist about the chord held (a simply supported beam with
+   its spin about the chord fixed: six conditions, the rigid motions). The pinned modes are those
+   of a connecting rod's classic analyses: the frame follows the chord, so the joints place it
+   and the modes carry only the bending between the pins, where cantilever modes must meet the
+   second pin with a sum of high modes (``benchmarks/results/mechanisms.md``);
 3. with ``plane_normal`` (a planar mechanism), the coordinates odd under the mirror through the
    plane held at zero (``elements.beam.mirror_even``: exactly the in-plane modes, C1 beams whose
    section axes contain the normal);
@@ -44,10 +52,12 @@ def _point(p):
 
 def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free", plane_normal=None,
            interface_modes: bool = False, deflation_tol: float = 1e-6, interface_rotations: bool = False,
-           interface_mds: bool = False) -> FloatingBody:
+           interface_mds: bool = False, conditions: str = "clamped") -> FloatingBody:
     """``body`` (placed in space: its ``q_hat`` the stress-free, initial state) as a floating-frame
     body of a mechanism, its deformation reduced (see the module docstring). ``interfaces``: the
     points (or ``Marker``s) where it is joined, the first one holding its frame.
+    ``conditions``: ``"clamped"`` (a cantilever at the first interface) or ``"pinned"`` (simply
+    supported between the first two, the frame along their chord), module docstring step 2.
     ``basis``: ``"free"`` (vibration modes and modal derivatives), ``"craig-bampton"`` or
     ``"full"``. ``plane_normal``: the normal of the plane of a planar mechanism (in-plane modes
     only), or None. ``interface_modes`` (with ``basis="free"``): the other interfaces' static
@@ -65,9 +75,13 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
         raise ValueError(f"reduce takes a flexible bodies.Body, got {type(body).__name__}")
     if basis not in ("free", "craig-bampton", "full"):
         raise ValueError(f"basis must be 'free', 'craig-bampton' or 'full', got {basis!r}")
+    if conditions not in ("clamped", "pinned"):
+        raise ValueError(f"conditions must be 'clamped' or 'pinned', got {conditions!r}")
     points = [_point(p) for p in interfaces]
     if not points:
         raise ValueError("reduce needs at least one interface point (the first one holds the body's frame)")
+    if conditions == "pinned" and len(points) < 2:
+        raise ValueError("conditions='pinned' needs two interfaces (the pins whose chord the frame follows)")
     geometry = BodyGeometry(np.asarray(body.q_hat), np.asarray(body.is_position), body.vectors_per_node,
                             body.section_slots)
     nodes = [geometry.node(Marker(0, p)) for p in points]
@@ -80,10 +94,16 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     if not np.allclose(A0.T @ A0, np.eye(3), atol=1e-9) or np.linalg.det(A0) < 0:
         raise ValueError("the first interface's node's unit gradient vectors are not a right-handed orthonormal frame")
     R0 = geometry.vectors[frame]
+    if conditions == "pinned":
+        A0 = _chord_frame(geometry.vectors[nodes[1]] - R0, A0)
     local = placed(body, A0.T, -A0.T @ R0)
-    held = [frame] + gradients[1:]
     free = np.ones((body.n_vectors, 3), bool)
-    free[held] = False
+    if conditions == "clamped":
+        free[[frame] + gradients[1:]] = False
+    else:  # the pins: A's position, B's transverse components, A's section's twist (r_y's third component)
+        free[frame] = False
+        free[nodes[1], 1:] = False
+        free[gradients[1], 2] = False
     free = free.reshape(-1)
     if plane_normal is not None:
         n_local = A0.T @ (np.asarray(plane_normal, dtype=float) / np.linalg.norm(plane_normal))
@@ -136,6 +156,18 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     k = both.shape[1]
     pairs = list(pairs) + [(i, j) for i in range(k) for j in range(max(i, vms), k)]
     return modal_body(local, free, both, pairs, R0, A0, deflation_tol)
+
+
+def _chord_frame(chord, A) -> np.ndarray:
+    """The right-handed orthonormal frame whose first axis is along ``chord`` and whose second is
+    the frame ``A``'s second axis made normal to it (the first pin's section vector r_y)."""
+    e1 = chord / np.linalg.norm(chord)
+    e2 = A[:, 1] - (A[:, 1] @ e1) * e1
+    if np.linalg.norm(e2) < 1e-6:
+        raise ValueError("conditions='pinned': the first pin's section vector r_y lies along the chord between the "
+                         "pins")
+    e2 = e2 / np.linalg.norm(e2)
+    return np.stack([e1, e2, np.cross(e1, e2)], axis=1)
 
 
 def moment_loads(body: Body, section) -> np.ndarray:

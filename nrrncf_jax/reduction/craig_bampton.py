@@ -16,6 +16,15 @@ cubic elastic force of the whole basis is ``reduction.elastic_tensors``'s, as fo
 With the boundary coordinates as coordinates, a joint's equations act on reduced coordinates
 that are the joint node's own displacements; a static load on the boundary is reproduced
 exactly (Guyan), and the interior modes need not bend to meet the joint.
+
+The constraint modes' own modal derivatives (``boundary_mds``: θ_ab = −K_II⁻¹ (∂K/∂u_b Φ_a)_I
+for every pair of constraint modes, and of a constraint mode with each fixed-interface mode,
+solved with the boundary held as the interior's are) are the "static derivatives" of the
+extended basis of Wu & Tiso (2016), beyond THEORY §7's interior-only list. A body that bends
+through its constraint modes (a rod moved at its joint) needs them: a transverse deflection
+stretches the centre line to second order, the constraint modes carry no axial shortening to
+go with it, and without their derivatives the basis locks, much as vibration modes without
+modal derivatives do (the slider-crank's rod: ``benchmarks/results/mechanisms.md``).
 """
 
 import equinox as eqx
@@ -25,6 +34,7 @@ import numpy as np
 from .._types import Array, Float
 from ..bodies.body import Body
 from .basis import modal_basis
+from .modal_derivatives import modal_derivatives
 from .modes import vibration_modes
 
 
@@ -41,13 +51,15 @@ class CraigBampton(eqx.Module):
         return len(self.boundary)
 
 
-def craig_bampton(body: Body, free, boundary, n_vms: int, pairs="all", q_eq=None, deflate_tol: float = 1e-6
-                  ) -> CraigBampton:
+def craig_bampton(body: Body, free, boundary, n_vms: int, pairs="all", q_eq=None, deflate_tol: float = 1e-6,
+                  boundary_mds: bool = True) -> CraigBampton:
     """The extended Craig-Bampton basis of ``body`` at ``q_eq`` (default its reference): ``free``
     (n_dof booleans) the coordinates not held by its reference conditions, ``boundary`` the free
     DOFs (indices) its joints act on, ``n_vms`` fixed-interface vibration modes and their modal
     derivatives for ``pairs`` (``"all"``: every i ≤ j; a list of (i, j), e.g. from
-    ``reduction.select``'s maximum modal interaction; or ``[]``).
+    ``reduction.select``'s maximum modal interaction; or ``[]``). ``boundary_mds``: the
+    constraint modes' modal derivatives too, with each other and with the fixed-interface modes
+    (module docstring), deflated with the interior's columns.
 
     Raises ``ValueError`` for a boundary DOF that is not free or is repeated, and (through
     ``vibration_modes``) when the interior's stiffness is singular.
@@ -66,8 +78,6 @@ def craig_bampton(body: Body, free, boundary, n_vms: int, pairs="all", q_eq=None
     interior[list(boundary)] = False
     modes = vibration_modes(body, jnp.asarray(interior), n_vms, q_eq=q_eq)
     pairs = [(i, j) for i in range(n_vms) for j in range(i, n_vms)] if pairs == "all" else [tuple(p) for p in pairs]
-    Psi = np.array(modal_basis(body, jnp.asarray(interior), modes.phi, pairs, q_eq=q_eq, deflation_tol=deflate_tol).Psi)
-    Psi[~interior] = 0.0  # the SVD's round-off (1e-17) off the interior: the boundary rows are u_B's alone
     # Φ_IB = −K_II⁻¹ K_IB: the interior's static response to unit boundary displacements.
     K = np.asarray(body.stiffness_matrix(q_eq))
     I, B = np.flatnonzero(interior), np.asarray(boundary, dtype=int)
@@ -75,6 +85,16 @@ def craig_bampton(body: Body, free, boundary, n_vms: int, pairs="all", q_eq=None
     Phi_B[B, np.arange(len(B))] = 1.0
     if len(B):
         Phi_B[I] = -np.linalg.solve(K[np.ix_(I, I)], K[np.ix_(I, B)])
+    extra = ()
+    if boundary_mds and len(B):  # θ of (constraint, constraint) and (constraint, fixed-interface) pairs
+        both = np.concatenate([Phi_B, np.asarray(modes.phi)], axis=1)
+        nb = len(B)
+        extra = (np.asarray(modal_derivatives(body, jnp.asarray(interior), jnp.asarray(both),
+                                              [(a, b) for a in range(nb) for b in range(a, nb + n_vms)],
+                                              q_eq=q_eq).theta),)
+    Psi = np.array(modal_basis(body, jnp.asarray(interior), modes.phi, pairs, q_eq=q_eq, deflation_tol=deflate_tol,
+                               extra=extra).Psi)
+    Psi[~interior] = 0.0  # the SVD's round-off (1e-17) off the interior: the boundary rows are u_B's alone
     return CraigBampton(basis=jnp.asarray(np.concatenate([Phi_B, Psi], axis=1)), boundary=boundary,
                         omega=modes.omega)
 
