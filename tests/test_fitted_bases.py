@@ -1,12 +1,13 @@
-"""Bases fitted to a body's joints (``multibody.reduce``'s ``conditions``, ``reduction.craig_bampton``'s
-``boundary_mds``).
+"""Bases fitted to a body's joints (``multibody.reduce``'s ``conditions``,
+``reduction.craig_bampton``'s ``boundary_mds``).
 
-Closed form: a simply supported Euler-Bernoulli beam bends at ω_n = (nπ/L)² √(EI/ρA). The test beam is slender (L/r = 1000), so the element's shear moves
-the first bending frequencies by (nπ r_g/L)²(1 + E/κG)/2 ~ 1e-5 relative, and 16 cubic elements
-by about 6e-6 n⁴ (5e-5 for the third mode, 2e-4 for the fourth, which is left out): the bound 1e-4
-on the first three sits above both and below any wrong condition (a clamped end moves the
-first frequency by a factor 1.56², a free one makes it a rigid mode). The sliding pin's axial
-mode (ω = π/(2L) √(E/ρ), a fixed-free bar) lies far above these four on so slender a beam.
+Closed form: a simply supported Euler-Bernoulli beam bends at ω_n = (nπ/L)² √(EI/ρA). The test
+beam is slender (L/r = 1000), so the element's shear moves the first bending frequencies by
+(nπ r_g/L)²(1 + E/κG)/2 ~ 1e-5 relative, and 16 cubic elements by about 6e-6 n⁴ (5e-5 for the
+third mode, 2e-4 for the fourth, which is left out): the bound 1e-4 on the first three sits
+above both and below any wrong condition (a clamped end moves the first frequency by a factor
+1.56², a free one makes it a rigid mode). The sliding pin's axial mode (ω = π/(2L) √(E/ρ), a
+fixed-free bar) lies far above these on so slender a beam.
 """
 
 import numpy as np
