@@ -42,6 +42,7 @@ from .joints import AbstractJoint
 from .kinds import AbstractBodyKind
 from .markers import JointSpec, resolve_joints
 from .rigid import rigid_floating_body
+from .section_frame import Directions, triad
 
 
 def as_body_kind(body) -> AbstractBodyKind:
@@ -333,13 +334,33 @@ class Mechanism(AbstractConstrainedModel):
         """Each body's nodal vectors that the joints read (``_joint_rows``), (rows, 3) a body."""
         return tuple(x[np.asarray(r, dtype=int)] for x, r in zip(xs, self._joint_rows()))
 
+    def _frame_keys(self) -> tuple[tuple[int, tuple[int, int]], ...]:
+        """The nodes whose section frames the joints read (``section_frame.Directions``), as
+        ``(body, section vectors)``, each once."""
+        keys = []
+        for j in self.joints:
+            for d in jax.tree_util.tree_leaves(j, is_leaf=lambda x: isinstance(x, Directions)):
+                if isinstance(d, Directions) and d.body is not None and (d.body, d.vectors) not in keys:
+                    keys.append((d.body, d.vectors))
+        return tuple(keys)
+
     def _joints_on_rows(self, x_rows, t: Scalar = 0.0) -> Float[Array, " mj"]:
         """The joints' equations on those rows alone: the joints read ``xs[body][vector]``, so a
         dict a body of the rows they read stands for the whole nodal arrays. Differentiated with
         respect to the rows, nothing is scattered into the whole arrays: fewer operations in the
-        constraint Jacobian, which a step computes twice (``benchmarks/results/hlo_ops.md``)."""
-        return self.joint_equations(tuple({v: xr[k] for k, v in enumerate(r)}
-                                          for r, xr in zip(self._joint_rows(), x_rows)), t)
+        constraint Jacobian, which a step computes twice (``benchmarks/results/hlo_ops.md``).
+        Every section frame the joints read is computed here, all nodes in one batch
+        (``Directions.triad`` reads it from the dict): a frame's scalars (its section vectors'
+        lengths and angle) node by node were a few XLA operations each, per frame and per
+        derivative, twice a reduced pendulum's step's operations
+        (``benchmarks/results/design_notes.md``)."""
+        xs = tuple({v: xr[k] for k, v in enumerate(r)} for r, xr in zip(self._joint_rows(), x_rows))
+        keys = self._frame_keys()
+        if keys:
+            T = triad(jnp.stack([xs[b][v[0]] for b, v in keys]), jnp.stack([xs[b][v[1]] for b, v in keys]))
+            for k, (b, v) in enumerate(keys):
+                xs[b][Directions.frame_key(v)] = T[k]
+        return self.joint_equations(xs, t)
 
     def constraint_jacobian(self, z, t: Scalar = 0.0):
         """C_z = ∂C/∂x J: the joints differentiated with respect to the few nodal vectors they
@@ -457,11 +478,14 @@ class Mechanism(AbstractConstrainedModel):
 
     def _joint_reactions(self, xs, lam, t: Scalar = 0.0) -> tuple:
         """``(C_joints, forces)``: the joints' equations at the nodal vectors ``xs`` and their
-        forces on each body's nodal vectors, C_xᵀλ (zero without joints), by one pullback."""
+        forces on each body's nodal vectors, C_xᵀλ (zero without joints), by one pullback on the
+        rows the joints read (``_joints_on_rows``), added into each body's nodal array."""
         if not self.joints:
             return jnp.zeros((0,), lam.dtype), tuple(jnp.zeros_like(x) for x in xs)
-        C, pullback = jax.vjp(lambda y: self.joint_equations(y, t), xs)
-        return C, pullback(lam[:self.n_joint_equations])[0]
+        C, pullback = jax.vjp(lambda y: self._joints_on_rows(y, t), self._rows_of(xs))
+        f_rows = pullback(lam[:self.n_joint_equations])[0]
+        return C, tuple(jnp.zeros_like(x).at[np.asarray(r, dtype=int)].add(f)
+                        for x, r, f in zip(xs, self._joint_rows(), f_rows))
 
     def _nodal_reactions(self, z, lam, t: Scalar = 0.0) -> tuple:
         """The joints' forces on each body's nodal vectors, C_xᵀλ (zero without joints)."""

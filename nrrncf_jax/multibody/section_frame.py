@@ -27,23 +27,42 @@ The ground is a frame that does not move: its directions are the fixed vectors t
 """
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from .._types import Array, Float
 
-_SQRT_HALF = 0.7071067811865476
-
 
 def triad(d1: Float[Array, " 3"], d2: Float[Array, " 3"]) -> Float[Array, "3 3"]:
-    """The section frame T = [e₁, e₂, e₃] (columns) of two section vectors (module docstring)."""
-    a = d1 / jnp.linalg.norm(d1)
-    b = d2 / jnp.linalg.norm(d2)
-    s, d = a + b, a - b
-    s = s / jnp.linalg.norm(s)
-    d = d / jnp.linalg.norm(d)
-    e2, e3 = _SQRT_HALF * (s + d), _SQRT_HALF * (s - d)
-    return jnp.stack([jnp.cross(e2, e3), e2, e3], axis=1)
+    """The section frame T = [e₁, e₂, e₃] (columns) of two section vectors (module docstring).
+
+    Written as the closed form of the same frame: with a, b the unit section vectors and c = a·b,
+    the symmetric orthonormalisation of (a, b) is their polar factor [a, b] G^(-1/2), G = [[1, c],
+    [c, 1]] their Gram matrix, which for 2 × 2 is (G + s I)⁻¹ t with s = √(1 − c²) = √det G and
+    t = √(2 + 2s) = √(tr G + 2s):
+
+        e₂ = ((1 + s) a − c b)/(t s),  e₃ = ((1 + s) b − c a)/(t s),  e₁ = e₂ × e₃ = a × b / s.
+
+    Every operation is element-wise on the vectors' components (no reductions, no norms): XLA
+    fuses the frame, its derivatives and a joint's equations into a few kernels, where the
+    normalise-four-times form cost a reduced pendulum's step twice its operations
+    (``benchmarks/results/design_notes.md``)."""
+    x1, y1, z1 = d1[..., 0], d1[..., 1], d1[..., 2]
+    x2, y2, z2 = d2[..., 0], d2[..., 1], d2[..., 2]
+    r1 = jax.lax.rsqrt(x1 * x1 + y1 * y1 + z1 * z1)
+    r2 = jax.lax.rsqrt(x2 * x2 + y2 * y2 + z2 * z2)
+    c = (x1 * x2 + y1 * y2 + z1 * z2) * r1 * r2
+    s = jnp.sqrt(1.0 - c * c)
+    inv_s = 1.0 / s
+    k = jax.lax.rsqrt(2.0 + 2.0 * s) * inv_s  # 1/(t s)
+    p, q = (1.0 + s) * k * r1, c * k * r2  # e₂ = p d₁ − q d₂
+    u, w = (1.0 + s) * k * r2, c * k * r1  # e₃ = u d₂ − w d₁
+    n = r1 * r2 * inv_s  # e₁ = n d₁ × d₂
+    e1 = jnp.stack([n * (y1 * z2 - z1 * y2), n * (z1 * x2 - x1 * z2), n * (x1 * y2 - y1 * x2)], axis=-1)
+    e2 = jnp.stack([p * x1 - q * x2, p * y1 - q * y2, p * z1 - q * z2], axis=-1)
+    e3 = jnp.stack([u * x2 - w * x1, u * y2 - w * y1, u * z2 - w * z1], axis=-1)
+    return jnp.stack([e1, e2, e3], axis=-1)
 
 
 def reference_triad(d1, d2) -> np.ndarray:
@@ -97,11 +116,21 @@ class Directions(eqx.Module):
         """Fixed directions rotated by A with a system turned as a whole; a node's turn with it."""
         return eqx.tree_at(lambda d: d.local, self, self.local @ A.T) if self.body is None else self
 
+    @staticmethod
+    def frame_key(vectors) -> tuple:
+        """The key under which a body's dict of nodal vectors may hold the frame of ``vectors``
+        computed already (``Mechanism._joints_on_rows`` computes all of a mechanism's at once)."""
+        return ("frame", *vectors)
+
     def triad(self, xs) -> Float[Array, "3 3"]:
-        """The node's current section frame T (identity for the ground)."""
+        """The node's current section frame T (identity for the ground); read from ``xs`` where
+        its body's entry is a dict that holds it (``frame_key``)."""
         if self.body is None:
             return jnp.eye(3, dtype=self.local.dtype)
-        return triad(xs[self.body][self.vectors[0]], xs[self.body][self.vectors[1]])
+        x = xs[self.body]
+        if isinstance(x, dict) and self.frame_key(self.vectors) in x:
+            return x[self.frame_key(self.vectors)]
+        return triad(x[self.vectors[0]], x[self.vectors[1]])
 
     def __call__(self, xs) -> Float[Array, "k 3"]:
         if self.body is None:
