@@ -1,4 +1,4 @@
-"""Bases fitted to a body's joints (``multibody.reduce``'s ``conditions``,
+"""Bases fitted to a body's joints (``multibody.reduce``'s ``conditions``: pinned, bearing;
 ``reduction.craig_bampton``'s ``boundary_mds``).
 
 Closed form: a simply supported Euler-Bernoulli beam bends at ω_n = (nπ/L)² √(EI/ρA). The test
@@ -63,6 +63,18 @@ def test_pinned_conditions_in_space_hold_the_six_rigid_motions():
         reduce(_beam(elements=4), [(0.3, -0.2, 0.1)], conditions="pinned")
     with pytest.raises(ValueError, match="conditions must be"):
         reduce(_beam(elements=4), [(0.3, -0.2, 0.1), (L + 0.3, -0.2, 0.1)], conditions="hinged")
+    with pytest.raises(ValueError, match="two interfaces"):
+        reduce(_beam(elements=4), [(0.3, -0.2, 0.1)], conditions="bearing")
+
+
+def test_bearing_conditions_give_the_clamped_clamped_frequencies():
+    """``conditions="bearing"`` (clamped, then held in a bearing that lets the shaft slide and
+    twist): the first two bending frequencies of a beam clamped at both ends, (β L)² = 4.73004²
+    and 7.85320², twice each (both planes), and no rigid mode."""
+    body = reduce(_beam(), [(0.3, -0.2, 0.1), (L + 0.3, -0.2, 0.1)], vms=4, mds=[], conditions="bearing")
+    omega = np.sort(np.asarray(vibration_modes(body.body, body.free, 4).omega))
+    c = np.sqrt(E * R**2 / 4 / RHO) / L**2
+    assert np.allclose(omega, c * np.repeat([4.730040745, 7.853204624], 2) ** 2, rtol=1e-4), omega
 
 
 def test_craig_bampton_holds_the_constraint_modes_derivatives():

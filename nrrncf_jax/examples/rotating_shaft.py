@@ -12,15 +12,17 @@ over 0-0.5 s and 48 → 72 rad/s over 1.0-1.25 s (``motion.SpinSchedule``); the 
 speed of the shaft clamped in bending at both ends with the disk at mid-span is about 57 rad/s
 (``critical_speed``, Rayleigh), so the second ramp crosses it and excites a whirl that persists.
 
-``formulation="ancf"`` (``elements`` C1 elements) or ``"nr-rncf"`` (the shaft in a floating frame at
-its root, which spins with it: ``vms`` vibration modes of the shaft clamped at the root, the
-attachment modes of the disk's and the bearing's forces and moments, and the modal derivatives of
-them all, ``multibody.reduce``). The reduced shaft follows the full one closely, but it is slow:
-its cantilever modes do not know the bearing, so the whirl lives in the attachment modes, and
-without their derivatives a whirl of a few percent of the length locks (the shaft cannot shorten
-as it bends). With them the basis has about a hundred columns, whose cubic tensors cost more a
-step than the full model (``benchmarks/results/validation.md``). A basis whose reference
-conditions hold the bearing would need two modes and their derivatives.
+``formulation="ancf"`` (``elements`` C1 elements) or ``"nr-rncf"``: the shaft in a floating frame
+at its root along its axis, which spins with it, with the reference conditions of its supports
+(``multibody.reduce`` with ``conditions="bearing"``: clamped at the root, held in the bearing at
+the tip, so the basis carries the tip's bearing and the system drops the cylindrical joint), ``vms``
+vibration modes (clamped-clamped in bending), the attachment modes of the disk's forces at
+mid-span and the modal derivatives of them all (39 coordinates). It follows the full shaft's whirl
+to a fraction of a per cent at a fraction of its cost (``benchmarks/results/validation.md``).
+``conditions="clamped"`` (with ``interface_rotations=True``) is the cantilever basis held at the
+root alone: its modes do not know the bearing, so the whirl must live in the attachment modes of
+the bearing's forces and moments, whose derivatives make a basis of about a hundred columns,
+slower than the full model.
 
 Sensors: ``mid_y``, ``mid_z`` the shaft's centre at mid-span [m] (its whirl amplitude is
 √(y² + z²)) and ``drive_torque`` the torque driving the root [N·m].
@@ -54,8 +56,8 @@ def critical_speed() -> float:
 
 
 def mechanism(formulation: str = "ancf", elements: int = 8, t_end: float = 2.5, rtol: float = 1e-4,
-              rho_inf: float = 0.6, vms: int = 2, interface_rotations: bool = True, interface_mds: bool = True
-              ) -> MechanismSetup:
+              rho_inf: float = 0.6, vms: int = 2, interface_rotations: bool = False, interface_mds: bool = True,
+              conditions: str = "bearing", interface_modes: bool = True) -> MechanismSetup:
     """The rotating shaft (module docstring); ``elements`` C1 elements (even: a node at
     mid-span). ρ∞ = 0.6 as the peers ran it."""
     if formulation not in ("ancf", "nr-rncf"):
@@ -66,14 +68,17 @@ def mechanism(formulation: str = "ancf", elements: int = 8, t_end: float = 2.5, 
     root, mid, tip = (0.0, 0.0, 0.0), (L / 2, 0.0, 0.0), (L, 0.0, 0.0)
     shaft = beam_body(Material(E, RHO, NU), TubeSection(R_OUT, R_IN), straight_reference(L, elements))
     if formulation == "nr-rncf":
-        shaft = reduce(shaft, [root, mid, tip], vms=int(vms), mds="all", interface_modes=True,
-                       interface_rotations=bool(interface_rotations), interface_mds=bool(interface_mds))
+        interfaces = [root, mid, tip] if conditions == "clamped" else [root, tip, mid]
+        shaft = reduce(shaft, interfaces, vms=int(vms), mds="all", interface_modes=bool(interface_modes),
+                       interface_rotations=bool(interface_rotations) and bool(interface_modes),
+                       interface_mds=bool(interface_mds) and bool(interface_modes), conditions=conditions)
     J_axial = 0.5 * DISK_MASS * DISK_RADIUS**2
     J_diametral = DISK_MASS * (3 * DISK_RADIUS**2 + DISK_THICKNESS**2) / 12
     disk = RigidBody(DISK_MASS, [J_axial, J_diametral, J_diametral], com=(L / 2, UNBALANCE, 0.0), points=[mid])
     joints = [hinge(None, Marker(SHAFT, root), X, drive=SpinSchedule(RAMPS, axis=X)),
               clamp(Marker(SHAFT, mid), Marker(DISK, mid)),
-              cylindrical(None, Marker(SHAFT, tip), X)]
+              ] + ([] if formulation == "nr-rncf" and conditions == "bearing" else
+                   [cylindrical(None, Marker(SHAFT, tip), X)])  # with "bearing", the basis holds the tip
     system = Mechanism([shaft, disk], joints)
     sensors = {"mid_y": Position(Marker(SHAFT, mid), 1), "mid_z": Position(Marker(SHAFT, mid), 2),
                "drive_torque": DriverEffort(1)}

@@ -15,7 +15,11 @@ The recipe it runs, the one the paper's examples run by hand:
    its spin about the chord fixed: six conditions, the rigid motions). The pinned modes are those
    of a connecting rod's classic analyses: the frame follows the chord, so the joints place it
    and the modes carry only the bending between the pins, where cantilever modes must meet the
-   second pin with a sum of high modes (``benchmarks/results/mechanisms.md``);
+   second pin with a sum of high modes (``benchmarks/results/mechanisms.md``); ``"bearing"``, for
+   a shaft clamped at its first interface and held in a bearing at its second: the frame along
+   the chord, the first interface's position and section vectors held (as ``"clamped"``), the
+   second's two transverse components and its section's two bending rotations (its section
+   vectors' components along the chord) held, its axial motion and twist free;
 3. with ``plane_normal`` (a planar mechanism), the coordinates odd under the mirror through the
    plane held at zero (``elements.beam.mirror_even``: exactly the in-plane modes, C1 beams whose
    section axes contain the normal);
@@ -56,8 +60,9 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     """``body`` (placed in space: its ``q_hat`` the stress-free, initial state) as a floating-frame
     body of a mechanism, its deformation reduced (see the module docstring). ``interfaces``: the
     points (or ``Marker``s) where it is joined, the first one holding its frame.
-    ``conditions``: ``"clamped"`` (a cantilever at the first interface) or ``"pinned"`` (simply
-    supported between the first two, the frame along their chord), module docstring step 2.
+    ``conditions``: ``"clamped"`` (a cantilever at the first interface), ``"pinned"`` (simply
+    supported between the first two, the frame along their chord) or ``"bearing"`` (clamped at
+    the first, in a bearing at the second), module docstring step 2.
     ``basis``: ``"free"`` (vibration modes and modal derivatives), ``"craig-bampton"`` or
     ``"full"``. ``plane_normal``: the normal of the plane of a planar mechanism (in-plane modes
     only), or None. ``interface_modes`` (with ``basis="free"``): the other interfaces' static
@@ -75,13 +80,13 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
         raise ValueError(f"reduce takes a flexible bodies.Body, got {type(body).__name__}")
     if basis not in ("free", "craig-bampton", "full"):
         raise ValueError(f"basis must be 'free', 'craig-bampton' or 'full', got {basis!r}")
-    if conditions not in ("clamped", "pinned"):
-        raise ValueError(f"conditions must be 'clamped' or 'pinned', got {conditions!r}")
+    if conditions not in ("clamped", "pinned", "bearing"):
+        raise ValueError(f"conditions must be 'clamped', 'pinned' or 'bearing', got {conditions!r}")
     points = [_point(p) for p in interfaces]
     if not points:
         raise ValueError("reduce needs at least one interface point (the first one holds the body's frame)")
-    if conditions == "pinned" and len(points) < 2:
-        raise ValueError("conditions='pinned' needs two interfaces (the pins whose chord the frame follows)")
+    if conditions != "clamped" and len(points) < 2:
+        raise ValueError(f"conditions={conditions!r} needs two interfaces (whose chord the frame follows)")
     geometry = BodyGeometry(np.asarray(body.q_hat), np.asarray(body.is_position), body.vectors_per_node,
                             body.section_slots)
     nodes = [geometry.node(Marker(0, p)) for p in points]
@@ -94,16 +99,20 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     if not np.allclose(A0.T @ A0, np.eye(3), atol=1e-9) or np.linalg.det(A0) < 0:
         raise ValueError("the first interface's node's unit gradient vectors are not a right-handed orthonormal frame")
     R0 = geometry.vectors[frame]
-    if conditions == "pinned":
+    if conditions != "clamped":
         A0 = _chord_frame(geometry.vectors[nodes[1]] - R0, A0)
     local = placed(body, A0.T, -A0.T @ R0)
     free = np.ones((body.n_vectors, 3), bool)
     if conditions == "clamped":
         free[[frame] + gradients[1:]] = False
-    else:  # the pins: A's position, B's transverse components, A's section's twist (r_y's third component)
+    elif conditions == "pinned":  # A's position, B's transverse components, A's section's twist (r_y's z)
         free[frame] = False
         free[nodes[1], 1:] = False
         free[gradients[1], 2] = False
+    else:  # bearing: A clamped; B's transverse components and its section vectors' x components
+        free[[frame] + gradients[1:]] = False
+        free[nodes[1], 1:] = False
+        free[list(geometry.section(0, nodes[1])), 0] = False
     free = free.reshape(-1)
     if plane_normal is not None:
         n_local = A0.T @ (np.asarray(plane_normal, dtype=float) / np.linalg.norm(plane_normal))
