@@ -120,3 +120,4 @@ def test_jointed_bases_follow_the_full_slider_crank():
     assert float(chi_rel(ref, pinned)) < 3.0
     assert float(chi_rel(ref, cb)) < 3.0
     assert float(chi_rel(ref, cantilever)) > 20.0
+

@@ -516,3 +516,28 @@ def test_the_fused_dae_residual_is_the_residual_with_the_joints_forces(example):
     np.testing.assert_allclose(r, r_ref, rtol=0, atol=RTOL_RESIDUAL * np.abs(r_ref).max())
     C_ref = system.constraints(z, t)
     np.testing.assert_allclose(C, C_ref, rtol=0, atol=RTOL_RESIDUAL * max(np.abs(C_ref).max(), 1.0))
+
+
+def test_a_rerun_with_new_parameter_values_does_not_compile():
+    """``run_setup`` compiles the system as an argument of its program, not as constants in it:
+    a second run with another Young's modulus (the same shapes) compiles nothing, and its answer
+    moves (the rod's stiffness reaches the run)."""
+    import jax
+
+    from nrrncf_jax.examples.slider_crank import mechanism
+    from nrrncf_jax.scenarios.mechanism_file import run_setup
+
+    def run(setup):
+        return run_setup(setup, t_end=2e-3, n_out=5)
+
+    first = run(mechanism("nr-rncf", elements=2, E=1.0e10))
+    stiffer = mechanism("nr-rncf", elements=2, E=1.3e10)
+    compiles = []
+    listener = lambda event, *args, **kwargs: compiles.append(event) if "backend_compile" in event else None  # noqa: E731
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        second = run(stiffer)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    assert compiles == []
+    assert not np.allclose(first.series["w_mid"], second.series["w_mid"], rtol=1e-6, atol=0)

@@ -24,6 +24,7 @@ before anything is traced), so a sensor is written before the system exists.
 """
 
 import dataclasses
+from typing import Any
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -188,7 +189,19 @@ class AngularMomentum(eqx.Module):
         return _component(H, self.component)
 
 
-def observe(system, sensors: dict):
+class Observer(eqx.Module):
+    """``observer(t, z, v) -> {name: value}``: every sensor of ``sensors`` on ``system``'s state.
+    A module, so that the system's arrays are arguments of a compiled run, not constants in it
+    (a rerun with new parameter values and the same shapes is the same program)."""
+
+    system: Any
+    sensors: dict
+
+    def __call__(self, t, z, v):
+        return {name: jnp.asarray(sensor(self.system, t, z, v)) for name, sensor in self.sensors.items()}
+
+
+def observe(system, sensors: dict) -> Observer:
     """``observe(t, z, v) -> {name: value}`` for ``simulate``: every sensor at the output times.
     The markers are resolved here, so that a bad one fails before the run."""
     for name, sensor in sensors.items():
@@ -196,12 +209,8 @@ def observe(system, sensors: dict):
             raise ValueError(f"sensor {name!r} is not callable (a sensor is sensor(system, t, z, v))")
     sensors = {name: s.resolve(system) if isinstance(s, (_MarkerSensor, SectionAngle)) else s
                for name, s in sensors.items()}
-
-    def fn(t, z, v):
-        return {name: jnp.asarray(sensor(system, t, z, v)) for name, sensor in sensors.items()}
-
-    return fn
+    return Observer(system, sensors)
 
 
-__all__ = ["AngularMomentum", "ChordDeflection", "DriverEffort", "ElementForce", "Energy", "JointReaction", "Position",
-           "SectionAngle", "Velocity", "observe"]
+__all__ = ["AngularMomentum", "ChordDeflection", "DriverEffort", "ElementForce", "Energy", "JointReaction", "Observer",
+           "Position", "SectionAngle", "Velocity", "observe"]

@@ -14,13 +14,11 @@ import importlib
 import importlib.util
 import inspect
 import pathlib
-import time
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..integrate import AdaptiveStepSize, ConstantStepSize, GeneralizedAlphaIndex3, simulate
+from ..integrate import AdaptiveStepSize, ConstantStepSize, GeneralizedAlphaIndex3, simulate_timed
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody.sensors import observe
 from ..post.outline import mechanism_outline
@@ -164,20 +162,16 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     controller = AdaptiveStepSize(rtol, rtol / 10) if dt is None else \
         ConstantStepSize(float(dt), rtol=rtol, atol=rtol / 10)
 
-    def run(y0):
-        return simulate(system, GeneralizedAlphaIndex3(rho_inf), controller, ts, observe=fn, y0=y0,
-                        progress=progress)
-
-    t0 = time.perf_counter()
-    compiled = jax.jit(run).lower(y0).compile()
-    t1 = time.perf_counter()
-    sol = jax.block_until_ready(compiled(y0))
-    t2 = time.perf_counter()
+    # the system is an argument of the compiled program, not a constant in it (``simulate_timed``):
+    # XLA does not fold its arrays, and a reduced mechanism compiles with ``simulate``'s small-kernel
+    # options, which a program of the user's own ``jax.jit`` around ``simulate`` would not get
+    sol, compile_s, run_s = simulate_timed(system, GeneralizedAlphaIndex3(rho_inf), controller, ts, observe=fn,
+                                           y0=y0, progress=progress, throw=False)
     if not sol.succeeded:
         raise RuntimeError(f"the run stopped early: {sol.message}")
     series = {k: np.asarray(sol.ys[k]) for k in setup.sensors}  # in the setup's order (a dict pytree is sorted)
     return MechanismRun(ts, series, system.n_dof, int(sol.num_steps), int(sol.num_rejected), int(sol.num_newton),
-                        t1 - t0, t2 - t1, system.formulation,
+                        compile_s, run_s, system.formulation,
                         np.asarray(sol.ys[_POINTS]) if positions else None, lines)
 
 
