@@ -61,3 +61,22 @@ def test_run_refuses_bad_arguments(tmp_path, capsys):
     # a parameter the model refuses: its ValueError as one line, not a traceback
     assert main(["run", "slider_crank", "--param", "formulation=nr-rncf", "--param", "mds=0"]) == 2
     assert "mds must be" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_reference_full_reports_the_error_against_a_converged_reference_and_its_parts(capsys):
+    """``--reference full``: the total error against the full model run at a hundredth of the
+    tolerance, split into the run's time-integration error and the basis's. The parts bound the
+    total by the triangle inequality (χ_rel normalised by the converged reduced run in the first
+    part, by the reference in the others: hence the factor 1 + basis), and the reference's own
+    error is a small part of what it measures."""
+    assert main(["run", "slider_crank", "--param", "formulation=nr-rncf", "--param", "elements=2", "--t-end", "0.02",
+                 "--reference", "full", "--json", "--no-progress"]) == 0
+    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    total, integration, basis = (out[k] for k in ("chi_rel_percent", "integration_error_percent",
+                                                   "basis_error_percent"))
+    assert out["reference_rtol"] == pytest.approx(1e-6)
+    assert total <= (integration * (1 + basis / 100) + basis) * (1 + 1e-9)
+    assert basis <= (total + integration * (1 + basis / 100)) * (1 + 1e-9)
+    assert out["reference_error_percent"] < 0.1 * total
+    assert set(out) >= {"chi_rel_percent_w_mid", "integration_error_percent_x_B", "basis_error_percent_w_mid"}
