@@ -43,6 +43,7 @@ def test_pinned_conditions_give_the_simply_supported_frequencies(deg):
     a, b = A @ np.zeros(3) + (0.3, -0.2, 0.1), A @ np.array([L, 0.0, 0.0]) + (0.3, -0.2, 0.1)
     body = reduce(beam, [a, b], vms=4, mds=[], conditions="pinned", plane_normal=A @ (0.0, 0.0, 1.0))
     assert np.allclose(np.asarray(body.R0), a) and np.allclose(body.basis.shape, (body.body.n_dof, 4))
+    assert "pinned" in body.describe() and "4 VMs + 0 MDs" in body.describe()
     omega = np.sort(np.asarray(vibration_modes(body.body, body.free, 4).omega))
     area, inertia = np.pi * R**2, np.pi * R**4 / 4
     bending = [(n * np.pi / L) ** 2 * np.sqrt(E * inertia / (RHO * area)) for n in (1, 2, 3)]

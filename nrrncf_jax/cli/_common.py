@@ -55,7 +55,10 @@ def emit(args, record: dict) -> int:
         print(json.dumps(record))
         return 0
     for k, v in record.items():
-        print(f"  {k}: {v}")
+        if isinstance(v, (list, tuple)) and v and all(isinstance(x, str) for x in v):
+            print(f"  {k}:" + "".join(f"\n    {x}" for x in v))
+        else:
+            print(f"  {k}: {v}")
     return 0
 
 

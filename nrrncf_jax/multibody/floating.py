@@ -159,9 +159,10 @@ class FloatingBody(AbstractBodyKind):
     free: Array | None  # the reference conditions' free coordinates (n_dof booleans), if known
     modes: Array | None  # the vibration modes Φ (n_dof × n) the basis was built from, if known
     awaiting_mds: bool = eqx.field(static=True)  # mds="mmi": its modal derivatives still to be chosen
+    note: str = eqx.field(static=True)  # how its basis was chosen, for ``describe`` (``multibody.reduce`` writes it)
 
     def __init__(self, body: Body, basis, tensors: ElasticTensors, R0=(0.0, 0.0, 0.0), A0=None, free=None,
-                 modes=None, awaiting_mds: bool = False):
+                 modes=None, awaiting_mds: bool = False, note: str = ""):
         basis = jnp.asarray(basis)
         if basis.ndim != 2 or basis.shape[0] != body.n_dof:
             raise ValueError(f"basis must be (n_dof, k) = ({body.n_dof}, k), got {basis.shape}")
@@ -184,6 +185,7 @@ class FloatingBody(AbstractBodyKind):
         self.body, self.basis, self.tensors, self.free, self.modes = body, basis, tensors, free, modes
         self.basis_rows = jnp.asarray(np.asarray(basis).T.copy())
         self.awaiting_mds = bool(awaiting_mds)
+        self.note = str(note)
         self.R0 = jnp.asarray(R0, dtype=float).reshape(3)
         self.e0 = jnp.asarray(euler_parameters(np.eye(3) if A0 is None else A0))
         self.is_position = jnp.asarray(np.asarray(body.is_position, dtype=float))
@@ -343,6 +345,13 @@ class FloatingBody(AbstractBodyKind):
         if self.k == 0:
             return "rigid"
         return "rncf" if getattr(self.tensors, "full_order", False) else "nr-rncf"
+
+    def describe(self) -> str:
+        """The body's kind, coordinates and, for a reduced body, how its basis was chosen."""
+        if self.k == 0:
+            return f"{self.kind}, {self.n_z} coordinates (its frame)"
+        text = f"{self.kind}, {self.n_z} coordinates (frame 7 + {self.k} deformation)"
+        return text + (f": {self.note}" if self.note else "")
 
     @property
     def n_vectors(self) -> int:

@@ -48,6 +48,10 @@ class AbstractBodyKind(eqx.Module):
     def n_z(self) -> int:
         """The body's number of coordinates."""
 
+    def describe(self) -> str:
+        """The body's kind and number of coordinates (a reduced body adds how its basis was chosen)."""
+        return f"{self.kind}, {self.n_z} coordinates"
+
     @property
     @abc.abstractmethod
     def n_vectors(self) -> int:

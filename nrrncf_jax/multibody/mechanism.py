@@ -334,6 +334,11 @@ class Mechanism(AbstractConstrainedModel):
         """Each body's nodal vectors that the joints read (``_joint_rows``), (rows, 3) a body."""
         return tuple(x[np.asarray(r, dtype=int)] for x, r in zip(xs, self._joint_rows()))
 
+    def describe(self) -> list[str]:
+        """One line a body: its kind and coordinates, and for a reduced body how its basis was
+        chosen (``multibody.reduce``)."""
+        return [f"body {i}: {b.describe()}" for i, b in enumerate(self.bodies)]
+
     def _frame_keys(self) -> tuple[tuple[int, tuple[int, int]], ...]:
         """The nodes whose section frames the joints read (``section_frame.Directions``), as
         ``(body, section vectors)``, each once."""

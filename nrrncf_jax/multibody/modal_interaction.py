@@ -63,7 +63,9 @@ def select_modal_derivatives(system: Mechanism, ts, n_mds: int = 8, rtol: float 
                    observe=lambda t, z, v: z, y0=y0)
     selections = modal_interaction(system, ts, np.asarray(sol.ys), n_mds)
     bodies = [b if s is None else modal_body(b.body, np.asarray(b.free), np.asarray(b.modes), s.pairs, b.R0,
-                                             np.asarray(rotation(b.e0)), deflation_tol)
+                                             np.asarray(rotation(b.e0)), deflation_tol,
+                                             note=b.note.replace("MDs to be chosen by modal interaction",
+                                                                 f"{len(s.pairs)} MDs chosen by modal interaction"))
               for b, s in zip(system.bodies, selections)]
     return type(system)(bodies, system.joints, gravity=system.gravity, forces=system.forces), selections
 

@@ -121,6 +121,10 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
             raise ValueError("plane_normal: in-plane modes are built for C1 beams whose section axes hold the "
                              "plane's normal")
         free &= mirror_even(body.n_vectors // NODAL_VECTORS_PER_NODE, "yz"[axis - 1])
+    held = {"clamped": "frame and cantilever conditions at the first interface",
+             "pinned": "frame along the chord of the first two interfaces, simply supported (pinned) conditions",
+             "bearing": "frame along the chord of the first two interfaces, clamped at the first, a bearing at the "
+                        "second"}[conditions]
     if basis == "full":
         return full_floating_body(local, free, R0=R0, A0=A0)
     if (isinstance(mds, str) and mds not in ("all", "mmi")) or not (
@@ -146,25 +150,31 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
             raise ValueError("a Craig-Bampton basis needs a second interface (its boundary coordinates)")
         Psi = np.asarray(craig_bampton_basis(local, free, positions + sections, vms, pairs,
                                              deflate_tol=deflation_tol).basis)
-        return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free)
+        note = (f"extended Craig-Bampton, {held}; {len(positions + sections)} boundary coordinates at the other "
+                f"interfaces, {vms} fixed-interface VMs + {len(pairs)} MDs and the constraint modes' MDs")
+        return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free, note=note)
     if (interface_modes or interface_mds) and not positions:
         raise ValueError("interface_modes needs a second interface (the point whose static modes are added)")
     if interface_mds and not interface_modes:
         raise ValueError("interface_mds needs interface_modes (the modes whose derivatives it adds)")
     phi = np.asarray(vibration_modes(local, free, vms).phi)
+    note = f"{held}; {vms} VMs + " + ("MDs to be chosen by modal interaction" if mds == "mmi" else f"{len(pairs)} MDs")
+    if interface_modes:
+        note += ("; the other interfaces' force" + (" and moment" if interface_rotations else "")
+                 + " attachment modes" + (" and their MDs" if interface_mds else ""))
     if not interface_modes:
-        return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, awaiting_mds=mds == "mmi")
+        return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, awaiting_mds=mds == "mmi", note=note)
     loads = [np.eye(local.n_dof)[:, positions]]
     if interface_rotations:
         loads += [moment_loads(local, geometry.section(0, v)) for v in nodes[1:]]
     attached = attachment_modes(local, free, np.concatenate(loads, axis=1))
     if not interface_mds:
-        return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, [attached])
+        return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, [attached], note=note)
     # the interface modes' derivatives: every pair with at least one interface mode, beside `pairs`
     both = np.concatenate([phi, attached / np.abs(attached).max(axis=0)], axis=1)
     k = both.shape[1]
     pairs = list(pairs) + [(i, j) for i in range(k) for j in range(max(i, vms), k)]
-    return modal_body(local, free, both, pairs, R0, A0, deflation_tol)
+    return modal_body(local, free, both, pairs, R0, A0, deflation_tol, note=note)
 
 
 def _chord_frame(chord, A) -> np.ndarray:
@@ -195,7 +205,7 @@ def moment_loads(body: Body, section) -> np.ndarray:
 
 
 def modal_body(local: Body, free, phi, pairs, R0, A0, deflation_tol: float = 1e-6, extra=(),
-               awaiting_mds: bool = False) -> FloatingBody:
+               awaiting_mds: bool = False, note: str = "") -> FloatingBody:
     """The NR-RNCF body of ``local`` (in its frame, held on ``free``'s complement) from its
     vibration modes ``phi``, the modal derivatives of ``pairs`` and the column blocks ``extra``
     (static modes), deflated by SVD, with its tensors; it records ``free`` and ``phi``
@@ -203,7 +213,7 @@ def modal_body(local: Body, free, phi, pairs, R0, A0, deflation_tol: float = 1e-
     body with its pairs)."""
     Psi = np.asarray(modal_basis(local, free, phi, pairs, extra=extra, deflation_tol=deflation_tol).Psi)
     return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free, modes=phi,
-                        awaiting_mds=awaiting_mds)
+                        awaiting_mds=awaiting_mds, note=note)
 
 
 __all__ = ["modal_body", "moment_loads", "reduce"]

@@ -67,6 +67,7 @@ class MechanismRun:
     formulation: str
     points: np.ndarray | None = None  # the bodies' nodes at ts (nt × p × 3), with ``positions=True``
     lines: np.ndarray | None = None  # their edges (l × 2, ``post.outline``)
+    bodies: tuple[str, ...] = ()  # each body described (``Mechanism.describe``): its kind and basis
 
     def table(self) -> tuple[list[str], np.ndarray]:
         """CSV columns ``t`` and each sensor (a vector sensor as ``name_0, name_1, ...``)."""
@@ -83,7 +84,8 @@ class MechanismRun:
 
     def summary(self) -> dict:
         return {"formulation": self.formulation, "dofs": self.dofs, "steps": self.steps, "rejected": self.rejected,
-                "newton_iters": self.newton_iters, "compile_s": self.compile_s, "run_s": self.run_s}
+                "newton_iters": self.newton_iters, "compile_s": self.compile_s, "run_s": self.run_s,
+                "bodies": list(self.bodies)}
 
 
 def load_setup(source: str, params: dict | None = None) -> MechanismSetup:
@@ -172,7 +174,8 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     series = {k: np.asarray(sol.ys[k]) for k in setup.sensors}  # in the setup's order (a dict pytree is sorted)
     return MechanismRun(ts, series, system.n_dof, int(sol.num_steps), int(sol.num_rejected), int(sol.num_newton),
                         compile_s, run_s, system.formulation,
-                        np.asarray(sol.ys[_POINTS]) if positions else None, lines)
+                        np.asarray(sol.ys[_POINTS]) if positions else None, lines,
+                        tuple(system.describe()) if hasattr(system, "describe") else ())
 
 
 __all__ = ["MechanismRun", "MechanismSetup", "examples", "load_setup", "run_setup"]
