@@ -80,3 +80,12 @@ def test_reference_full_reports_the_error_against_a_converged_reference_and_its_
     assert basis <= (total + integration * (1 + basis / 100)) * (1 + 1e-9)
     assert out["reference_error_percent"] < 0.1 * total
     assert set(out) >= {"chi_rel_percent_w_mid", "integration_error_percent_x_B", "basis_error_percent_w_mid"}
+
+
+def test_params_are_python_literals():
+    from nrrncf_jax.cli.run import _parse_params
+
+    assert _parse_params(["a=1", "b=2.5", "c=[(0, 0), (0, 1)]", "d=nr-rncf", "e=True", "f= 3"]) == {
+        "a": 1, "b": 2.5, "c": [(0, 0), (0, 1)], "d": "nr-rncf", "e": True, "f": 3}
+    with pytest.raises(ValueError, match="KEY=VALUE"):
+        _parse_params(["novalue"])

@@ -7,7 +7,8 @@
 
 ``MODEL``: a Python file defining ``mechanism(**params) -> MechanismSetup``, or the name of a
 bundled example (``nrrncf_jax/examples/``: ``slider_crank``, ``rotor``, ``two_link_arm``,
-``fourbar``). ``--param`` passes keyword parameters (numbers parsed as numbers). ``--dt H`` runs
+``fourbar``). ``--param`` passes keyword parameters (Python literals parsed as such: numbers,
+lists such as ``mds=[(0,0),(0,1)]``, booleans; anything else as text). ``--dt H`` runs
 fixed steps of H seconds (as the peers run stiff, quasi-static mechanisms) instead of error-controlled
 ones. ``--out`` writes
 the sensors at the output times as CSV columns ``t`` and each sensor's name (a vector sensor as
@@ -21,6 +22,8 @@ newton_iters, compile_s, run_s``; with ``--reference full`` (the model run again
 between the models; the largest, and per sensor as ``chi_rel_percent_<name>``).
 """
 
+import ast
+
 from . import _common
 
 
@@ -30,12 +33,10 @@ def _parse_params(items) -> dict:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ValueError(f"--param takes KEY=VALUE, got {item!r}")
-        for cast in (int, float):
-            try:
-                value = cast(value)
-                break
-            except ValueError:
-                continue
+        try:  # a Python literal (a number, a list of pairs, True), else the text itself
+            value = ast.literal_eval(value.strip())
+        except (ValueError, SyntaxError):
+            pass
         out[key.strip()] = value
     return out
 
