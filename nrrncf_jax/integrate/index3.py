@@ -30,9 +30,10 @@ the metric is the predictor's): refactoring S at q_{n+1} instead costs far more 
 run by much less than its time-integration error. With Euler parameters (|e|² = 1 a
 constraint) and joints on the bodies' nodal vectors, the oscillation is the largest part of the
 step error estimate: without the projection the step-size control takes needlessly small steps,
-and with ρ∞ = 1, which leaves the oscillation undamped, stalls. The inertial-frame
-``MultibodySystem``'s velocities already satisfy C_q v = 0 to round-off, so it does not ask for
-the projection. (Figures: ``benchmarks/results/design_notes.md``.)
+and with ρ∞ = 1, which leaves the oscillation undamped, stalls. Every ``multibody.Mechanism``
+asks for it (for a mechanism of inertial-frame ANCF bodies alone, whose velocities satisfy
+C_q v = 0 to round-off already, it changes nothing beyond round-off). (Figures:
+``benchmarks/results/design_notes.md``.)
 
 Newton stops when its correction, or the error the correction leaves (estimated from the
 observed contraction, ``integrate.newton``), is below the tolerance, with full and modified
@@ -50,7 +51,7 @@ last step left them.
 The step error estimate and the Newton stopping test measure q alone: the multipliers carry a
 damped O(h) transient after every change of step size (which ρ∞ < 1 damps; index-3 constraints
 with ρ∞ = 1 leave it undamped), and are out of the error norm, as MULTIBODY.md says. Exact
-reactions at any state come from ``MultibodySystem.reactions``.
+reactions at any state come from ``AbstractConstrainedModel.reactions``.
 """
 
 from collections.abc import Callable

@@ -9,8 +9,9 @@ reactions. ``integrate.GeneralizedAlphaIndex3`` runs any ``AbstractConstrainedMo
 
 What differs between body kinds (inertial-frame ANCF bodies, whose coordinates are their nodal
 vectors; bodies in floating frames with reduced deformation) is the map from a body's coordinates
-to its nodal vectors, its mass matrix and its forces: the concrete systems
-(``multibody.MultibodySystem``, ``multibody.FloatingFrameSystem``) supply those. What every
+to its nodal vectors, its mass matrix and its forces: the body kinds supply those, and
+``multibody.Mechanism`` (of which ``MultibodySystem`` and ``FloatingFrameSystem`` are checked
+special cases) assembles them. What every
 system shares is written here once: the coordinates' layout, the checks of the joints before
 anything is traced, the consistent initial accelerations and multipliers, the reactions at any
 state, the constraints' acceleration terms and the energy.

@@ -18,10 +18,12 @@
 - ``mechanism``: ``Mechanism``, bodies of any kind (``kinds``: ``FloatingBody``, a ``RigidBody``
   in its frame, an ANCF ``Body`` in the inertial frame as ``InertialBody``, ``PointMass``) in one
   system, run with ``integrate.GeneralizedAlphaIndex3``.
-- ``system``: ``MultibodySystem`` of inertial-frame (ANCF) bodies under gravity, run with
-  ``integrate.GeneralizedAlphaIndex3``; ``placed`` moves a body into place.
-- ``floating``: ``FloatingFrameSystem`` of bodies in free-floating frames (Euler parameters)
-  with reduced deformation (``FloatingBody``): NR-RNCF for jointed systems.
+- ``system``: ``MultibodySystem``, a ``Mechanism`` of inertial-frame (ANCF) bodies only, each
+  held by a joint; ``placed`` moves a body into place.
+- ``floating``: ``FloatingBody``, a body in a free-floating frame (Euler parameters) with
+  reduced deformation: NR-RNCF for jointed systems; ``FloatingFrameSystem`` is a ``Mechanism``
+  of these only. ``Mechanism`` is the one constrained-system implementation; the two are checks
+  on its input.
 - ``full_order_frame``: ``full_floating_body``, a floating-frame body with every free nodal
   coordinate kept and the elements' own elastic force: the full-order RNCF.
 - ``modal_interaction``: ``select_modal_derivatives(system, ts)``, each reduced body's modal

@@ -1,8 +1,11 @@
 """An ANCF body in the inertial frame as a mechanism's body: its coordinates are its nodal
 vectors (z = x, J = I), its mass matrix M ⊗ I₃ constant, its forces the elements' own (THEORY §3
-with A = I, r = 0; ``system.MultibodySystem`` is a system of these alone, with banded solvers).
-In a ``mechanism.Mechanism`` it sits beside floating-frame, rigid and point-mass bodies; its
-iteration block M + c_K K(q) is factored dense."""
+with A = I, r = 0; ``system.MultibodySystem`` is a mechanism of these alone).
+In a ``mechanism.Mechanism`` it sits beside floating-frame, rigid and point-mass bodies. Its
+iteration block M + c_K K(q) is factored by the body's own linear solver (``linalg.linear_solver``,
+``"auto"``, from its static connectivity): block-tridiagonal for a beam chain, where a dense LU
+of a few hundred coordinates a body would cost more than the rest of the step, dense for small
+or unstructured bodies."""
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -10,6 +13,7 @@ import numpy as np
 
 from .._types import Array, Float
 from ..bodies.body import Body, stiffened
+from ..linalg import AbstractLinearSolver, Dense, linear_solver
 from .kinds import AbstractBodyKind
 from .markers import BodyGeometry
 
@@ -21,6 +25,7 @@ class InertialBody(AbstractBodyKind):
     body: Body
     mass: Float[Array, "nv nv"]  # M on the nodal vectors (the same for each component)
     weights: Float[Array, " nv"]  # ϱ
+    solver: AbstractLinearSolver  # its block's linear solver, resolved once
 
     kind = "ancf"
 
@@ -30,6 +35,10 @@ class InertialBody(AbstractBodyKind):
         self.body = body
         self.mass = jnp.asarray(body.mass_matrix())
         self.weights = jnp.asarray(body.varrho())
+        parts = [(np.broadcast_to(0.0, (d.shape[0], d.shape[1], d.shape[1])), d)
+                 for d in (g.dofs() for g in body.groups)]
+        self.solver = linear_solver("auto", parts, body.n_dof,
+                                    chain_block=3 * body.vectors_per_node if body.chain else None)
 
     def stiffened(self, s) -> "InertialBody":
         """κ times s (``bodies.body.stiffened``): the elastic force is linear in it."""
@@ -75,6 +84,18 @@ class InertialBody(AbstractBodyKind):
     def block(self, z, c_M, c_K, gravity, state=None, c_C=0.0):
         """c_M M + c_K K(q) (the residual has no velocity terms)."""
         return c_M * self.mass_matrix(z) + c_K * self.body.stiffness_matrix(z.reshape(-1, 3))
+
+    @property
+    def structured(self) -> bool:
+        return not isinstance(self.solver, Dense)
+
+    def factor(self, z, c_M, c_K, gravity, state=None, c_C=0.0):
+        """c_M M + c_K K(q) factored by the body's solver, element by element (module docstring)."""
+        if not self.structured:
+            return super().factor(z, c_M, c_K, gravity, state, c_C)
+        parts = [(c_K * Kt + c_M * jnp.einsum("eab,ij->eaibj", M_e, jnp.eye(3)).reshape(Kt.shape), dofs)
+                 for (Kt, dofs), (M_e, _) in zip(self.body.tangent_parts(z.reshape(-1, 3)), self.body.mass_parts())]
+        return self.solver.factor(parts, jnp.ones(self.n_z, bool))
 
     def kinetic_energy(self, z, v):
         xv = v.reshape(-1, 3)

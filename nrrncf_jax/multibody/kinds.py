@@ -22,6 +22,7 @@ from typing import ClassVar
 import equinox as eqx
 
 from .._types import Array, Float
+from ..linalg import factor_block
 from .markers import BodyGeometry
 
 
@@ -100,6 +101,18 @@ class AbstractBodyKind(eqx.Module):
         terms the kind keeps; modified Newton converges with the rest left out). ``state``:
         ``(v, a, reaction)``, the step's velocity, acceleration and the joints' nodal forces on
         the body, for kinds whose block depends on them."""
+
+    @property
+    def structured(self) -> bool:
+        """Whether the body factors its iteration block itself (``factor``), with a solver that
+        knows its structure (a beam chain's block-tridiagonal matrix), instead of as a dense
+        block. False unless a kind says so."""
+        return False
+
+    def factor(self, z, c_M, c_K, gravity, state=None, c_C=0.0):
+        """The body's ``block`` factored for ``linalg.schur_factor``: dense (``linalg.factor_block``)
+        unless the kind knows better (``structured``)."""
+        return factor_block(self.block(z, c_M, c_K, gravity, state, c_C))
 
     @abc.abstractmethod
     def kinetic_energy(self, z, v) -> Float[Array, ""]:

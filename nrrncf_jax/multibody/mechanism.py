@@ -8,12 +8,14 @@ with z the bodies' coordinates stacked, f_e and g_e the force elements' forces a
 (``forces``: spring-dampers, actuators), x_b = f_b(z_b) their nodal vectors in the inertial frame
 (where the joints act) and C the joints' equations, then each body's own (a floating frame's
 |e|² = 1). Each body supplies its map, residual, iteration block and energies; the system
-assembles them and the joints. ``FloatingFrameSystem`` is the mechanism whose bodies are all
-floating frames (the paper's NR-RNCF pendulum); its equations and the reasons for its choices
-(Euler parameters, inertia invariants, the p columns of the iteration matrix, the velocity
-projection) are ``floating``'s docstring.
+assembles them and the joints. It is the library's one constrained-system implementation:
+``FloatingFrameSystem`` is the mechanism whose bodies are all floating frames (the paper's NR-RNCF
+pendulum; its equations and the reasons for its choices, Euler parameters, inertia invariants,
+the p columns of the iteration matrix, the velocity projection, are ``floating``'s docstring),
+``system.MultibodySystem`` the one whose bodies are all ANCF bodies in the inertial frame.
 
-The iteration matrix is block-diagonal, one dense block a body; the constrained matrix is
+The iteration matrix is block-diagonal, one block a body (dense, or factored by the body's own
+structured solver: an ANCF beam chain's block-tridiagonal one); the constrained matrix is
 factored body by body with the joints' m × m Schur complement (``factor_augmented``). The joints'
 Hessian and the inertia terms' derivatives with respect to the frames' coordinates are left to
 Newton's iterations (``preferred_newton = "modified"``).
@@ -502,7 +504,8 @@ class Mechanism(AbstractConstrainedModel):
     def factor_augmented(self, t, z, v, lam, c_C, c_K, a=None) -> AugmentedFactor:
         """``[[S, C_zᵀ], [C_z, 0]]`` factored body by body: each body's block of S (``block``,
         with ``a``, the step's acceleration, the state's terms), on its own, and the joints by
-        the m × m Schur complement C_z S⁻¹ C_zᵀ (as ``MultibodySystem``'s ``"bodies"`` solver).
+        the m × m Schur complement C_z S⁻¹ C_zᵀ (a body with a structured solver, an ANCF beam
+        chain, factors its block itself: ``AbstractBodyKind.factor``).
         The joints' Hessian c_K H_λ is left out: of the order of the reactions times c_K. Small
         LU factorisations of the bodies' blocks instead of one of the whole matrix: a small
         fraction of its arithmetic, and on a CPU one LU of the whole matrix can cost more than
@@ -513,7 +516,10 @@ class Mechanism(AbstractConstrainedModel):
         blocks = self._blocks(z, 1.0, c_K, v, a, lam, c_C)
         if self.forces:
             blocks = [S + F for S, F in zip(blocks, self._force_blocks(t, z, v, c_K, c_C))]
-        factors = tuple(factor_block(S_b) for S_b in blocks)
+        # a body that knows its block's structure (an ANCF beam chain) factors it itself; the dense
+        # blocks it leaves unused are dropped by XLA. Force elements add to the dense blocks only.
+        factors = tuple(b.factor(zb, 1.0, c_K, self.gravity) if b.structured and not self.forces else factor_block(S_b)
+                        for b, zb, S_b in zip(self.bodies, self.split(z), blocks))
         return schur_factor(factors, self.offsets, self.body_sizes(), B)
 
     def kinetic_energy(self, z, v) -> Float[Array, ""]:
