@@ -89,3 +89,33 @@ def test_params_are_python_literals():
         "a": 1, "b": 2.5, "c": [(0, 0), (0, 1)], "d": "nr-rncf", "e": True, "f": 3}
     with pytest.raises(ValueError, match="KEY=VALUE"):
         _parse_params(["novalue"])
+
+
+FAILING = '''
+import jax.numpy as jnp
+from nrrncf_jax.bodies import slender_rod
+from nrrncf_jax.multibody import Marker, Mechanism, hinge, motor
+from nrrncf_jax.multibody.sensors import Position
+from nrrncf_jax.scenarios.mechanism_file import MechanismSetup
+
+
+def mechanism():
+    rod = slender_rod(1.0, 1.0, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0))
+    z = (0.0, 0.0, 1.0)
+    torque = motor(None, Marker(0, (0.0, 0.0, 0.0)), z, lambda t, angle, rate, p: jnp.where(t > 0.05, jnp.nan, 1.0))
+    system = Mechanism([rod], [hinge(None, Marker(0, (0.0, 0.0, 0.0)), z)], forces=[torque])
+    return MechanismSetup(system, {"tip": Position(Marker(0, (1.0, 0.0, 0.0)))}, t_end=0.1)
+'''
+
+
+def test_a_run_that_stops_early_ends_in_one_line(tmp_path, capsys):
+    """A motor whose torque turns NaN at t = 0.05 s: the run stops there, and the command says so
+    in one line with the time and the reason (exit status 1), not in a traceback."""
+    path = tmp_path / "failing.py"
+    path.write_text(FAILING)
+    assert main(["run", str(path), "--no-progress"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    import re
+
+    assert len(err) == 1 and err[0].startswith("nrrncf: the simulation stopped early: simulation stopped at t = ")
+    assert 0.04 < float(re.search(r"at t = ([0-9.e+-]+) s", err[0]).group(1)) <= 0.05 and "non-finite" in err[0]

@@ -133,8 +133,10 @@ def _run(args) -> int:
 
 
 def main(argv=None) -> int:
-    """Run the command ``argv`` (default ``sys.argv[1:]``); returns the exit status: 0, or 2 after
-    one line ``nrrncf: error: ...`` on stderr for a bad argument."""
+    """Run the command ``argv`` (default ``sys.argv[1:]``); returns the exit status: 0, 2 after
+    one line ``nrrncf: error: ...`` on stderr for a bad argument, or 1 after one line
+    ``nrrncf: the simulation stopped ...`` for a run that ended early (``integrate.SimulationError``:
+    Newton failing at the smallest step, a non-finite state, the step limit)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
         args = parse(argv)
@@ -145,6 +147,13 @@ def main(argv=None) -> int:
     except (UsageError, ValueError) as e:
         print(f"nrrncf: error: {e}", file=sys.stderr)
         return 2
+    except RuntimeError as e:  # the library is imported lazily: its SimulationError is checked here
+        from ..integrate.results import SimulationError
+
+        if not isinstance(e, SimulationError):
+            raise
+        print(f"nrrncf: the simulation stopped early: {e}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -166,11 +166,10 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
 
     # the system is an argument of the compiled program, not a constant in it (``simulate_timed``):
     # XLA does not fold its arrays, and a reduced mechanism compiles with ``simulate``'s small-kernel
-    # options, which a program of the user's own ``jax.jit`` around ``simulate`` would not get
+    # options, which a program of the user's own ``jax.jit`` around ``simulate`` would not get; a
+    # run that stops early raises ``integrate.SimulationError`` with the time and the reason
     sol, compile_s, run_s = simulate_timed(system, GeneralizedAlphaIndex3(rho_inf), controller, ts, observe=fn,
-                                           y0=y0, progress=progress, throw=False)
-    if not sol.succeeded:
-        raise RuntimeError(f"the run stopped early: {sol.message}")
+                                           y0=y0, progress=progress)
     series = {k: np.asarray(sol.ys[k]) for k in setup.sensors}  # in the setup's order (a dict pytree is sorted)
     return MechanismRun(ts, series, system.n_dof, int(sol.num_steps), int(sol.num_rejected), int(sol.num_newton),
                         compile_s, run_s, system.formulation,
