@@ -450,9 +450,10 @@ def test_turned_systems_keep_their_joints_and_turn_every_vector():
     A = np.asarray(rotation_about(jnp.asarray(axis), angle))
     floating, _ = build_reduced_pendulum(PendulumSpec(elements=2), n_vms=2, pairs=[(0, 0)])
     ancf = build_pendulum(PendulumSpec(elements=2))
-    beam = ancf.bodies[0]
+    beam = ancf.bodies[0].body
     clamped = MultibodySystem([beam], [Fixed(0, [0, 1, 2], values=np.asarray(beam.q_hat)[:3])])
-    for system, vectors in ((floating, floating.nodal_vectors), (ancf, ancf.split), (clamped, clamped.split)):
+    for system, vectors in ((floating, floating.nodal_vectors), (ancf, ancf.nodal_vectors),
+                            (clamped, clamped.nodal_vectors)):
         turned = system.turned(3.0 * axis, angle)  # any length of axis
         x0, x1 = (np.concatenate([np.asarray(x) for x in vectors(s.reference())]) for s in (system, turned))
         np.testing.assert_allclose(x1, x0 @ A.T, rtol=0, atol=1e-14 * np.abs(x0).max())

@@ -25,6 +25,7 @@ import numpy as np
 
 from .._types import Array, Float, Scalar
 from ..bodies.body import Body
+from .inertial import InertialBody
 from .mechanism import Mechanism
 
 
@@ -44,7 +45,8 @@ def placed(body: Body, rotation=None, translation=(0.0, 0.0, 0.0)) -> Body:
 class MultibodySystem(Mechanism):
     """Bodies (``Body``, placed in space: their ``q_hat`` is the initial, stress-free state), joints
     (on nodal vectors or on markers) and ``gravity`` (an acceleration, 3-vector): a ``Mechanism``
-    of ANCF bodies (see the module docstring).
+    of ANCF bodies (see the module docstring). Its ``bodies`` are the mechanism's
+    ``InertialBody``s; ``bodies[k].body`` is the element body.
 
     Raises ``ValueError`` before anything is traced for: a joint that refers to a body or nodal
     vector that does not exist, a body that no joint holds, joint equations that the initial
@@ -52,8 +54,8 @@ class MultibodySystem(Mechanism):
     the iteration matrix singular)."""
 
     def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0)):
-        bodies = tuple(bodies)
-        if not bodies or not all(isinstance(b, Body) for b in bodies):
+        bodies = tuple(bodies)  # element bodies, or the InertialBody that a system made of one
+        if not bodies or not all(isinstance(b, (Body, InertialBody)) for b in bodies):
             raise ValueError("bodies must be a non-empty sequence of Body")
         super().__init__(bodies, joints, gravity)
         self.check_joints(require_held=True)
