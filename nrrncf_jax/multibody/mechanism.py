@@ -26,6 +26,8 @@ is per XLA operation, and XLA's compile time grows with the operations it is han
 (``benchmarks/results/compile_breakdown.md``).
 """
 
+from typing import ClassVar
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -132,6 +134,7 @@ class Mechanism(AbstractConstrainedModel):
     stacks: tuple  # each run's bodies stacked (vmapped), None for a run of one
 
     preferred_newton = "modified"
+    require_held: ClassVar[bool] = False  # every body must be held by a joint (``MultibodySystem``)
     project_velocities = True  # GeneralizedAlphaIndex3 projects v onto C_z v = −C_t after each step (floating)
 
     def __init__(self, bodies, joints=(), gravity=(0.0, 0.0, 0.0), forces=()):
@@ -158,7 +161,7 @@ class Mechanism(AbstractConstrainedModel):
                                      f"body {b}, which does not exist")
         self.runs = _runs(self.bodies)
         self.stacks = _stacks(self.bodies, self.runs)
-        self.check_joints()
+        self.check_joints(require_held=self.require_held)
 
     # --- coordinates ------------------------------------------------------------------------------
     def body_sizes(self) -> tuple[int, ...]:

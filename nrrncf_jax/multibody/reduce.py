@@ -100,19 +100,18 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
         raise ValueError("the first interface's node's unit gradient vectors are not a right-handed orthonormal frame")
     R0 = geometry.vectors[frame]
     if conditions != "clamped":
-        A0 = _chord_frame(geometry.vectors[nodes[1]] - R0, A0)
+        A0 = _chord_frame(geometry.vectors[nodes[1]] - R0, A0, conditions)
     local = placed(body, A0.T, -A0.T @ R0)
     free = np.ones((body.n_vectors, 3), bool)
-    if conditions == "clamped":
-        free[[frame] + gradients[1:]] = False
-    elif conditions == "pinned":  # A's position, B's transverse components, A's section's twist (r_y's z)
+    if conditions == "pinned":  # A's position and its section's twist (r_y's z)
         free[frame] = False
-        free[nodes[1], 1:] = False
         free[gradients[1], 2] = False
-    else:  # bearing: A clamped; B's transverse components and its section vectors' x components
+    else:  # A clamped: its position and section vectors
         free[[frame] + gradients[1:]] = False
+    if conditions != "clamped":  # B's transverse components, and in a bearing its bending rotations
         free[nodes[1], 1:] = False
-        free[list(geometry.section(0, nodes[1])), 0] = False
+        if conditions == "bearing":
+            free[list(geometry.section(0, nodes[1])), 0] = False
     free = free.reshape(-1)
     if plane_normal is not None:
         n_local = A0.T @ (np.asarray(plane_normal, dtype=float) / np.linalg.norm(plane_normal))
@@ -121,7 +120,7 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
             raise ValueError("plane_normal: in-plane modes are built for C1 beams whose section axes hold the "
                              "plane's normal")
         free &= mirror_even(body.n_vectors // NODAL_VECTORS_PER_NODE, "yz"[axis - 1])
-    held = {"clamped": "frame and cantilever conditions at the first interface",
+    described = {"clamped": "frame and cantilever conditions at the first interface",
              "pinned": "frame along the chord of the first two interfaces, simply supported (pinned) conditions",
              "bearing": "frame along the chord of the first two interfaces, clamped at the first, a bearing at the "
                         "second"}[conditions]
@@ -150,15 +149,16 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
             raise ValueError("a Craig-Bampton basis needs a second interface (its boundary coordinates)")
         Psi = np.asarray(craig_bampton_basis(local, free, positions + sections, vms, pairs,
                                              deflate_tol=deflation_tol).basis)
-        note = (f"extended Craig-Bampton, {held}; {len(positions + sections)} boundary coordinates at the other "
-                f"interfaces, {vms} fixed-interface VMs + {len(pairs)} MDs and the constraint modes' MDs")
+        note = (f"extended Craig-Bampton, {described}; {len(positions + sections)} boundary coordinates at the "
+                f"other interfaces, {vms} fixed-interface VMs + {len(pairs)} MDs and the constraint modes' MDs")
         return FloatingBody(local, Psi, elastic_tensors(local, local.q_hat, Psi), R0=R0, A0=A0, free=free, note=note)
     if (interface_modes or interface_mds) and not positions:
         raise ValueError("interface_modes needs a second interface (the point whose static modes are added)")
     if interface_mds and not interface_modes:
         raise ValueError("interface_mds needs interface_modes (the modes whose derivatives it adds)")
     phi = np.asarray(vibration_modes(local, free, vms).phi)
-    note = f"{held}; {vms} VMs + " + ("MDs to be chosen by modal interaction" if mds == "mmi" else f"{len(pairs)} MDs")
+    chosen = "MDs to be chosen by modal interaction" if mds == "mmi" else f"{len(pairs)} MDs"
+    note = f"{described}; {vms} VMs + {chosen}"
     if interface_modes:
         note += ("; the other interfaces' force" + (" and moment" if interface_rotations else "")
                  + " attachment modes" + (" and their MDs" if interface_mds else ""))
@@ -177,14 +177,14 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     return modal_body(local, free, both, pairs, R0, A0, deflation_tol, note=note)
 
 
-def _chord_frame(chord, A) -> np.ndarray:
+def _chord_frame(chord, A, conditions: str) -> np.ndarray:
     """The right-handed orthonormal frame whose first axis is along ``chord`` and whose second is
     the frame ``A``'s second axis made normal to it (the first pin's section vector r_y)."""
     e1 = chord / np.linalg.norm(chord)
     e2 = A[:, 1] - (A[:, 1] @ e1) * e1
     if np.linalg.norm(e2) < 1e-6:
-        raise ValueError("conditions='pinned': the first pin's section vector r_y lies along the chord between the "
-                         "pins")
+        raise ValueError(f"conditions={conditions!r}: the first interface's section vector r_y lies along the "
+                         "chord between the first two interfaces")
     e2 = e2 / np.linalg.norm(e2)
     return np.stack([e1, e2, np.cross(e1, e2)], axis=1)
 

@@ -53,12 +53,13 @@ class MultibodySystem(Mechanism):
     state does not satisfy, and redundant joint equations (a rank-deficient C_x, which would make
     the iteration matrix singular)."""
 
+    require_held = True
+
     def __init__(self, bodies, joints, gravity=(0.0, 0.0, 0.0)):
         bodies = tuple(bodies)  # element bodies, or the InertialBody that a system made of one
         if not bodies or not all(isinstance(b, (Body, InertialBody)) for b in bodies):
             raise ValueError("bodies must be a non-empty sequence of Body")
         super().__init__(bodies, joints, gravity)
-        self.check_joints(require_held=True)
 
     def displacements(self, t: Scalar, x: Float[Array, " n"]) -> Float[Array, "nv 3"]:
         """All nodal vectors' displacements from the initial state, stacked body by body."""

@@ -15,12 +15,13 @@ import importlib.util
 import inspect
 import pathlib
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
 from ..integrate import AdaptiveStepSize, ConstantStepSize, GeneralizedAlphaIndex3, simulate_timed
 from ..models.constrained import AbstractConstrainedModel
-from ..multibody.sensors import observe
+from ..multibody.sensors import Observer, observe
 from ..post.outline import mechanism_outline
 
 _POINTS = "__points__"  # the recorded nodes' key among the observed outputs
@@ -126,6 +127,18 @@ def examples() -> list[str]:
     return sorted(p.stem for p in folder.glob("*.py") if not p.stem.startswith("_"))
 
 
+class _WithOutline(eqx.Module):
+    """The sensors (``multibody.sensors.Observer``) and every body's nodes (``positions=True``) as
+    one observer module, so that the system stays an argument of the compiled run."""
+
+    sensors: Observer
+    nodes: tuple[tuple[int, int], ...] = eqx.field(static=True)
+
+    def __call__(self, t, z, v):
+        xs = self.sensors.system.nodal_vectors(z)
+        return self.sensors(t, z, v) | {_POINTS: jnp.stack([xs[b][i] for b, i in self.nodes])}
+
+
 def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | None = None, n_out: int = 201,
               rho_inf: float | None = None, progress: bool = False, positions: bool = False,
               dt: float | None = None) -> MechanismRun:
@@ -154,11 +167,7 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     lines = None
     if positions:
         nodes, lines = mechanism_outline(system)
-        sensors_fn = fn
-
-        def fn(t, z, v):
-            xs = system.nodal_vectors(z)
-            return sensors_fn(t, z, v) | {_POINTS: jnp.stack([xs[b][i] for b, i in nodes])}
+        fn = _WithOutline(fn, tuple(nodes))
     y0 = setup.y0 if setup.y0 is not None else (system.reference(), 0.0 * system.reference())
 
     controller = AdaptiveStepSize(rtol, rtol / 10) if dt is None else \
