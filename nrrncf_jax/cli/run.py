@@ -1,7 +1,8 @@
 """``nrrncf run``: a mechanism of the user's own, from a model file or a bundled example
 (``scenarios.mechanism_file``).
 
-    nrrncf run MODEL [--param KEY=VALUE ...] [--t-end T] [--rtol R] [--dt H] [--rho-inf 0.9] [--n-out 201]
+    nrrncf run MODEL [--param KEY=VALUE ...] [--t-end T] [--rtol R] [--dt H] [--error-on NAMES]
+                     [--step-control plain|pi] [--rho-inf 0.9] [--n-out 201]
                      [--out F.csv] [--vtk DIR] [--animate F.gif] [--json] [--reference full]
                      [--no-progress]
 
@@ -10,7 +11,8 @@ bundled example (``nrrncf_jax/examples/``: ``slider_crank``, ``rotor``, ``two_li
 ``fourbar``). ``--param`` passes keyword parameters (Python literals parsed as such: numbers,
 lists such as ``mds=[(0,0),(0,1)]``, booleans; anything else as text). ``--dt H`` runs
 fixed steps of H seconds (as the peers run stiff, quasi-static mechanisms) instead of error-controlled
-ones. ``--out`` writes
+ones. ``--error-on`` names the sensors whose values the step error is measured on (``nodes``: every
+nodal vector; default: the model's ``error_on``). ``--out`` writes
 the sensors at the output times as CSV columns ``t`` and each sensor's name (a vector sensor as
 ``name_0, name_1, ...``); ``--vtk`` the bodies' nodes and edges (``post.outline``) over time as a
 ParaView series (.vtu files and a .pvd), ``--animate`` an animated GIF of them in the XY plane.
@@ -50,7 +52,8 @@ def _run(args) -> int:
     setup = load_setup(args.model, params)
     _common.say(args, f"{args.model}: {setup.system.formulation}, {setup.system.n_dof} coordinates, "
                       f"0-{args.t_end or setup.t_end:g} s ...")
-    kw = dict(t_end=args.t_end, rtol=args.rtol, n_out=args.n_out, rho_inf=args.rho_inf, dt=args.dt)
+    kw = dict(t_end=args.t_end, rtol=args.rtol, n_out=args.n_out, rho_inf=args.rho_inf, dt=args.dt,
+              error_on=args.error_on, step_control=args.step_control)
     run = run_setup(setup, **kw, positions=bool(args.vtk or args.animate))
     out = run.summary() | {"model": args.model, "params": params}
     if args.out:
@@ -89,7 +92,8 @@ def _reference_errors(args, setup, params, run, kw) -> dict:
     """``--reference full``: the run's error against a converged full-order reference, and its parts.
 
     The full model (``formulation=ancf``) runs twice, error-controlled at a tenth and a hundredth
-    of the run's tolerance (``REFERENCE_TIGHTENING``); the tighter one is the reference, and the
+    of the run's tolerance (``REFERENCE_TIGHTENING``), its step error on every nodal vector
+    whatever the model's ``error_on``; the tighter one is the reference, and the
     two references' distance (``reference_error_percent``) bounds the looser one's own error, so
     it says how far the reference can be trusted. The model runs again at the reference's
     tighter tolerance: the run's distance to that is its own time-integration error
@@ -101,7 +105,8 @@ def _reference_errors(args, setup, params, run, kw) -> dict:
 
     rtol = setup.rtol if args.rtol is None else float(args.rtol)
     loose, tight = rtol / REFERENCE_TIGHTENING, rtol / REFERENCE_TIGHTENING**2
-    adaptive = dict(kw, dt=None)
+    # converged in every coordinate, not only in the outputs the run's own step error watches
+    adaptive = dict(kw, dt=None, error_on="nodes")
     _common.say(args, f"the full-order reference (formulation=ancf) at rtol {loose:g} and {tight:g} ...")
     ref_setup = load_setup(args.model, params | {"formulation": "ancf"})
     ref_loose = run_setup(ref_setup, **(adaptive | {"rtol": loose}))
@@ -154,6 +159,11 @@ def register(sub) -> None:
     t.add_argument("--rtol", type=float, default=None, help="step tolerance (default: the model's; atol = rtol/10 m)")
     t.add_argument("--dt", type=float, default=None,
                    help="fixed steps of this size [s] instead of error control (rtol then scales Newton's test)")
+    t.add_argument("--error-on", default=None, metavar="NAMES",
+                   help="the sensors (comma-separated) on whose values the step error is measured, or 'nodes' for "
+                        "every nodal vector (default: the model's)")
+    t.add_argument("--step-control", choices=("plain", "pi"), default=None,
+                   help="the adaptive step-size controller (default: the model's)")
     t.add_argument("--rho-inf", type=float, default=None,
                    help="generalized-alpha spectral radius at infinity (default: the model's)")
     t.add_argument("--n-out", type=int, default=201, help="equally spaced output times")

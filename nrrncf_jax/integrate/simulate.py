@@ -492,14 +492,16 @@ class _AdaptiveLoop(eqx.Module):
         t1 = jnp.where(jnp.abs(t1 - ns) <= 1e-12 * (1.0 + jnp.abs(ns)), ns, t1)
         x0, mask = self.error_coords(st.q)
         x0 = lax.stop_gradient(x0)
-        newton_scale = controller.scale(x0)
-        # Newton's corrections are measured in the step's error space, in units of the
-        # tolerance at the step's start; in reverse mode without derivatives (the step
-        # differentiates its solve implicitly).
+        # Newton's corrections are measured in the model's Newton space (its error space unless
+        # it says otherwise: every coordinate must converge, also those the step error leaves
+        # out), in units of the tolerance at the step's start; in reverse mode without
+        # derivatives (the step differentiates its solve implicitly).
         m_n, q_n = lax.stop_gradient((model, st.q)) if self.newton.implicit else (model, st.q)
+        xn0, _, newton_mask = m_n.newton_space(q_n, jnp.zeros_like(q_n))
+        newton_scale = controller.scale(lax.stop_gradient(xn0))
 
         def norm(dq):
-            return self.rms(m_n.error_space(q_n, dq)[1], newton_scale, mask)
+            return self.rms(m_n.newton_space(q_n, dq)[1], newton_scale, newton_mask)
 
         st1, error, newton_sol = solver.step(model, t, t1, st, self.newton, norm, h=h, matrix=c.matrix)
         iters, done = newton_sol.iterations, newton_sol.converged
@@ -649,7 +651,7 @@ def _simulate_program(model, solver, controller, ts, t0, y0, newton: NewtonOptio
 
 
 SMALL_KERNEL_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
-"""XLA's options for a single run of a model made of small kernels (``AbstractModel.small_kernels``:
+"""XLA's options for a run of a model made of small kernels (``AbstractModel.small_kernels``:
 the reduced models) on a CPU: the older (LLVM IR) emitter for fused element-wise kernels instead of
 the MLIR-based one: it compiles such a run's loop faster, and the loop runs as fast. The
 full-order models' large fused kernels (element forces at every Gauss point) and a batch's wider
@@ -658,7 +660,12 @@ ones run slower with it, so those keep XLA's defaults (figures:
 flag is changed, and inside a user's own ``jit`` the outer program's options apply."""
 
 _simulate = eqx.filter_jit(_simulate_program)
-_simulate_small = eqx.filter_jit(_simulate_program, compiler_options=SMALL_KERNEL_OPTIONS)
+_SINGLE_RUN_OPTIONS = SMALL_KERNEL_OPTIONS | {"xla_cpu_experimental_ynn_fusion_type": ""}
+"""A single run's options: ``SMALL_KERNEL_OPTIONS`` and no YNNPACK kernels for the small dot
+products. YNNPACK plans its kernels when a program first runs, a one-off few tens of milliseconds
+that is as much as a whole reduced mechanism's run, and its kernels are no faster on products of a
+few tens of rows (``benchmarks/results/xla_options.md``); a batch's wider products keep it."""
+_simulate_small = eqx.filter_jit(_simulate_program, compiler_options=_SINGLE_RUN_OPTIONS)
 
 
 def kernel_options(small: bool, platform: str | None = None) -> dict:
@@ -695,10 +702,10 @@ def _at_top_level() -> bool:
 
 @functools.cache
 def _small_kernel_options_known() -> bool:
-    """Whether this jaxlib's XLA knows ``SMALL_KERNEL_OPTIONS`` (an unknown option fails the
+    """Whether this jaxlib's XLA knows ``SMALL_KERNEL_OPTIONS`` and the single run's (an unknown option fails the
     compilation): compiles a one-operation program with them, once a process."""
     try:
-        jax.jit(lambda x: x + 1.0, compiler_options=SMALL_KERNEL_OPTIONS).lower(1.0).compile()
+        jax.jit(lambda x: x + 1.0, compiler_options=_SINGLE_RUN_OPTIONS).lower(1.0).compile()
     except Exception:  # noqa: BLE001 - any refusal means: keep XLA's defaults
         return False
     return True

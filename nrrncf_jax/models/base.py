@@ -72,3 +72,10 @@ class AbstractModel(eqx.Module):
         model's own coordinates; a reduced model maps back to the physical ones so that the
         same rtol means the same accuracy for full and reduced models."""
         return q, e, self.free_mask()
+
+    def newton_space(self, q: Float[Array, " n"], e: Float[Array, " n"]):
+        """Where Newton's corrections are measured, as ``error_space`` returns it: the error
+        space by default. A model whose step error leaves coordinates out (outputs only, or
+        quasi-static coordinates) measures its corrections on all of them, since all must
+        converge."""
+        return self.error_space(q, e)

@@ -132,6 +132,7 @@ class Mechanism(AbstractConstrainedModel):
     forces: tuple[AbstractForceElement, ...]
     runs: tuple[tuple[int, int], ...] = eqx.field(static=True)  # (first, count): consecutive equal bodies
     stacks: tuple  # each run's bodies stacked (vmapped), None for a run of one
+    error_sensors: tuple = ()  # (name, resolved sensor): the step error on these outputs (``observed_error``)
 
     preferred_newton = "modified"
     require_held: ClassVar[bool] = False  # every body must be held by a joint (``MultibodySystem``)
@@ -161,6 +162,7 @@ class Mechanism(AbstractConstrainedModel):
                                      f"body {b}, which does not exist")
         self.runs = _runs(self.bodies)
         self.stacks = _stacks(self.bodies, self.runs)
+        self.error_sensors = ()
         self.check_joints(require_held=self.require_held)
 
     # --- coordinates ------------------------------------------------------------------------------
@@ -307,12 +309,45 @@ class Mechanism(AbstractConstrainedModel):
                           tuple(b.stiffened(s) if i in chosen else b for i, b in enumerate(self.bodies)))
         return eqx.tree_at(lambda m: m.stacks, out, _stacks(out.bodies, out.runs), is_leaf=lambda x: x is None)
 
+    def observed_error(self, sensors: dict) -> "Mechanism":
+        """This mechanism with its step error measured on the outputs ``sensors`` ({name:
+        sensor}, configuration sensors: ``Position``, ``ChordDeflection``, ``SectionAngle``)
+        instead of on every nodal vector: the error of a step is J_y e, y the sensors' values,
+        weighted by ``atol + rtol |y|`` (lengths in metres, angles in radians). The nodal vectors
+        hold the stiff directions a reduced body's modal derivatives add (an axial vibration in the
+        kHz, its strain as large as the tolerance on unit slope vectors) and the mechanism's rigid
+        motion, whose size scales the tolerance; an error norm on what the user observes lets the
+        step follow that, with the fast directions left to the integrator's damping (ρ∞ < 1).
+        An empty ``sensors`` restores the nodal vectors."""
+        from .sensors import ChordDeflection, Position, SectionAngle  # sensors read the system: imported late
+
+        chosen = []
+        for name, sensor in dict(sensors).items():
+            if not isinstance(sensor, (Position, ChordDeflection, SectionAngle)):
+                raise ValueError(f"the step error is measured on configuration sensors (Position, ChordDeflection, "
+                                 f"SectionAngle); sensor {name!r} is a {type(sensor).__name__}")
+            chosen.append((str(name), sensor.resolve(self)))
+        return eqx.tree_at(lambda m: m.error_sensors, self, tuple(chosen))
+
     def error_space(self, z, e):
-        """The step error in the inertial nodal vectors (J e), so that a tolerance means what it
-        means for the full system. Each body's vectors are taken component by component (3 × nv,
-        not nv × 3): the loop only forms norms of these, which do not depend on the order, and
-        with the nodal vectors innermost XLA computes them in rows as long as the body's vectors
-        instead of rows of three (``benchmarks/results/hlo_ops.md``)."""
+        """The step error on the sensors of ``observed_error`` (J_y e), or else in the inertial
+        nodal vectors as ``newton_space`` measures it, so that a tolerance means what it means for
+        the full system."""
+        if self.error_sensors:
+            def outputs(zz):
+                return jnp.concatenate([jnp.ravel(s(self, 0.0, zz, None)) for _, s in self.error_sensors])
+
+            y, dy = jax.jvp(outputs, (z,), (e,))
+            return y, dy, jnp.ones(y.shape[0], bool)
+        return self.newton_space(z, e)
+
+    def newton_space(self, z, e):
+        """Every inertial nodal vector (J e): Newton's corrections are measured there, whatever
+        the step error is measured on (``observed_error``), since every coordinate must converge.
+        Each body's vectors are taken component by component (3 × nv, not nv × 3): the loop only
+        forms norms of these, which do not depend on the order, and with the nodal vectors
+        innermost XLA computes them in rows as long as the body's vectors instead of rows of three
+        (``benchmarks/results/hlo_ops.md``)."""
         x = self._concat_map(lambda b, zb: b.nodal_vectors(zb).T, z)
         dx = self._concat_map(lambda b, zb, eb: b.tangent(zb, eb).T, z, e)
         return x, dx, jnp.ones(x.shape[0], bool)
@@ -342,7 +377,10 @@ class Mechanism(AbstractConstrainedModel):
     def describe(self) -> list[str]:
         """One line a body: its kind and coordinates, and for a reduced body how its basis was
         chosen (``multibody.reduce``)."""
-        return [f"body {i}: {b.describe()}" for i, b in enumerate(self.bodies)]
+        lines = [f"body {i}: {b.describe()}" for i, b in enumerate(self.bodies)]
+        if self.error_sensors:
+            lines.append("step error on the sensors " + ", ".join(n for n, _ in self.error_sensors))
+        return lines
 
     def _frame_keys(self) -> tuple[tuple[int, tuple[int, int]], ...]:
         """The nodes whose section frames the joints read (``section_frame.Directions``), as

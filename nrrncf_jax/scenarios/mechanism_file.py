@@ -19,7 +19,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ..integrate import AdaptiveStepSize, ConstantStepSize, GeneralizedAlphaIndex3, simulate_timed
+from ..integrate import ConstantStepSize, GeneralizedAlphaIndex3, simulate_timed
+from ..integrate.step_size import STEP_CONTROLS, adaptive_step_size
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody.sensors import Observer, observe
 from ..post.outline import mechanism_outline
@@ -33,7 +34,9 @@ class MechanismSetup:
     the system's reference at rest), ``t_end`` [s] (the default end time), ``rtol`` (the default
     step tolerance), ``rho_inf`` (the default generalized-α ρ∞), ``compare`` (the sensors whose
     χ_rel a reference run reports: positions and deflections; None: all) and ``info`` (anything
-    the example reports: its parameters, an offline time)."""
+    the example reports: its parameters, an offline time), ``error_on`` (the sensors on which the
+    step error is measured, ``multibody.Mechanism.observed_error``; empty: every nodal vector) and
+    ``step_control`` (the adaptive controller's name, ``integrate.STEP_CONTROLS``)."""
 
     system: AbstractConstrainedModel
     sensors: dict
@@ -43,6 +46,8 @@ class MechanismSetup:
     rho_inf: float = 0.9
     compare: tuple | None = None
     info: dict = dataclasses.field(default_factory=dict)
+    error_on: tuple = ()
+    step_control: str = "plain"
 
     def __post_init__(self):
         if not isinstance(self.system, AbstractConstrainedModel):
@@ -50,6 +55,22 @@ class MechanismSetup:
                              f"{type(self.system).__name__}")
         if not isinstance(self.sensors, dict) or not self.sensors:
             raise ValueError("a model needs its sensors: a dict {name: sensor} (multibody.sensors)")
+        self.error_on = _error_names(self.error_on, self.sensors)
+        if self.step_control not in STEP_CONTROLS:
+            raise ValueError(f"step_control must be one of {tuple(STEP_CONTROLS)}, got {self.step_control!r}")
+
+
+def _error_names(error_on, sensors: dict) -> tuple:
+    """``error_on`` as a tuple of sensor names: a sequence of names, a comma-separated string, or
+    ``"nodes"``/empty for every nodal vector."""
+    if isinstance(error_on, str):
+        error_on = () if error_on.strip() in ("", "nodes") else tuple(n.strip() for n in error_on.split(","))
+    names = tuple(str(n) for n in error_on)
+    unknown = [n for n in names if n not in sensors]
+    if unknown:
+        raise ValueError(f"error_on names sensors {unknown} that the model does not have (its sensors: "
+                         f"{', '.join(sensors)}; 'nodes' for every nodal vector)")
+    return names
 
 
 @dataclasses.dataclass
@@ -141,14 +162,17 @@ class _WithOutline(eqx.Module):
 
 def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | None = None, n_out: int = 201,
               rho_inf: float | None = None, progress: bool = False, positions: bool = False,
-              dt: float | None = None) -> MechanismRun:
+              dt: float | None = None, error_on=None, step_control: str | None = None) -> MechanismRun:
     """Run ``setup`` to ``t_end`` (its default) at ``rtol`` (atol = rtol/10 of the nodal vectors'
     metres) with ``GeneralizedAlphaIndex3(rho_inf)``, the sensors at ``n_out`` equal output times;
     compile and run timed apart (ahead-of-time compilation, then a blocked run). ``rho_inf``: the
     setup's by default. ``positions``: also record every body's nodes and their edges
     (``post.outline``: ``points``, ``lines``), for a VTK series or an animation. ``dt``: fixed
     steps of that size (``ConstantStepSize``; rtol then scales Newton's test only), as the peers
-    run quasi-static mechanisms, instead of error-controlled ones."""
+    run quasi-static mechanisms, instead of error-controlled ones. ``error_on``: the sensors whose
+    values the step error is measured on (names, a comma-separated string, or ``"nodes"`` for every
+    nodal vector; the setup's ``error_on`` by default, ``multibody.Mechanism.observed_error``).
+    ``step_control``: the adaptive controller by name (the setup's by default)."""
     t_end = setup.t_end if t_end is None else float(t_end)
     rtol = setup.rtol if rtol is None else float(rtol)
     rho_inf = setup.rho_inf if rho_inf is None else float(rho_inf)
@@ -157,6 +181,11 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     if dt is not None and not 0 < float(dt) <= t_end:
         raise ValueError(f"dt must lie in (0, t_end = {t_end:g}], got {dt}")
     system = setup.system
+    error_on = setup.error_on if error_on is None else _error_names(error_on, setup.sensors)
+    if error_on or getattr(system, "error_sensors", ()):
+        if not hasattr(system, "observed_error"):
+            raise ValueError(f"error_on: a {type(system).__name__} measures its step error on its own coordinates")
+        system = system.observed_error({k: setup.sensors[k] for k in error_on})
     awaiting = [b for b, body in enumerate(getattr(system, "bodies", ())) if getattr(body, "awaiting_mds", False)]
     if awaiting:  # it would run with its vibration modes alone, which the model did not ask for
         raise ValueError(f"bodies {awaiting} were reduced with mds='mmi' and their modal derivatives were never "
@@ -170,7 +199,8 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
         fn = _WithOutline(fn, tuple(nodes))
     y0 = setup.y0 if setup.y0 is not None else (system.reference(), 0.0 * system.reference())
 
-    controller = AdaptiveStepSize(rtol, rtol / 10) if dt is None else \
+    controller = adaptive_step_size(rtol, rtol / 10, setup.step_control if step_control is None else step_control) \
+        if dt is None else \
         ConstantStepSize(float(dt), rtol=rtol, atol=rtol / 10)
 
     # the system is an argument of the compiled program, not a constant in it (``simulate_timed``):
