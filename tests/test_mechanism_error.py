@@ -46,7 +46,14 @@ N_FREE = int(np.asarray(_swing(vms=1, mds=()).bodies[0].free).sum())
 def full_swing():
     full = full_counterpart(_swing(vms=1, mds=()))
     zs, _ = _run(full)
-    return full, _positions(full, zs)
+    return full, _positions(full, zs), _deformation(full, zs)
+
+
+def _deformation(system, zs) -> np.ndarray:
+    """The body's deformation Ψp (its basis's displacement in its frame) on its position vectors."""
+    body = system.bodies[0]
+    on = np.asarray(body.is_position) > 0
+    return np.stack([(np.asarray(body.basis) @ z[7:]).reshape(-1, 3)[on] for z in zs])
 
 
 def test_the_full_counterpart_keeps_every_free_coordinate():
@@ -78,8 +85,10 @@ def test_the_estimate_tracks_the_measured_error(full_swing):
     χ_rel (a short swing, before the drift of a long multibody motion that it cannot see), and
     larger for the smaller basis. The linearised error equation (``method="dynamic"``) on the
     first basis: within the effectivity band 0.5-2, valid over the whole run (the beam hangs in
-    tension: its linearisation is stable)."""
-    full, x_full = full_swing
+    tension: its linearisation is stable); and so is its error relative to the beam's deformation
+    (``body_chi_percent``, the frame's swing left out), which is the larger figure: the swing
+    is far larger than the bending."""
+    full, x_full, d_full = full_swing
     estimates = []
     for basis in (dict(vms=4, mds="all"), dict(vms=2, mds=())):
         reduced = _swing(**basis)
@@ -93,6 +102,9 @@ def test_the_estimate_tracks_the_measured_error(full_swing):
             dynamic = estimate_mechanism_error(full, reduced, TS, zs, vs, method="dynamic")
             assert dynamic.valid_until is None and dynamic.reliable
             assert 0.5 < dynamic.chi_rel_percent / measured < 2, (dynamic.chi_rel_percent, measured)
+            on_deformation = 100 * np.sqrt(np.sum((x - x_full) ** 2) / np.sum(d_full**2))
+            body = dynamic.body_chi_percent[0]
+            assert 0.5 < body / on_deformation < 2 and body > 2 * dynamic.chi_rel_percent, (body, on_deformation)
     assert estimates[1] > 3 * estimates[0]
 
 
@@ -137,7 +149,7 @@ def test_a_basis_chosen_to_a_tolerance_meets_it_measured(full_swing):
     basis can reach, the search says so and keeps the longest prefix."""
     from nrrncf_jax.multibody.basis_to_tolerance import mechanism_to_tolerance
 
-    full, x_full = full_swing
+    full, x_full, _ = full_swing
     order = ["2 VMs", "their MDs", "VM 3 and its MDs", "VM 4 and its MDs", "VM 5 and its MDs"]
     tol = 0.5
     search = mechanism_to_tolerance(_from_prefix, order, TS, tol, rtol=1e-5, atol=1e-7, start=3)

@@ -191,7 +191,9 @@ class ErrorEstimate:
     linearisation held (None: throughout); χ_rel is then over the outputs up to it.
     ``integration_percent``: the run's own time-integration error as χ_rel in per cent, where
     the estimate was made on a repetition of the run at tightened tolerances
-    (``reduction.run_error``; None otherwise)."""
+    (``reduction.run_error``; None otherwise). ``body_chi_percent``: for a mechanism, each
+    reduced body's estimated χ_rel relative to its own deformation ({body index: per cent};
+    ``multibody.error_estimate``; None otherwise)."""
 
     ts: np.ndarray
     error_norm: np.ndarray
@@ -202,6 +204,7 @@ class ErrorEstimate:
     run_s: float
     valid_until: float | None = None  # where an integrated error equation stopped being valid (None: throughout)
     integration_percent: float | None = None  # the run's own time-integration error (reduction.run_error)
+    body_chi_percent: dict | None = None  # a mechanism's: {body: estimated χ_rel on its deformation}
 
     @property
     def reliable(self) -> bool:

@@ -96,6 +96,8 @@ class RunRecord(abc.ABC):
                 **({} if e.valid_until is None else {"estimate_valid_until_s": e.valid_until}),
                 **({} if e.integration_percent is None else
                    {"integration_error_estimate_percent": e.integration_percent}),
+                **({} if not e.body_chi_percent else
+                   {f"chi_rel_estimate_body_{b}_percent": c for b, c in e.body_chi_percent.items()}),
                 **({} if search is None else search.summary())}
 
 
