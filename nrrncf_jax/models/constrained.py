@@ -186,7 +186,8 @@ class AbstractConstrainedModel(AbstractModel):
 
             [M   C_xᵀ] [a]   [−(g(t, x, v))  ]
             [C_x  0  ] [λ] = [−(C_x v)_x v   ]
-        """
+
+        one dense solve (a system's own factorisation is for the iteration matrix)."""
         B = self.constraint_jacobian(x, t)
         n, m = self.n_dof, B.shape[0]
         A = jnp.block([[self.mass_matrix(x), B.T], [B, jnp.zeros((m, m), x.dtype)]])
