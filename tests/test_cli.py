@@ -134,6 +134,16 @@ def test_spinup_nr_rncf_with_reference_json(tmp_path, capsys):
     assert isinstance(d["chi_rel_percent"], float) and math.isfinite(d["chi_rel_percent"])
     assert 0 <= d["chi_rel_percent"] < 5
     assert d["speedup"] > 0 and d["reference"]["dofs"] == 2 * 18 + 9
+    # the reference is converged (rtol/100) and the total splits into its parts: they bound it by
+    # the triangle inequality (χ_rel of the integration part normalised by the tight reduced run,
+    # of the others by the reference: the factor 1 + basis), and the reference's own error is small
+    total, integration, basis = (d[k] for k in ("chi_rel_percent", "integration_error_percent",
+                                               "basis_error_percent"))
+    assert d["reference_rtol"] == pytest.approx(1e-6)
+    assert total <= (integration * (1 + basis / 100) + basis) * (1 + 1e-9)
+    assert d["reference_error_percent"] < 0.5 * total
+    assert d["chi_rel_estimate_percent"] == pytest.approx(d["basis_error_estimate_percent"]
+                                                          + d["integration_error_estimate_percent"])
     assert png.stat().st_size > 10_000
 
 

@@ -83,15 +83,21 @@ class RunRecord(abc.ABC):
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup}
 
     def estimate_summary(self) -> dict:
-        """The error estimate's fields (empty without one): the estimated χ_rel, whether it is in
-        its reliable range, its samples and run time, after ``compare`` the effectivity (estimate /
-        measured), and the basis search's record where the basis was chosen to a tolerance."""
+        """The error estimate's fields (empty without one): the estimated total χ_rel (the basis
+        part, plus the run's own time-integration part where it was estimated) and the basis part
+        alone, whether it is in its reliable range, its samples and run time, after ``compare`` the
+        effectivity (total estimate / measured), and the basis search's record where the basis was
+        chosen to a tolerance."""
         e = self.estimate
         if e is None:
             return {}
-        eff = None if not self.chi_rel_percent else e.chi_rel_percent / self.chi_rel_percent
+        # the total: the basis part, and the run's own time-integration part where it was estimated
+        # (their sum bounds the norm of the summed errors)
+        total = e.chi_rel_percent + (e.integration_percent or 0.0)
+        eff = None if not self.chi_rel_percent else total / self.chi_rel_percent
         search = getattr(getattr(self, "reduction", None), "search", None)
-        return {"chi_rel_estimate_percent": e.chi_rel_percent, "estimate_reliable": e.reliable,
+        return {"chi_rel_estimate_percent": total, "basis_error_estimate_percent": e.chi_rel_percent,
+                "estimate_reliable": e.reliable,
                 "estimate_samples": int(len(e.ts)), "estimate_run_s": e.run_s, "effectivity": eff,
                 **({} if e.valid_until is None else {"estimate_valid_until_s": e.valid_until}),
                 **({} if e.integration_percent is None else

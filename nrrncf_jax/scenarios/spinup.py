@@ -11,9 +11,10 @@ import numpy as np
 
 from .. import _validate
 from ..integrate import GeneralizedAlpha, adaptive_step_size
-from ..integrate.simulate import simulate_timed
+from ..integrate.simulate import simulate, simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
+from ..post.metrics import chi_rel
 from ..reduction.pipeline import nr_rncf
 from ..reduction.run_error import TIGHTEN, estimate_own_run, observe_state, run_step_ts
 from ..studies.sweep import SweepGrid
@@ -76,6 +77,7 @@ class SpinupResult(RunRecord):
     spin: object = None  # the ``SpinCheck`` of the spinning-state enrichment (None: not checked)
     reduction: object = dataclasses.field(default=None, repr=False)  # the ``Reduction`` (W, omega, model)
     basis_search: object = None  # the ``reduction.basis_to_tolerance.BasisSearch`` (None: no tol given)
+    error_split: dict | None = None  # with a converged reference: the error's parts (``run_nr_rncf_spinup``)
 
     REFERENCE: ClassVar[str] = ("a full RNCF SpinupResult of the same beam mesh and output times, run with "
                                 "save_displacements=True")
@@ -116,7 +118,7 @@ class SpinupResult(RunRecord):
                     "omega": self.spin.omega, "mode": self.spin.mode, "omega_spin": self.spin.omega_spin,
                     "omega_ritz": self.spin.omega_ritz, "rel_err": self.spin.rel_err, "enriched": self.spin.enriched,
                     "spin_vms": list(self.spin.vms), "spin_mds": [list(p) for p in self.spin.pairs]},
-                "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup,
+                "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup, **(self.error_split or {}),
                 **self.estimate_summary(), **self._tolerance_summary(),
                 "reference": None if ref is None else {"formulation": ref.formulation, "dofs": ref.dofs,
                                                        **ref.statistics()},
@@ -167,9 +169,11 @@ class SpinupResult(RunRecord):
             rows.append(("chi_rel estimate [%] (no full run)", f"{s['chi_rel_estimate_percent']:.4f}  "
                          f"({s['estimate_samples']} samples, {s['estimate_run_s']:.3f} s){note}"))
             if "integration_error_estimate_percent" in s:
-                rows.append(("integration error estimate [%]", f"{s['integration_error_estimate_percent']:.4f}  "
+                rows.append(("  basis error estimate [%]", f"{s['basis_error_estimate_percent']:.4f}"))
+            if "integration_error_estimate_percent" in s:
+                rows.append(("  integration error estimate [%]", f"{s['integration_error_estimate_percent']:.4f}  "
                              f"(this run against its repetition at rtol/{TIGHTEN:g}, at the samples)"))
-            rows.append(("tip error estimate [m]", f"{s['tip_error_estimate_m']:.2e}"
+            rows.append(("tip error estimate, basis [m]", f"{s['tip_error_estimate_m']:.2e}"
                          + ("" if "tip_error_m" not in s else f"  (measured {s['tip_error_m']:.2e})")))
         rows += [("steps accepted / rejected", f"{s['steps']} / {s['rejected']}"),
                  ("Newton iterations", f"{s['newton_iters']}"), ("compile [s]", f"{s['compile_s']:.2f}"),
@@ -182,8 +186,16 @@ class SpinupResult(RunRecord):
             rows += [(f"{name}: DOFs / steps", f"{r.dofs} / {r.steps} ({r.rejected} rejected)"),
                      (f"{name}: compile / run [s]", f"{r.compile_s:.2f} / {r.run_s:.3f}"),
                      ("chi_rel (Eq. 40, all q - q^) [%]", f"{self.chi_rel_percent:.4f}"
-                      + ("" if s.get("effectivity") is None else f"  (estimate / measured {s['effectivity']:.2f})")),
-                     ("speed-up (run time full / reduced)", f"{self.speedup:.2f}x")]
+                      + ("" if s.get("effectivity") is None else f"  (estimate / measured {s['effectivity']:.2f})"))]
+            if self.error_split is not None:
+                e = self.error_split
+                rows += [("  its parts [%]", f"time integration {e['integration_error_percent']:.4f}, basis "
+                          f"{e['basis_error_percent']:.4f} (the model again at the reference's tolerance)"),
+                         ("  reference's own error [%]", f"<= {e['reference_error_percent']:.4f} (full RNCF at rtol "
+                          f"{e['reference_rtol']:g} against {REFERENCE_TIGHTENING:g}x looser)")]
+            rows += [("speed-up (run time full / reduced)", f"{self.speedup:.2f}x"
+                      + ("" if self.error_split is None else
+                         f"  (full at rtol {self.error_split['reference_rtol'] * REFERENCE_TIGHTENING:g})"))]
         w = max(len(r[0]) for r in rows)
         return "\n".join(f"  {a:<{w}}  {b}" for a, b in rows)
 
@@ -257,10 +269,16 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     for ``mds`` a list of 0-based mode pairs); automatic MDs stop at ``max_dofs`` VMs + MDs;
     ``spin_state`` is ``nr_rncf``'s spinning-state enrichment (``'auto'``, ``True``, ``False``).
     Returns a ``SpinupResult`` with ``formulation='nr-rncf'``, the reduced DOFs, the basis and the offline time. With
-    ``reference=True`` the full RNCF model runs too (or pass an RNCF ``SpinupResult`` from
-    ``run_spinup(..., save_displacements=True)`` on the same output times to reuse it), and
-    χ_rel (Eq. 40, over all nodal displacements q − q̂ and all output times) and the run-time
-    ratio full/reduced are filled in.
+    ``reference=True`` the full RNCF model runs too, converged: at a tenth and a hundredth of the
+    run's tolerances (``REFERENCE_TIGHTENING``), the tighter run the reference and their distance
+    a bound on the looser one's own error, and the reduced model again at the tighter tolerance.
+    χ_rel (Eq. 40, over all nodal displacements q − q̂ and all output times) is then the run's
+    total error against the converged reference, and ``error_split`` holds its parts: the
+    time-integration error (the run against its tight repetition), the basis error (the tight
+    repetition against the reference) and the reference's own error; the run-time ratio is the
+    looser full run's over the reduced run's. Or pass an RNCF ``SpinupResult`` from
+    ``run_spinup(..., save_displacements=True)`` on the same output times to compare against it
+    as it is.
 
     ``estimate``: the run's a-posteriori error estimate from reduced runs alone
     (``reduction.run_error``; with a reference also the effectivity, estimate / measured).
@@ -318,11 +336,33 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     )
     if reference is False or reference is None:
         return res
-    if reference is True:
-        reference = run_spinup("rncf", beam, omega_s, T_s=T_s, t_end=t_end, elements=body.n_elements,
-                               rho_inf=rho_inf, rtol=rtol, atol=atol, dt_out=dt_out, save_displacements=True,
-                               progress=progress, max_steps=max_steps, step_control=step_control)
-    return res.compare(reference)
+    if reference is not True:
+        return res.compare(reference)
+    # A converged reference (module docstring of ``cli.run``'s, the same rule): the full model at a
+    # tenth and a hundredth of the run's tolerances; the tighter one is the reference, their distance
+    # bounds the looser one's own error; the model again at the tighter tolerance splits the run's
+    # error into its time-integration and basis parts. The speed-up is against the looser full run.
+    def full_at(k):
+        return run_spinup("rncf", beam, omega_s, T_s=T_s, t_end=t_end, elements=body.n_elements, rho_inf=rho_inf,
+                          rtol=rtol / k, atol=atol / k, dt_out=dt_out, save_displacements=True, progress=progress,
+                          max_steps=max_steps, step_control=step_control)
+
+    loose, ref = full_at(REFERENCE_TIGHTENING), full_at(REFERENCE_TIGHTENING**2)
+    tight = REFERENCE_TIGHTENING**2
+    sol_t = simulate(model, GeneralizedAlpha(rho_inf), adaptive_step_size(rtol / tight, atol / tight, step_control),
+                     jnp.asarray(ts), observe=observe_state, max_steps=max_steps)
+    w_t = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(sol_t.ys[0]))
+    res.compare(ref)
+    res.reference_run_s, res.speedup = loose.run_s, loose.run_s / res.run_s
+    w_ref, w_loose = ref.displacement_series(), loose.displacement_series()
+    res.error_split = {"reference_rtol": rtol / tight, "reference_error_percent": float(chi_rel(w_ref, w_loose)),
+                       "integration_error_percent": float(chi_rel(w_t, w)),
+                       "basis_error_percent": float(chi_rel(w_ref, w_t))}
+    return res
+
+
+REFERENCE_TIGHTENING = 10.0
+"""``reference=True``: the full model runs at the run's tolerances over this and over its square."""
 
 
 def sweep_reduction(beam, grid: SweepGrid, *, t_end: float, elements: int | None = None, dt_out: float = 0.01,
