@@ -27,19 +27,24 @@ from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.mechanism_file import load_setup, run_setup  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-CASES = [  # (label, load_setup parameters, rtol, fixed step or None); the first is the reference
-    ("ANCF, 8 elements", {"formulation": "ancf"}, 1e-5, None),
-    ("ANCF, 12 elements", {"formulation": "ancf", "elements": 12}, 1e-5, None),
-    ("ANCF, 8 elements", {"formulation": "ancf"}, 1e-4, None),
-    ("ANCF, 8 elements", {"formulation": "ancf"}, 1e-3, None),
-    ("NR-RNCF pinned, 1 VM + 1 MD (default)", {"formulation": "nr-rncf"}, 1e-4, None),
-    ("NR-RNCF pinned, 1 VM + 1 MD (default)", {"formulation": "nr-rncf"}, 1e-4, 2e-4),
-    ("NR-RNCF pinned, 2 VMs + 3 MDs", {"formulation": "nr-rncf", "vms": 2}, 1e-4, None),
-    ("NR-RNCF cantilever, 4 VMs + 10 MDs", {"formulation": "nr-rncf", "vms": 4, "conditions": "clamped"}, 1e-4, None),
-    ("NR-RNCF cantilever, 2 VMs + 3 MDs", {"formulation": "nr-rncf", "vms": 2, "conditions": "clamped"}, 1e-4, None),
-    ("NR-RNCF Craig-Bampton, 1 VM", {"formulation": "nr-rncf", "basis": "craig-bampton"}, 1e-4, None),
-    ("NR-RNCF Craig-Bampton, 2 VMs", {"formulation": "nr-rncf", "basis": "craig-bampton", "vms": 2}, 1e-4, None),
-    ("rigid", {"formulation": "rigid"}, 1e-4, None),
+NODES = {"error_on": "nodes", "step_control": "plain"}  # the step error on every nodal vector, plain control
+CASES = [  # (label, load_setup parameters, rtol, fixed step or None, run_setup options); the first is the reference
+    ("ANCF, 8 elements", {"formulation": "ancf"}, 1e-6, None, NODES),
+    ("ANCF, 12 elements", {"formulation": "ancf", "elements": 12}, 1e-5, None, NODES),
+    ("ANCF, 8 elements", {"formulation": "ancf"}, 1e-4, None, NODES),
+    ("ANCF, 8 elements", {"formulation": "ancf"}, 1e-3, None, NODES),
+    ("ANCF, 8 elements", {"formulation": "ancf"}, 2e-5, None, {}),
+    ("NR-RNCF pinned, 1 VM + 1 MD (default)", {"formulation": "nr-rncf"}, 2e-5, None, {}),
+    ("NR-RNCF pinned, 1 VM + 1 MD", {"formulation": "nr-rncf"}, 1e-4, None, NODES),
+    ("NR-RNCF pinned, 1 VM + 1 MD", {"formulation": "nr-rncf"}, 1e-4, 2e-4, {}),
+    ("NR-RNCF pinned, 2 VMs + 3 MDs", {"formulation": "nr-rncf", "vms": 2}, 2e-5, None, {}),
+    ("NR-RNCF cantilever, 4 VMs + 10 MDs", {"formulation": "nr-rncf", "vms": 4, "conditions": "clamped"}, 2e-5, None,
+     {}),
+    ("NR-RNCF cantilever, 2 VMs + 3 MDs", {"formulation": "nr-rncf", "vms": 2, "conditions": "clamped"}, 2e-5, None,
+     {}),
+    ("NR-RNCF Craig-Bampton, 1 VM", {"formulation": "nr-rncf", "basis": "craig-bampton"}, 2e-5, None, {}),
+    ("NR-RNCF Craig-Bampton, 2 VMs", {"formulation": "nr-rncf", "basis": "craig-bampton", "vms": 2}, 2e-5, None, {}),
+    ("rigid", {"formulation": "rigid"}, 1e-4, None, NODES),
 ]
 
 
@@ -158,13 +163,15 @@ def main(argv=None):
 
 def slider_crank(out: str) -> None:
     rows, ref = [], None
-    for label, params, rtol, dt in CASES:
-        run = run_setup(load_setup("slider_crank", params), rtol=rtol, n_out=401, dt=dt)
+    for label, params, rtol, dt, options in CASES:
+        run = run_setup(load_setup("slider_crank", params), rtol=rtol, n_out=401, dt=dt, **options)
         if ref is None:
             ref = run
         w, wr = run.series["w_mid"], ref.series["w_mid"]
         attempted = run.steps + run.rejected
+        control = "nodal vectors, plain" if options else "sensors w_mid, x_B; PI"
         rows.append(f"| {label} | {run.dofs} | {rtol:g} | {'adaptive' if dt is None else f'h = {dt:g}'} | "
+                    f"{control if dt is None else '–'} | "
                     f"{run.steps} ({run.rejected}) | {run.newton_iters} | {run.compile_s:.1f} | {run.run_s:.3f} | "
                     f"{1e6 * run.run_s / attempted:.0f} | {1e3 * np.abs(w).max():.3f} | {run.series['x_B'][-1]:.6f} | "
                     f"{float(chi_rel(wr, w)):.2f} |")
@@ -174,15 +181,19 @@ def slider_crank(out: str) -> None:
         f"Produced by `benchmarks/mechanisms.py --case slider_crank`. {_machine()}", "",
         "Crank 0.152 m rigid, driven at 150 rad/s; rod 0.304 m, E = 1e10 Pa, solid circle r = 5 mm; slider 0.033 kg; "
         "0-0.1 s, rigid-mechanism initial velocities; generalized-α ρ∞ = 0.5, atol = rtol/10 m (adaptive) or fixed "
-        "steps h (rtol then Newton's test only). Bases (`multibody.reduce`, in-plane): *pinned*, the rod's frame "
+        "steps h (rtol then Newton's test only). Step error: on every nodal vector with the plain controller, or "
+        "on the sensors w_mid and x_B (`error_on`, `Mechanism.observed_error`) with Gustafsson's PI controller, "
+        "the example's default. Bases (`multibody.reduce`, in-plane): *pinned*, the rod's frame "
         "along the chord between its pins, simply supported modes; *cantilever*, the frame clamped at the crank "
         "pin; *Craig-Bampton*, clamped at the crank pin with the slider pin's in-plane position as boundary "
         "coordinates, fixed-interface modes and the modal derivatives of both. Each row is one `load_setup` + "
         "`run_setup` (ahead-of-time compile, then one blocked run). µs a step: run time over attempted steps. "
-        "Reference row: the first (ANCF, 8 elements, rtol 1e-5).", "",
-        "| rod | DOFs | rtol | steps | accepted (rejected) | Newton it. | compile [s] | run [s] | µs a step | "
+        "Reference row: the first (ANCF, 8 elements, rtol 1e-6: within 0.02 % of the run at 1e-7, "
+        "`work_precision.md`).", "",
+        "| rod | DOFs | rtol | steps | step error, controller | accepted (rejected) | Newton it. | compile [s] | "
+        "run [s] | µs a step | "
         "peak abs w_mid [mm] | x_B(0.1 s) [m] | χ_rel w_mid [%] |",
-        "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|", *rows, ""])
+        "|---|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|", *rows, ""])
     _write(out, text, "**Notes")
 
 
