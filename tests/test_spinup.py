@@ -44,3 +44,33 @@ def test_rncf_matches_paper_peak_deflection_omega_40():
     """Paper Fig. 6(h): maximum transverse tip deflection 2.3309 m at ωs = 40 rad/s (24 elements)."""
     r = run_spinup("rncf", "paper", 40.0, T_s=15.0, t_end=16.0, elements=24)
     assert -r.tip[:, 1].min() == pytest.approx(2.3309, rel=2e-3)
+
+
+@pytest.mark.slow
+def test_tol_chooses_the_step_tolerance_too():
+    """``run_nr_rncf_spinup(tol=P)`` shrinks a loose starting rtol (1e-3) until the run's own
+    time-integration error, estimated against its repetition at a tenth of the tolerances, is at
+    most P / 2. The run's true integration error, against the same reduced model at a thousandth
+    of the chosen tolerances, is then at most P: the estimate's effectivity band [0.5, 2] allows
+    no more (it is about 0.9 here)."""
+    import jax
+    import jax.numpy as jnp
+
+    from nrrncf_jax.integrate import GeneralizedAlpha, adaptive_step_size, simulate
+    from nrrncf_jax.reduction.run_error import observe_state
+    from nrrncf_jax.scenarios.spinup import run_nr_rncf_spinup
+
+    case = dict(beam="paper", omega_s=4.0, T_s=5.0, t_end=8.0, elements=2, dt_out=0.02)
+    tol = 1.0
+    run = run_nr_rncf_spinup(**case, rtol=1e-3, atol=1e-5, tol=tol)
+    rtol, atol = run.step_tolerances
+    assert rtol < 1e-3 and atol / rtol == pytest.approx(1e-2)
+    s = run.summary()
+    assert s["integration_error_estimate_percent"] <= tol / 2
+    assert s["step_rtol"] == rtol and s["chi_rel_estimate_percent"] == pytest.approx(
+        s["basis_error_estimate_percent"] + s["integration_error_estimate_percent"])
+    model = run.reduction.model
+    tight = simulate(model, GeneralizedAlpha(0.9), adaptive_step_size(rtol / 1000, atol / 1000), jnp.asarray(run.ts),
+                     observe=observe_state)
+    w_tight = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(tight.ys[0]))
+    assert float(chi_rel(w_tight, run.displacements)) <= tol

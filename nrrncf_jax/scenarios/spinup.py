@@ -78,6 +78,7 @@ class SpinupResult(RunRecord):
     reduction: object = dataclasses.field(default=None, repr=False)  # the ``Reduction`` (W, omega, model)
     basis_search: object = None  # the ``reduction.basis_to_tolerance.BasisSearch`` (None: no tol given)
     error_split: dict | None = None  # with a converged reference: the error's parts (``run_nr_rncf_spinup``)
+    step_tolerances: tuple | None = None  # (rtol, atol) chosen to a tolerance (``run_nr_rncf_spinup(tol=...)``)
 
     REFERENCE: ClassVar[str] = ("a full RNCF SpinupResult of the same beam mesh and output times, run with "
                                 "save_displacements=True")
@@ -119,6 +120,8 @@ class SpinupResult(RunRecord):
                     "omega_ritz": self.spin.omega_ritz, "rel_err": self.spin.rel_err, "enriched": self.spin.enriched,
                     "spin_vms": list(self.spin.vms), "spin_mds": [list(p) for p in self.spin.pairs]},
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup, **(self.error_split or {}),
+                **({} if self.step_tolerances is None else
+                   {"step_rtol": self.step_tolerances[0], "step_atol": self.step_tolerances[1]}),
                 **self.estimate_summary(), **self._tolerance_summary(),
                 "reference": None if ref is None else {"formulation": ref.formulation, "dofs": ref.dofs,
                                                        **ref.statistics()},
@@ -157,6 +160,10 @@ class SpinupResult(RunRecord):
                 b = self.basis_search
                 rows.insert(-1, ("basis to tol [%]", f"{b.tol:g}: {'met' if b.met else 'NOT MET (largest kept)'}; "
                                  f"tried (prefix length or −dropped→DOFs: estimate %) {b.trials_line()}"))
+            if self.step_tolerances is not None:
+                rows.insert(-1, ("step tolerances (to tol)", f"rtol {self.step_tolerances[0]:.3g}, atol "
+                                 f"{self.step_tolerances[1]:.3g}: the run's own integration error estimate at most "
+                                 "tol / 2"))
             c = s["spin_check"]
             if c is not None:
                 added = (f"added spinning mode(s) {c['spin_vms']} and MDs "
@@ -293,7 +300,11 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     whose run has an estimate at or below ``tol`` / 2 (``reduction.basis_to_tolerance``, the run itself
     the training manoeuvre, ``max_dofs`` the largest basis tried); ``vms`` and ``mds`` are not
     used, and ``spin_state`` governs the spinning-state check of each basis tried.
-    ``basis_search`` holds every basis tried.
+    ``basis_search`` holds every basis tried. The step tolerances are chosen to it as well: starting
+    from ``rtol`` and ``atol``, both shrink until the run's own time-integration error, estimated
+    against its repetition at a tenth of them, is at most ``tol`` / 2 (``STEP_TOLERANCE_ROUNDS``
+    tries; ``step_tolerances`` holds the chosen pair), so that the total error, basis and time
+    integration, meets ``tol``.
 
     ``step_control``: the run's adaptive controller by name (``integrate.STEP_CONTROLS``), and the
     reference run's; the estimate's repetition and the basis search keep the plain one.
@@ -317,6 +328,24 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
                                            step_ts=stops if own else None)
     # Observing (p, ṗ) alone keeps the loop's carry small; displacements are rebuilt afterwards.
     P, V = sol.ys
+    chosen = None
+    if tol is not None and estimate:
+        # The step tolerance to tol too: the run's own time-integration error (estimated against
+        # its repetition at rtol / TIGHTEN) at most tol / 2, beside the basis's tol / 2; rtol and
+        # atol shrink together, by the rule global error ∝ tolerance^(2/3), until it is.
+        for attempt in range(STEP_TOLERANCE_ROUNDS):
+            est = estimate_own_run(full, model, ts, P, V, samples=estimate_samples, method=estimate_method,
+                                   integration=True, rho_inf=rho_inf, rtol=rtol, atol=atol, max_steps=max_steps,
+                                   output=tip_rows)
+            if est.integration_percent <= 0.5 * tol or attempt == STEP_TOLERANCE_ROUNDS - 1:
+                break
+            shrink = float(np.clip(0.7 * (0.5 * tol / est.integration_percent) ** 1.5, 1e-2, 0.5))
+            rtol, atol = rtol * shrink, atol * shrink
+            controller = adaptive_step_size(rtol, atol, step_control)
+            sol, _, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), controller, jnp.asarray(ts),
+                                           observe=observe_state, progress=progress, max_steps=max_steps)
+            P, V = sol.ys
+        chosen = (est, rtol, atol)
     w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(P))
     theta = np.asarray(jax.vmap(lambda t: full.motion(t)[0])(jnp.asarray(ts)))
     name = beam if isinstance(beam, str) else beam.name
@@ -327,12 +356,14 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         compile_s=compile_s, run_s=run_s, displacements=w, vms=red.selection.vms, mds=red.selection.pairs,
         step_control=step_control,
         offline_s=dict(red.offline_s), reduction=red, spin=red.spin, basis_search=red.search,
-        # With tol, the search ran the chosen basis over these output times: its estimate is this run's.
-        estimate=red.search.estimate if red.search is not None else
+        # With tol, the estimate made as the step tolerance was chosen (the basis's and the run's own
+        # integration error); without, the run's own.
+        estimate=chosen[0] if chosen is not None else red.search.estimate if red.search is not None else
         estimate_own_run(full, model, ts, P, V, samples=estimate_samples, method=estimate_method,
                          integration=estimate_integration, rho_inf=rho_inf, rtol=rtol, atol=atol,
                          max_steps=max_steps, output=tip_rows)
         if own else None,
+        step_tolerances=None if chosen is None else (rtol, atol),
     )
     if reference is False or reference is None:
         return res
@@ -360,6 +391,9 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
                        "basis_error_percent": float(chi_rel(w_ref, w_t))}
     return res
 
+
+STEP_TOLERANCE_ROUNDS = 4
+"""``tol``: the most runs made to bring the run's own time-integration error to ``tol`` / 2."""
 
 REFERENCE_TIGHTENING = 10.0
 """``reference=True``: the full model runs at the run's tolerances over this and over its square."""
