@@ -85,7 +85,7 @@ def test_json_fields_keep_their_names_values_and_order():
     s = run.summary()
     assert list(s) == ["formulation", "dofs", "steps", "rejected", "newton_iters", "compile_s", "run_s",
                        "constraint_max", "energy_drift", "kinetic_max", "tips_final_m", "offline_s",
-                       "reference_dofs", "reference_run_s", "chi_rel_percent", "speedup"]
+                       "reference_dofs", "reference_run_s", "chi_rel_percent", "speedup", "reference_converged"]
     assert (s["steps"], s["rejected"], s["newton_iters"], s["compile_s"], s["run_s"]) == (7, 2, 19, 1.235, 0.1235)
     assert (s["offline_s"], s["reference_dofs"], s["reference_run_s"]) == (0.988, 40, 2.469)
     assert s["energy_drift"] == 0.5 and s["kinetic_max"] == 2.0 and s["constraint_max"] == 3e-9
@@ -102,10 +102,12 @@ def test_json_fields_keep_their_names_values_and_order():
     run.compare(ref)
     assert list(run.summary()) == ["formulation", "dofs", "vms", "mds", "steps", "rejected", "newton_iterations",
                                    "compile_s", "run_s", "offline_s", "reference_dofs", "reference_run_s",
-                                   "chi_rel_percent", "speedup", "tip_y_max_m", "tip_z_max_m"]
+                                   "chi_rel_percent", "speedup", "reference_converged", "tip_y_max_m",
+                                   "tip_z_max_m"]
     c = run.command_record(extra_field=1)
     assert list(c) == ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s", "reference_dofs",
-                       "reference_run_s", "chi_rel_percent", "speedup", "formulation", "extra_field"]
+                       "reference_run_s", "chi_rel_percent", "speedup", "reference_converged", "formulation",
+                       "extra_field"]
     assert c["reference_run_s"] == 30.0 and c["speedup"] == 30.0 / 0.123456
     assert list(ref.command_record()) == ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s",
                                           "formulation"]

@@ -111,7 +111,9 @@ def register(sub) -> None:
         "factorisation each: minutes on the full mesh, but it flags a basis whose error grows as "
         "drift; estimate_valid_until_s says where its linearisation stopped holding)"))
     t.add_argument("--reference", choices=("rncf",), default=None,
-                   help="nr-rncf: also run the full RNCF model and report chi_rel and the speed-up")
+                   help="nr-rncf: also run the full RNCF model and report chi_rel and the speed-up (the reference at "
+                        "the run's own tolerance: chi_rel is the difference of two runs' errors, reference_converged "
+                        "false)")
     t.add_argument("--rings", type=int, default=15, help="rings of the hexagonal disk mesh (15: 1350 triangles)")
     t.add_argument("--thickness", type=float, default=1.36e-3, help="plate thickness [m]")
     t.add_argument("--t-end", type=float, default=3.0, help="end time [s]")

@@ -138,7 +138,9 @@ def register(sub) -> None:
         "output, a factorisation each: minutes, but it flags a basis whose error grows as drift; "
         "estimate_valid_until_s says where its linearisation stopped holding)"))
     t.add_argument("--reference", choices=("rncf",), default=None,
-                   help="dynamics, nr-rncf: also run the full RNCF model and report chi_rel and the speed-up")
+                   help="dynamics, nr-rncf: also run the full RNCF model and report chi_rel and the speed-up (the "
+                        "reference at the run's own tolerance: chi_rel is the difference of two runs' errors, "
+                        "reference_converged false)")
     t.add_argument("--t-end", type=float, default=10.0, help="dynamics: end time [s]")
     t.add_argument("--dt-out", type=float, default=0.02, help="dynamics: output interval [s]")
     t.add_argument("--plot", help="write a plot (PNG) here: mode shapes, or the free end's y and z responses")

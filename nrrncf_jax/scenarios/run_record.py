@@ -76,11 +76,14 @@ class RunRecord(abc.ABC):
 
     def comparison(self) -> dict:
         """After ``compare``: ``reference_dofs, reference_run_s`` (to the millisecond),
-        ``chi_rel_percent, speedup`` for ``--json``; before it, nothing."""
+        ``chi_rel_percent, speedup`` for ``--json``, and ``reference_converged: false``: the
+        reference ran at the run's own tolerances, so χ_rel is the difference of two runs, each
+        with its own time-integration error, not the run's error against a converged solution
+        (``nrrncf spinup`` and ``nrrncf run --reference full`` converge theirs); before it, nothing."""
         if self.chi_rel_percent is None:
             return {}
         return {"reference_dofs": self.reference_dofs, "reference_run_s": round(self.reference_run_s, 3),
-                "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup}
+                "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup, "reference_converged": False}
 
     def estimate_summary(self) -> dict:
         """The error estimate's fields (empty without one): the estimated total χ_rel (the basis
