@@ -76,7 +76,9 @@ def _error_names(error_on, sensors: dict) -> tuple:
 @dataclasses.dataclass
 class MechanismRun:
     """The sensors' histories ``series`` ({name: (n_out, ...) array}) at ``ts``, and the run's
-    ``dofs``, ``steps``, ``rejected``, ``newton_iters``, ``compile_s`` and ``run_s``."""
+    ``dofs``, ``steps``, ``rejected``, ``newton_iters``, ``compile_s`` and ``run_s``, each body described
+    (``bodies``) and the integrator settings it ran with (``settings``: rtol, atol, ρ∞, the sensors of the
+    step error or ``"nodes"``, the controller or the fixed step)."""
 
     ts: np.ndarray
     series: dict
@@ -90,6 +92,7 @@ class MechanismRun:
     points: np.ndarray | None = None  # the bodies' nodes at ts (nt × p × 3), with ``positions=True``
     lines: np.ndarray | None = None  # their edges (l × 2, ``post.outline``)
     bodies: tuple[str, ...] = ()  # each body described (``Mechanism.describe``): its kind and basis
+    settings: dict = dataclasses.field(default_factory=dict)  # the run's integrator settings, as chosen
 
     def table(self) -> tuple[list[str], np.ndarray]:
         """CSV columns ``t`` and each sensor (a vector sensor as ``name_0, name_1, ...``)."""
@@ -107,7 +110,7 @@ class MechanismRun:
     def summary(self) -> dict:
         return {"formulation": self.formulation, "dofs": self.dofs, "steps": self.steps, "rejected": self.rejected,
                 "newton_iters": self.newton_iters, "compile_s": self.compile_s, "run_s": self.run_s,
-                "bodies": list(self.bodies)}
+                "bodies": list(self.bodies), **self.settings}
 
 
 def load_setup(source: str, params: dict | None = None) -> MechanismSetup:
@@ -210,10 +213,14 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     sol, compile_s, run_s = simulate_timed(system, GeneralizedAlphaIndex3(rho_inf), controller, ts, observe=fn,
                                            y0=y0, progress=progress)
     series = {k: np.asarray(sol.ys[k]) for k in setup.sensors}  # in the setup's order (a dict pytree is sorted)
+    settings = {"rtol": rtol, "atol": float(f"{rtol / 10:.12g}"), "rho_inf": rho_inf,
+                "error_on": list(error_on) or "nodes"}
+    settings |= {"step_control": setup.step_control if step_control is None else step_control} if dt is None else \
+        {"dt": float(dt)}
     return MechanismRun(ts, series, system.n_dof, int(sol.num_steps), int(sol.num_rejected), int(sol.num_newton),
                         compile_s, run_s, system.formulation,
                         np.asarray(sol.ys[_POINTS]) if positions else None, lines,
-                        tuple(system.describe()) if hasattr(system, "describe") else ())
+                        tuple(system.describe()) if hasattr(system, "describe") else (), settings)
 
 
 __all__ = ["MechanismRun", "MechanismSetup", "examples", "load_setup", "run_setup"]
