@@ -104,14 +104,13 @@ class Spherical(AbstractJoint):
         return _vector(xs, self.body_a, self.vector_a) - other
 
 
-class Revolute(AbstractJoint):
-    """A hinge: the positions coincide (``Spherical``) and the hinge's axis, fixed in body b's
-    section frame, stays normal to two directions fixed in body a's that span the plane normal to
-    it in the reference (``section_frame``): (R_a n_i)·(R_b e) = 0, i = 1, 2. Body a the ground
-    (``body_a=None``): b's position stays at ``point`` and its axis normal to the fixed ``normals``.
-    Five equations; their multipliers are the reaction force and the two reaction moments normal to
-    the axis, which act on the section vectors (never on a beam's slope r_x, whose moment loads one
-    element's shear: ``section_frame``)."""
+class AbstractAxisJoint(AbstractJoint):
+    """A joint between a point and an axis: two directions ``normals`` fixed in body a's section
+    frame (fixed ones for the ground, ``body_a=None``, through ``point``) and directions ``axis``
+    fixed in body b's (its axis first), at the nodes of the position vectors ``position_a`` and
+    ``position_b`` (``section_frame``). ``Revolute``, ``cylindrical.Cylindrical`` and
+    ``prismatic.Prismatic`` differ in their equations and in how many directions b holds
+    (``b_count``); the data, the references and the turn are this class's."""
 
     body_a: int | None = eqx.field(static=True)
     position_a: int | None = eqx.field(static=True)
@@ -121,15 +120,17 @@ class Revolute(AbstractJoint):
     axis: Directions
     point: Float[Array, " 3"]
 
-    n_equations: ClassVar[int] = 5
+    name: ClassVar[str]  # "a hinge", for the errors
+    b_directions: ClassVar[str] = "one axis"  # what ``axis`` holds on body b, in words ...
+    b_count: ClassVar[int] = 1  # ... and in number
 
     def __init__(self, body_a: int | None, position_a: int | None, normals: Directions, body_b: int,
                  position_b: int, axis: Directions, point=(0.0, 0.0, 0.0)):
         if (body_a is None) != (position_a is None) or normals.body != body_a or axis.body != int(body_b):
-            raise ValueError("a hinge's normals are body a's directions (fixed ones for the ground, body_a=None) and "
-                             "its axis body b's")
-        if normals.local.shape[0] != 2 or axis.local.shape[0] != 1:
-            raise ValueError("a hinge takes two normal directions on body a and one axis on body b")
+            raise ValueError(f"{self.name}'s normals are body a's directions (fixed ones for the ground, body_a=None) "
+                             f"and its {self.b_directions} body b's")
+        if normals.local.shape[0] != 2 or axis.local.shape[0] != self.b_count:
+            raise ValueError(f"{self.name} takes two normal directions on body a and {self.b_directions} on body b")
         self.body_a, self.position_a = (None, None) if body_a is None else (int(body_a), int(position_a))
         self.body_b, self.position_b = int(body_b), int(position_b)
         self.normals, self.axis = normals, axis
@@ -141,6 +142,19 @@ class Revolute(AbstractJoint):
 
     def turned(self, A):
         return eqx.tree_at(lambda j: (j.point, j.normals), self, (A @ self.point, self.normals.turned(A)))
+
+
+class Revolute(AbstractAxisJoint):
+    """A hinge: the positions coincide (``Spherical``) and the hinge's axis, fixed in body b's
+    section frame, stays normal to two directions fixed in body a's that span the plane normal to
+    it in the reference (``section_frame``): (R_a n_i)·(R_b e) = 0, i = 1, 2. Body a the ground
+    (``body_a=None``): b's position stays at ``point`` and its axis normal to the fixed ``normals``.
+    Five equations; their multipliers are the reaction force and the two reaction moments normal to
+    the axis, which act on the section vectors (never on a beam's slope r_x, whose moment loads one
+    element's shear: ``section_frame``)."""
+
+    n_equations: ClassVar[int] = 5
+    name: ClassVar[str] = "a hinge"
 
     def __call__(self, xs, t=0.0):
         r_b = _vector(xs, self.body_b, self.position_b)
@@ -200,4 +214,4 @@ class Fixed(AbstractJoint):
         return (a - b).reshape(-1)
 
 
-__all__ = ["GROUND", "AbstractJoint", "Fixed", "Revolute", "Spherical", "normals"]
+__all__ = ["GROUND", "AbstractAxisJoint", "AbstractJoint", "Fixed", "Revolute", "Spherical", "normals"]
