@@ -246,7 +246,7 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     assert tol == 0.5 and kw["n_vms"] == 4 and kw["t_train"] == 0.3 and kw["t_end"] == 0.4
     assert chains[0][0] == "the chosen system" and [c[1].get("formulation", "ancf") for c in calls] == ["ancf"]
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    assert d["tol_met"] and d["basis_chosen"] == ["φ1", "joint modes"] and d["basis_trials"][0]["dofs"] == 30
+    assert d["tol_met"] and d["basis_chosen"] == ["φ0", "joint modes"] and d["basis_trials"][0]["dofs"] == 30
     assert "chi_rel_percent" in d
     for bad, says in ((["--tol", "0.5"], "use it with --formulation nr-rncf"),
                       (["--formulation", "nr-rncf", "--tol", "0.5", "--joint-modes"], "leave out --mds"),

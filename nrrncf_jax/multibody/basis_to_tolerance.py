@@ -31,7 +31,7 @@ import numpy as np
 
 from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate
-from ..reduction.basis_to_tolerance import shortest_passing
+from ..reduction.basis_to_tolerance import candidate_name, shortest_passing
 from ..reduction.error_estimate import ErrorEstimate
 from ..reduction.run_error import estimate_times
 from .error_estimate import estimate_mechanism_error, full_counterpart
@@ -74,7 +74,8 @@ class MechanismSearch:
 
     def summary(self) -> dict:
         """The JSON-ready record: the target, whether it was met, and each basis tried."""
-        return {"tol_percent": self.tol, "tol_met": self.met, "basis_chosen": [_name(i) for i in self.chosen.items],
+        return {"tol_percent": self.tol, "tol_met": self.met,
+                "basis_chosen": [candidate_name(i) for i in self.chosen.items],
                 "basis_trials": [{"columns": t.columns, "dofs": t.dofs,
                                   "chi_rel_estimate_percent": t.chi_rel_estimate_percent,
                                   "valid_until_s": t.valid_until, "seconds": t.seconds} for t in self.trials]}
@@ -82,8 +83,9 @@ class MechanismSearch:
     def describe(self) -> str:
         """What was chosen and why: the tolerance, the verdict and every trial."""
         c = self.chosen
+        names = ", ".join(map(candidate_name, c.items))
         head = (f"bases to tol = {self.tol:g} % (a reliable estimate <= {self.tol / self.safety:g} %): {c.dofs} DOFs "
-                f"(the first {c.columns} of {len(self.order)} ranked candidates: {', '.join(map(_name, c.items))}), "
+                f"(the first {c.columns} of {len(self.order)} ranked candidates: {names}), "
                 f"estimate {c.chi_rel_estimate_percent:.4g} %")
         if not self.met:
             head += "; NOT MET: no basis tried passes (the largest is kept)"
@@ -92,12 +94,6 @@ class MechanismSearch:
                 f"{'' if t.reliable else ' not reliable'}, {t.steps} steps, {t.seconds:.1f} s"
                 for t in sorted(self.trials, key=lambda t: t.columns)]
         return "\n".join([head, "  trials, by prefix length:"] + rows)
-
-
-def _name(item) -> str:
-    if isinstance(item, tuple):
-        return "θ" + "".join(str(i + 1) for i in item)
-    return f"φ{item + 1}" if isinstance(item, int) else str(item)
 
 
 TRAINING_TIGHTEN = 10.0

@@ -185,13 +185,13 @@ class BasisSearch:
         return {"tol_percent": self.tol, "tol_met": self.met,
                 "basis_trials": [{"columns": t.columns, "dofs": t.dofs,
                                   "chi_rel_estimate_percent": t.chi_rel_estimate_percent, "seconds": t.seconds,
-                                  "dropped": [_name(c) for c in t.dropped]}
+                                  "dropped": [candidate_name(c) for c in t.dropped]}
                                  for t in self.trials]}
 
     def trials_line(self, digits: int = 3) -> str:
         """Every trial on one line, in the order made: a prefix as ``n→DOFs: estimate`` (n its
         length), a pruning trial as ``−candidate→DOFs: estimate`` (the candidate it dropped)."""
-        return ", ".join((f"{t.columns}" if not t.dropped else f"−{_name(t.dropped[-1])}")
+        return ", ".join((f"{t.columns}" if not t.dropped else f"−{candidate_name(t.dropped[-1])}")
                          + f"→{t.dofs}: {t.chi_rel_estimate_percent:.{digits}g}" for t in self.trials)
 
     def describe(self) -> str:
@@ -199,7 +199,7 @@ class BasisSearch:
         c = self.chosen
         which = (f"the first {c.columns} of {len(self.order)} ranked candidates" if not c.dropped else
                  f"the first {c.columns + len(c.dropped)} of {len(self.order)} ranked candidates without "
-                 + ", ".join(_name(d) for d in c.dropped))
+                 + ", ".join(candidate_name(d) for d in c.dropped))
         head = (f"basis to tol = {self.tol:g} % (estimate <= {self.tol / self.safety:g} %): {c.dofs} DOFs "
                 f"({len(c.vms)} VMs + {len(c.pairs)} MDs, {which}), estimate "
                 f"{c.chi_rel_estimate_percent:.4g} %")
@@ -210,7 +210,7 @@ class BasisSearch:
 
         def label(t):
             return (f"prefix of {t.columns:3d}" if not t.dropped else
-                    f"{t.columns:3d}, without {_name(t.dropped[-1])}")
+                    f"{t.columns:3d}, without {candidate_name(t.dropped[-1])}")
         rows = [f"  {label(t)} → {t.dofs:3d} DOFs{' (spin-enriched)' if t.spin_enriched else ''}: "
                 f"estimate {t.chi_rel_estimate_percent:10.4g} %"
                 f"{'' if t.reliable else ' (above the reliable range)'}, {t.steps} steps, {t.seconds:.1f} s"
@@ -218,9 +218,12 @@ class BasisSearch:
         return "\n".join([head, "  trials, in the order made (columns → DOFs):"] + rows)
 
 
-def _name(candidate) -> str:
-    """A candidate as the paper writes it: VM i as φi, the MD of modes i, j as θi,j."""
-    return f"φ{candidate}" if isinstance(candidate, int) else f"θ{candidate[0]},{candidate[1]}"
+def candidate_name(candidate) -> str:
+    """A candidate as the paper writes it, with 0-based mode indices as everywhere: VM i as φi,
+    the MD of modes i, j as θi,j, anything else (a named block of columns) as its text."""
+    if isinstance(candidate, tuple):
+        return f"θ{candidate[0]},{candidate[1]}"
+    return f"φ{candidate}" if isinstance(candidate, (int, np.integer)) else str(candidate)
 
 
 def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: int = 24,
@@ -323,4 +326,4 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
                      search=search)
 
 
-__all__ = ["TIE", "BasisSearch", "Trial", "greedy_order", "nr_rncf_to_tolerance", "shortest_passing"]
+__all__ = ["TIE", "BasisSearch", "Trial", "candidate_name", "greedy_order", "nr_rncf_to_tolerance", "shortest_passing"]
