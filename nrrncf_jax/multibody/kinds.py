@@ -33,6 +33,11 @@ class AbstractBodyKind(eqx.Module):
     n_own_equations: ClassVar[int] = 0
     """Constraints the body adds on its own coordinates (after the joints' in C)."""
 
+    mass: eqx.AbstractVar[Float[Array, "nv nv"]]
+    """The mass matrix on the body's nodal vectors (the same for each component), where its
+    inertia lives in the inertial frame: ``Mechanism.masses`` and the momentum sensors read it. A
+    field or a property of every kind."""
+
     kind: ClassVar[str]
     """``"rigid"``, ``"ancf"`` (inertial nodal vectors), ``"rncf"`` (floating frame, full-order
     deformation) or ``"nr-rncf"`` (floating frame, reduced deformation)."""
