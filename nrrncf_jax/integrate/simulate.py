@@ -497,11 +497,15 @@ class _AdaptiveLoop(eqx.Module):
         # out), in units of the tolerance at the step's start; in reverse mode without
         # derivatives (the step differentiates its solve implicitly).
         m_n, q_n = lax.stop_gradient((model, st.q)) if self.newton.implicit else (model, st.q)
-        xn0, _, newton_mask = m_n.newton_space(q_n, jnp.zeros_like(q_n))
-        newton_scale = controller.scale(lax.stop_gradient(xn0))
+        if model.newton_in_error_space:  # the common case: the step's error space and its scale
+            newton_space, newton_scale, newton_mask = m_n.error_space, controller.scale(x0), mask
+        else:
+            newton_space = m_n.newton_space
+            xn0, _, newton_mask = model.newton_space(st.q, jnp.zeros_like(st.q))
+            newton_scale = controller.scale(lax.stop_gradient(xn0))
 
         def norm(dq):
-            return self.rms(m_n.newton_space(q_n, dq)[1], newton_scale, newton_mask)
+            return self.rms(newton_space(q_n, dq)[1], newton_scale, newton_mask)
 
         st1, error, newton_sol = solver.step(model, t, t1, st, self.newton, norm, h=h, matrix=c.matrix)
         iters, done = newton_sol.iterations, newton_sol.converged

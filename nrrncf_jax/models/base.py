@@ -73,9 +73,12 @@ class AbstractModel(eqx.Module):
         same rtol means the same accuracy for full and reduced models."""
         return q, e, self.free_mask()
 
+    newton_in_error_space: ClassVar[bool] = True
+    """Whether Newton's corrections are measured in ``error_space`` (the default), or in
+    ``newton_space`` (a model whose step error leaves coordinates out, such as a mechanism whose
+    step error is on its sensors: Newton must converge in all of them)."""
+
     def newton_space(self, q: Float[Array, " n"], e: Float[Array, " n"]):
-        """Where Newton's corrections are measured, as ``error_space`` returns it: the error
-        space by default. A model whose step error leaves coordinates out (outputs only, or
-        quasi-static coordinates) measures its corrections on all of them, since all must
-        converge."""
+        """Where Newton's corrections are measured when ``newton_in_error_space`` is False, as
+        ``error_space`` returns it (the error space itself by default)."""
         return self.error_space(q, e)

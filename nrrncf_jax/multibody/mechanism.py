@@ -138,6 +138,11 @@ class Mechanism(AbstractConstrainedModel):
     require_held: ClassVar[bool] = False  # every body must be held by a joint (``MultibodySystem``)
     project_velocities = True  # GeneralizedAlphaIndex3 projects v onto C_z v = −C_t after each step (floating)
 
+    @property
+    def newton_in_error_space(self) -> bool:  # type: ignore[override]
+        """Newton measures every nodal vector (``newton_space``) when the step error is on sensors."""
+        return not self.error_sensors
+
     def __init__(self, bodies, joints=(), gravity=(0.0, 0.0, 0.0), forces=()):
         bodies = tuple(bodies)
         if not bodies:
