@@ -18,6 +18,7 @@ each step's Newton solve implicitly (``NewtonOptions.implicit``).
 
 import dataclasses
 import functools
+import inspect
 import sys
 import time
 from collections.abc import Callable
@@ -267,14 +268,16 @@ def simulate_timed(model: "AbstractModel", solver: AbstractSolver, controller: A
     Compiles ahead of time (``lower().compile()``, with ``simulate``'s choice of XLA options),
     then runs to ``block_until_ready``. The keyword arguments are ``simulate``'s.
     """
-    throw = kwargs.pop("throw", True)
-    kw = {k: kwargs.pop(k) for k in ("observe", "newton", "t0", "y0", "adjoint", "max_steps", "progress", "step_ts")
-          if k in kwargs}
-    if kwargs:
-        raise TypeError(f"simulate_timed got unexpected keyword arguments {sorted(kwargs)}")
-    args = _prepare(model, solver, controller, ts, kw.get("observe"), kw.get("newton"), kw.get("t0", 0.0),
-                    kw.get("y0"), kw.get("adjoint", "forward"), kw.get("max_steps", 200_000), kw.get("progress", False),
-                    kw.get("step_ts"))
+    # ``simulate``'s own keywords and defaults, read from its signature rather than copied
+    try:
+        bound = inspect.signature(simulate).bind(model, solver, controller, ts, **kwargs)
+    except TypeError as e:
+        raise TypeError(f"simulate_timed takes simulate's arguments: {e}") from None
+    bound.apply_defaults()
+    a = bound.arguments
+    throw = a["throw"]
+    args = _prepare(model, solver, controller, ts, a["observe"], a["newton"], a["t0"], a["y0"], a["adjoint"],
+                    a["max_steps"], a["progress"], a["step_ts"])
     t0 = time.perf_counter()
     compiled = _single_run_program(args[0]).lower(*args).compile()
     t1 = time.perf_counter()
