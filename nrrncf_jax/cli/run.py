@@ -102,6 +102,7 @@ def _reference_errors(args, setup, params, run, kw) -> dict:
     against the reference, what a user of its output gets: with a reference at the run's own
     tolerance it would be the difference of two runs' integration errors instead."""
     from ..scenarios.mechanism_file import load_setup, run_setup
+    from ..scenarios.run_record import REFERENCE_TIGHTENING
 
     rtol = setup.rtol if args.rtol is None else float(args.rtol)
     loose, tight = rtol / REFERENCE_TIGHTENING, rtol / REFERENCE_TIGHTENING**2
@@ -129,8 +130,6 @@ def _reference_errors(args, setup, params, run, kw) -> dict:
     return out
 
 
-REFERENCE_TIGHTENING = 10.0
-"""``--reference full``: the references run at the run's tolerance over this and over its square."""
 
 
 def _check(args) -> None:

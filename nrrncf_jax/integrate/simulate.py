@@ -709,8 +709,9 @@ def _at_top_level() -> bool:
 
 @functools.cache
 def _small_kernel_options_known() -> bool:
-    """Whether this jaxlib's XLA knows ``SMALL_KERNEL_OPTIONS`` and the single run's (an unknown option fails the
-    compilation): compiles a one-operation program with them, once a process."""
+    """Whether this jaxlib's XLA knows ``_SINGLE_RUN_OPTIONS`` (``SMALL_KERNEL_OPTIONS`` among them;
+    an unknown option fails the compilation): compiles a one-operation program with them, once a
+    process."""
     try:
         jax.jit(lambda x: x + 1.0, compiler_options=_SINGLE_RUN_OPTIONS).lower(1.0).compile()
     except Exception:  # noqa: BLE001 - any refusal means: keep XLA's defaults

@@ -202,8 +202,8 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
         fn = _WithOutline(fn, tuple(nodes))
     y0 = setup.y0 if setup.y0 is not None else (system.reference(), 0.0 * system.reference())
 
-    controller = adaptive_step_size(rtol, rtol / 10, setup.step_control if step_control is None else step_control) \
-        if dt is None else \
+    step_control = setup.step_control if step_control is None else step_control
+    controller = adaptive_step_size(rtol, rtol / 10, step_control) if dt is None else \
         ConstantStepSize(float(dt), rtol=rtol, atol=rtol / 10)
 
     # the system is an argument of the compiled program, not a constant in it (``simulate_timed``):
@@ -215,8 +215,7 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     series = {k: np.asarray(sol.ys[k]) for k in setup.sensors}  # in the setup's order (a dict pytree is sorted)
     settings = {"rtol": rtol, "atol": float(f"{rtol / 10:.12g}"), "rho_inf": rho_inf,
                 "error_on": list(error_on) or "nodes"}
-    settings |= {"step_control": setup.step_control if step_control is None else step_control} if dt is None else \
-        {"dt": float(dt)}
+    settings |= {"step_control": step_control} if dt is None else {"dt": float(dt)}
     return MechanismRun(ts, series, system.n_dof, int(sol.num_steps), int(sol.num_rejected), int(sol.num_newton),
                         compile_s, run_s, system.formulation,
                         np.asarray(sol.ys[_POINTS]) if positions else None, lines,

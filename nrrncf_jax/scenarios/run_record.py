@@ -110,4 +110,10 @@ class RunRecord(abc.ABC):
                 **({} if search is None else search.summary())}
 
 
-__all__ = ["RunRecord"]
+REFERENCE_TIGHTENING = 10.0
+"""A converged reference (``nrrncf spinup --reference rncf``, ``nrrncf run --reference full``): the
+full model runs at the run's tolerances over this and over its square; the tighter run is the
+reference, their distance bounds the looser one's own error."""
+
+
+__all__ = ["REFERENCE_TIGHTENING", "RunRecord"]

@@ -19,7 +19,7 @@ from ..reduction.pipeline import nr_rncf
 from ..reduction.run_error import TIGHTEN, estimate_own_run, observe_state, run_step_ts
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
-from .run_record import RunRecord
+from .run_record import REFERENCE_TIGHTENING, RunRecord
 
 PAPER_ELEMENTS = {4.0: 6, 10.0: 10, 20.0: 16, 40.0: 24}
 """Elements per steady spin rate in the paper's Table 2."""
@@ -177,7 +177,6 @@ class SpinupResult(RunRecord):
                          f"({s['estimate_samples']} samples, {s['estimate_run_s']:.3f} s){note}"))
             if "integration_error_estimate_percent" in s:
                 rows.append(("  basis error estimate [%]", f"{s['basis_error_estimate_percent']:.4f}"))
-            if "integration_error_estimate_percent" in s:
                 rows.append(("  integration error estimate [%]", f"{s['integration_error_estimate_percent']:.4f}  "
                              f"(this run against its repetition at rtol/{TIGHTEN:g}, at the samples)"))
             rows.append(("tip error estimate, basis [m]", f"{s['tip_error_estimate_m']:.2e}"
@@ -395,8 +394,6 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
 STEP_TOLERANCE_ROUNDS = 4
 """``tol``: the most runs made to bring the run's own time-integration error to ``tol`` / 2."""
 
-REFERENCE_TIGHTENING = 10.0
-"""``reference=True``: the full model runs at the run's tolerances over this and over its square."""
 
 
 def sweep_reduction(beam, grid: SweepGrid, *, t_end: float, elements: int | None = None, dt_out: float = 0.01,
