@@ -289,6 +289,27 @@ def test_solve_once_forms_agree_under_vmap_and_jvp():
         assert operands and all(t == "tensor<7x8xf64>" for t in operands), operands
 
 
+def test_reverse_mode_through_the_default_loop_names_the_option():
+    """``jax.grad`` through the default (forward-mode) loop fails with one line naming
+    ``adjoint='reverse'`` instead of JAX's error about ``lax.while_loop``; forward mode through the
+    same run still works, and the marker that does this changes no value."""
+    ts = jnp.linspace(0.1, 1.0, 4)
+
+    def tip(k, **kw):
+        m = LinearModel(M=[[1.0]], K=[[k]], q0=[1.0], v0=[0.0])
+        return jnp.sum(simulate(m, GA, ConstantStepSize(0.05), ts, observe=_first, **kw).ys ** 2)
+
+    with pytest.raises(ValueError, match=r"^jax.grad cannot differentiate simulate\(adjoint='forward'\).*"
+                                         r"adjoint='reverse'"):
+        jax.grad(tip)(OMEGA**2)
+    d_fwd = float(jax.jacfwd(tip)(OMEGA**2))
+    d_rev = float(jax.grad(lambda k: tip(k, adjoint="reverse"))(OMEGA**2))
+    assert d_fwd == pytest.approx(d_rev, rel=1e-9) and d_fwd != 0.0
+    with pytest.raises(ValueError, match="simulate_batch, a forward-mode loop"):
+        jax.grad(lambda k: jnp.sum(simulate_batch(_oscillator_of, k[None], GA, ConstantStepSize(0.05), ts,
+                                                  observe=_first).ys))(jnp.asarray(OMEGA**2))
+
+
 def test_bad_integrator_input():
     m = _oscillator()
     ctrl = AdaptiveStepSize()

@@ -35,12 +35,19 @@ from jax import lax
 from .. import _validate
 from .._types import Array, Float, Int
 from .base import AbstractSolver, IterationMatrix, Newton, NewtonOptions
+from .forward_mode import forward_mode_only
 from .generalized_alpha import hermite_interpolate
 from .results import ENDINGS, SimulationError, SimulationResult, result_code, result_message
 from .step_size import AbstractStepSizeController
 
 if TYPE_CHECKING:  # the models import the integrator's users; annotations only
     from ..models.base import AbstractModel
+
+FORWARD_ONLY_SINGLE = ("jax.grad cannot differentiate simulate(adjoint='forward'), the default, a forward-mode loop: "
+                       "pass adjoint='reverse' (a checkpointed loop; unconstrained models), or differentiate in "
+                       "forward mode (jax.jvp, jax.jacfwd)")
+FORWARD_ONLY_BATCH = ("jax.grad cannot differentiate simulate_batch, a forward-mode loop: differentiate it in forward "
+                      "mode (jax.jvp, jax.jacfwd), or vmap simulate(adjoint='reverse') for reverse mode")
 
 _WINDOW = 8  # outputs that one step may cover; a step never crosses more than this many
 
@@ -649,6 +656,8 @@ def _simulate_program(model, solver, controller, ts, t0, y0, newton: NewtonOptio
         buffers=(lambda c: c.ys) if config.adjoint == "reverse" else None,
         kind="checkpointed" if config.adjoint == "reverse" else "lax",
     )
+    if config.adjoint == "forward":
+        final = forward_mode_only(final, FORWARD_ONLY_SINGLE)
     if config.progress:
         jax.debug.callback(_print_progress, final.t, ts[-1], final.counts[0], True)
     sol = loop.finish(final)
@@ -779,6 +788,7 @@ def _simulate_batch_program(model_fn, params, solver, controller, ts, t0, newton
 
     state = (take(first, lane), take(params, lane), lane, jnp.array(width), first, ys)
     _, _, _, _, final, ys = lax.while_loop(lambda s: jnp.any(s[2] < n), body, state)
+    final, ys = forward_mode_only((final, ys), FORWARD_ONLY_BATCH)
     sol = jax.vmap(lambda p, c, y: loop(p).finish(c, ys=y))(params, final, ys)
     if config.after:
         ys = jax.vmap(lambda k, y: _observe_after(config.observe, ts, t0, k, y))(final.k, sol.ys)
