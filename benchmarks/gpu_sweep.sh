@@ -9,7 +9,7 @@
 #      on the GPU (benchmarks/pendulum_batch.py);
 #   3. the single pendulum on this machine's CPU, one core, for the per-member cost against it;
 #   4. the reduced cubic force's kernels (benchmarks/kernels.py) and the batched small solves
-#      (benchmarks/batched_lu.py) on the GPU: which form suits which backend.
+#      (benchmarks/investigations/batched_lu.py) on the GPU: which form suits which backend.
 #
 # Each step has its own time limit and a failed step does not stop the next; the exit status
 # says whether all passed. Reports go to OUT_DIR (default $OUT, else benchmarks/results):
@@ -49,5 +49,5 @@ step 330 env XLA_FLAGS="${XLA_FLAGS:-} --xla_gpu_enable_triton_gemm=false" \
     "$py" benchmarks/pendulum_batch.py --sizes 1 16 256 --out "$out/pendulum_batch_gpu.md"
 step 60 env JAX_PLATFORMS=cpu "$py" benchmarks/pendulum_batch.py --sizes 1 --out "$out/pendulum_batch_gpu_host_cpu.md"
 step 50 "$py" benchmarks/kernels.py --sizes 9 20 27 --evals 2000 --batch 256 --out "$out/kernels_gpu.md"
-step 50 "$py" benchmarks/batched_lu.py --sizes 20 99 --batches 1 16 256 --out "$out/batched_lu_gpu.md"
+step 50 "$py" benchmarks/investigations/batched_lu.py --sizes 20 99 --batches 1 16 256 --out "$out/batched_lu_gpu.md"
 exit $failed

@@ -3,7 +3,7 @@
 Fixed steps: the kept and the fresh matrix solve the same discrete equations, each step to
 Newton's tolerance, so the runs differ by what Newton leaves, not by an integration error. Adaptive
 steps: both runs follow the same error control along different step sequences, so they agree to
-the tolerance's order. No test times anything (``benchmarks/jacobian_reuse.py`` does)."""
+the tolerance's order. No test times anything (``benchmarks/investigations/jacobian_reuse.py`` does)."""
 
 import jax.numpy as jnp
 import numpy as np

@@ -9,7 +9,7 @@ constrained systems), the step size the controller's (``step_size``: ``AdaptiveS
 than a diffrax solver because the step must solve for the acceleration with prescribed
 coordinates, keep the auxiliary acceleration ā between steps, reuse the model's structured
 factorisations inside Newton and carry index-3 constraints, none of which diffrax's ODE-term
-interface expresses (``benchmarks/diffrax_galpha.py`` measures the diffrax route). The loop is
+interface expresses (``benchmarks/investigations/diffrax_vs_loop.py`` measures the diffrax route). The loop is
 ``equinox.internal.while_loop``: ``adjoint="forward"`` lowers to ``lax.while_loop`` (fastest;
 forward-mode differentiable, vmappable); ``adjoint="reverse"`` lowers to a checkpointed loop
 that ``jax.grad`` can differentiate with memory O(√max_steps) checkpoints, and differentiates

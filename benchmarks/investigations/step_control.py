@@ -1,7 +1,7 @@
 """The PI step-size controller (``AdaptiveStepSize(pcoeff=, icoeff=)``) against the plain one
 (issue 35): attempted steps, Newton iterations, time and accuracy.
 
-    python benchmarks/step_control.py [--repeats 5] [--out benchmarks/results/step_control.md]
+    python benchmarks/investigations/step_control.py [--repeats 5] [--out benchmarks/results/step_control.md]
 
 The four models of ``jacobian_reuse.py`` (full-order RNCF spin-up, NR-RNCF spin-up, the NR-RNCF
 pendulum, the NR-RNCF slider-crank), each run adaptive with one factorisation a step: the plain
@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 
 from nrrncf_jax.integrate import STEP_CONTROLS, AdaptiveStepSize, Newton  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(__file__))
+sys.path[:0] = [os.path.dirname(__file__), os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 from jacobian_reuse import _cases, _run  # noqa: E402
 
@@ -55,7 +55,7 @@ def main():
     lines = [
         "# The PI step-size controller against the plain one (issue 35)",
         "",
-        f"Produced by `benchmarks/step_control.py`. Machine: {machine()}.",
+        f"Produced by `benchmarks/investigations/step_control.py`. Machine: {machine()}.",
         "",
         "plain: `AdaptiveStepSize(rtol, atol)`, the step grown by 0.9 err^(-1/3); PI: "
         f"`AdaptiveStepSize(rtol, atol, pcoeff={PI['pcoeff']}, icoeff={PI['icoeff']})`, an accepted step's growth "

@@ -8,7 +8,7 @@ location; the operations are grouped by the library function that traced them, s
 integrator (the first frame below ``integrate/simulate.py``, and the frame below that), and by
 the innermost library line. Times: lowering (tracing) and XLA's compilation apart.
 
-    python benchmarks/compile_breakdown.py [--model pendulum|rotor|slider_crank ...] [--top 12]
+    python benchmarks/investigations/compile_breakdown.py [--model pendulum|rotor|slider_crank ...] [--top 12]
 
 Writes ``results/compile_breakdown.md``.
 """
@@ -30,7 +30,7 @@ from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, simul
 from nrrncf_jax.multibody.sensors import observe  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
+sys.path[:0] = [HERE, os.path.dirname(HERE)]
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 
 
@@ -111,7 +111,7 @@ def main(argv=None):
     args = p.parse_args(argv)
     pin_to_one_core()
     out = ["# Where a reduced mechanism's compile time goes (issue 35)", "",
-           f"Produced by `benchmarks/compile_breakdown.py`. Machine: {machine()}.", "",
+           f"Produced by `benchmarks/investigations/compile_breakdown.py`. Machine: {machine()}.", "",
            "The StableHLO operations of the lowered adaptive index-3 run of each NR-RNCF model, grouped "
            "by the library function that traced them as seen from the integrator (the first two frames "
            "below `integrate/simulate.py`), and by the innermost library line. XLA's compile time grows "
@@ -127,7 +127,8 @@ def main(argv=None):
         out += [f"| {k} | {v} | {100 * v / r['ops']:.0f} % |" for k, v in r["by_stage"].most_common(args.top)]
         out += ["", "| innermost library line | operations |", "|---|---:|"]
         out += [f"| {k} | {v} |" for k, v in r["by_line"].most_common(args.top)]
-    report("\n".join(out) + "\n", os.path.join(HERE, "results", "compile_breakdown.md"), keep_notes="## Notes")
+    report("\n".join(out) + "\n", os.path.join(os.path.dirname(HERE), "results", "compile_breakdown.md"),
+           keep_notes="## Notes")
 
 
 if __name__ == "__main__":

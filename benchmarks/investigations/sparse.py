@@ -1,7 +1,7 @@
 """The iteration matrix's linear solvers: dense vs block-tridiagonal vs sparse, by size, and the
 first 100 modes of a 20,000-DOF model by the sparse shift-invert eigensolver.
 
-    python benchmarks/sparse.py [--sizes 2000 20000 100000] [--repeats 3] [--modes 100]
+    python benchmarks/investigations/sparse.py [--sizes 2000 20000 100000] [--repeats 3] [--modes 100]
                                 [--out benchmarks/results/sparse.md]
 
 1. Chains of beam-sized elements (18 DOFs a node, 36-DOF elements, as the RNCF beam) at about
@@ -37,6 +37,8 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy.sparse.linalg as spla  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax.linalg import (  # noqa: E402
@@ -233,7 +235,8 @@ def main(argv=None):
     load1 = os.getloadavg()[0]
     text = "\n".join([
         "# Linear solvers of the iteration matrix: dense, block-tridiagonal, sparse", "",
-        "Produced by `benchmarks/sparse.py`. Machine: " + machine() + f" (load average {load0:.1f} at the start, "
+        "Produced by `benchmarks/investigations/sparse.py`. Machine: " + machine()
+        + f" (load average {load0:.1f} at the start, "
         f"{load1:.1f} at the end; {time.perf_counter() - t_start:.0f} s in all).", "",
         "## Factor + solve by size: chains of beam-sized elements (18 DOFs a node)", "",
         "`assemble_and_factor` and one solve, jit-compiled; best of "

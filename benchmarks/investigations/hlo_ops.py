@@ -1,7 +1,7 @@
 """Operations a step: the optimized HLO of a compiled run, counted (issue 35's "fewer operations
 a step", before and after).
 
-    python benchmarks/hlo_ops.py [--out benchmarks/results/hlo_ops.md]
+    python benchmarks/investigations/hlo_ops.py [--out benchmarks/results/hlo_ops.md]
 
 On a CPU the time of these small models is set by the number of XLA operations a step runs, each
 costing about a microsecond whatever its size (``results/pendulum.md``). This compiles each
@@ -33,7 +33,7 @@ from nrrncf_jax.reduction import nr_rncf  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(__file__))
+sys.path[:0] = [os.path.dirname(__file__), os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
 from _machine import machine, report  # noqa: E402
 
 FREE = frozenset({"parameter", "constant", "tuple", "get-tuple-element", "bitcast", "after-all"})
@@ -133,7 +133,8 @@ def main():
     lines = [
         "# Operations a step: the optimized HLO of compiled runs (issue 35)",
         "",
-        f"Produced by `benchmarks/hlo_ops.py`. Machine: {machine()} (counts depend on JAX/XLA, not on speed).",
+        f"Produced by `benchmarks/investigations/hlo_ops.py`. Machine: {machine()} "
+        "(counts depend on JAX/XLA, not on speed).",
         "",
         "The adaptive loop's body outside the Newton loop runs once per attempted step; the Newton loop's "
         "body once per iteration; the output branch only in steps that reach an output time (its "

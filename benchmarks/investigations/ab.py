@@ -1,6 +1,6 @@
 """A/B comparison of results and speed between a git revision (A, the base) and the working tree (B).
 
-    python benchmarks/ab.py --base REV [--cases rncf ancf nr_rncf sweep grad] [--repeats 2]
+    python benchmarks/investigations/ab.py --base REV [--cases rncf ancf nr_rncf sweep grad] [--repeats 2]
                             [--out benchmarks/results/ab.md]
 
 The base revision is checked out with ``git worktree add --detach`` in a temporary directory
@@ -61,7 +61,8 @@ import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-TREE = os.path.dirname(HERE)
+BENCH = os.path.dirname(HERE)  # benchmarks/: _machine and results/
+TREE = os.path.dirname(BENCH)
 TOL = 1e-9
 CASES = ("rncf", "ancf", "nr_rncf", "sweep", "grad", "pendulum", "pendulum_rncf")
 PENDULUM_GROUP = ("pendulum", "pendulum_rncf")
@@ -339,7 +340,7 @@ def main(argv=None):
     p.add_argument("--base", help="the base revision (A); the working tree is B")
     p.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES)
     p.add_argument("--repeats", type=int, default=2)
-    p.add_argument("--out", default=os.path.join(HERE, "results", "ab.md"))
+    p.add_argument("--out", default=os.path.join(BENCH, "results", "ab.md"))
     p.add_argument("--all-cores", action="store_true", help="do not pin the runs to one core")
     p.add_argument("--worker", nargs="+", choices=CASES, help=argparse.SUPPRESS)
     a = p.parse_args(argv)
@@ -379,7 +380,7 @@ def main(argv=None):
     total = time.perf_counter() - t_start
     load1 = os.getloadavg()[0]
 
-    sys.path.insert(0, HERE)
+    sys.path.insert(0, BENCH)
     import jax  # noqa: F401  (the machine line names the JAX version)
     from _machine import machine, report
 
@@ -426,7 +427,8 @@ def main(argv=None):
                if failed else f"All results equal: the same step counts, and floats within {TOL:g} relative.")
     text = "\n".join([
         f"# A/B: base {a.base} ({sha[:10]}) against the working tree", "",
-        f"Produced by `benchmarks/ab.py --base {a.base}`. Machine: {machine()} (load average {load0:.1f} at the "
+        f"Produced by `benchmarks/investigations/ab.py --base {a.base}`. Machine: {machine()} "
+        f"(load average {load0:.1f} at the "
         f"start, {load1:.1f} at the end; {total:.0f} s in all).", "",
         "A = the base revision (a `git worktree` of it), B = the working tree"
         + (" (with uncommitted changes to tracked files)" if dirty else "") + f". Each case ran {a.repeats} times "
@@ -437,7 +439,8 @@ def main(argv=None):
         *lines, "",
         verdict, "",
         *(["Notes:", "", *notes, ""] if notes else []),
-        "Cases: " + "; ".join(f"`{c}`" for c in a.cases) + " (see the docstring of `benchmarks/ab.py`). Run B/A "
+        "Cases: " + "; ".join(f"`{c}`" for c in a.cases) + " (see the docstring of "
+        "`benchmarks/investigations/ab.py`). Run B/A "
         "is the ratio of the best run times; 'beyond noise' where every run of one revision was faster than every "
         "run of the other. This is a shared 2-core machine: repeat runs of one revision differ by the spread "
         "listed.", "",

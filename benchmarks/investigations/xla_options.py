@@ -1,6 +1,6 @@
 """Compile time against run time under XLA's CPU code-generation options, for whole simulations.
 
-    python benchmarks/xla_options.py [--cases nr_pendulum ancf_pendulum rncf_spinup nr_spinup]
+    python benchmarks/investigations/xla_options.py [--cases nr_pendulum ancf_pendulum rncf_spinup nr_spinup]
                                      [--repeats 4] [--out benchmarks/results/xla_options.md]
 
 On a CPU most of a short study's time is XLA's compilation of the integrator loop (the reduced
@@ -35,7 +35,7 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(__file__))
+sys.path[:0] = [os.path.dirname(__file__), os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 
 from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlpha, GeneralizedAlphaIndex3, Newton  # noqa: E402
@@ -119,7 +119,8 @@ def main(argv=None):
     if not a.all_cores:
         pin_to_one_core()
     lines = ["# Compile time against run time under XLA's CPU options", "",
-             f"Produced by `benchmarks/xla_options.py --cases {' '.join(a.cases)} --repeats {a.repeats}`. "
+             f"Produced by `benchmarks/investigations/xla_options.py --cases {' '.join(a.cases)} "
+             f"--repeats {a.repeats}`. "
              f"Machine: {machine()}.", "",
              "Each loop lowered once, compiled under each variant (per-executable compiler options), run in turn; "
              f"run [s]: the median of {a.repeats} (their range beside it).", "",

@@ -1,7 +1,7 @@
 """How fast modified Newton converges in the pendulum's index-3 step, with and without the inertia
 terms' p columns in its iteration matrix (``multibody.floating.FloatingBody.deformation_tangent``).
 
-    python benchmarks/newton_contraction.py [--elements 10] [--times 1.0 1.5] [--h 2e-4]
+    python benchmarks/investigations/newton_contraction.py [--elements 10] [--times 1.0 1.5] [--h 2e-4]
                                             [--out benchmarks/results/newton_contraction.md]
 
 For each model (the full-order RNCF pendulum in the frame of its left ends' tangents,
@@ -37,7 +37,7 @@ from nrrncf_jax.scenarios.pendulum import (  # noqa: E402
     build_rncf_pendulum,
 )
 
-sys.path.insert(0, os.path.dirname(__file__))
+sys.path[:0] = [os.path.dirname(__file__), os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
 from _machine import machine, report  # noqa: E402
 
 CORRECTIONS = 8
@@ -88,7 +88,7 @@ def main(argv=None):
               ("NR-RNCF, 5 VMs + 15 MDs a beam", build_reduced_pendulum(spec, 5)[0])]
     times = sorted(a.times)
     lines = ["# Modified Newton's contraction in the pendulum's index-3 step", "",
-             f"Produced by `benchmarks/newton_contraction.py --elements {a.elements} --times "
+             f"Produced by `benchmarks/investigations/newton_contraction.py --elements {a.elements} --times "
              f"{' '.join(f'{t:g}' for t in times)} --h {a.h:g}`. Machine: {machine()}.", "",
              f"{a.elements} elements a beam; states from each model's run (rtol 1e-4, ρ∞ = 0.9); one step of "
              f"h = {a.h:g} s from each, modified Newton on the matrix factored at the predictor. Corrections "

@@ -1,7 +1,7 @@
 """The iteration matrix kept across steps (``Newton(reuse=True)``) and the fixed-step mode, against
 one factorisation a step (issue 35).
 
-    python benchmarks/jacobian_reuse.py [--repeats 3] [--out benchmarks/results/jacobian_reuse.md]
+    python benchmarks/investigations/jacobian_reuse.py [--repeats 3] [--out benchmarks/results/jacobian_reuse.md]
 
 Four models: the paper's beam spun up to 4 rad/s in full-order RNCF (C1 elements, modified
 Newton); its NR-RNCF model at 10 rad/s (full Newton by default); the NR-RNCF three-beam pendulum
@@ -40,7 +40,7 @@ from nrrncf_jax.reduction import nr_rncf  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(__file__))
+sys.path[:0] = [os.path.dirname(__file__), os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 
 
@@ -112,7 +112,7 @@ def main():
     lines = [
         "# The iteration matrix kept across steps, and the fixed-step mode (issue 35)",
         "",
-        f"Produced by `benchmarks/jacobian_reuse.py`. Machine: {machine()}.",
+        f"Produced by `benchmarks/investigations/jacobian_reuse.py`. Machine: {machine()}.",
         "",
         "`Newton(reuse=True)`: modified Newton on a matrix kept from step to step while the step size stays "
         "within 20 % of the one it was factored for and its last solve contracted by 0.1 or better; a solve "

@@ -1,6 +1,7 @@
 """Observing in the adaptive loop against observing after it (issue 35: fewer operations a step).
 
-    python benchmarks/observe_after.py [--repeats 5] [--batch 16] [--out benchmarks/results/observe_after.md]
+    python benchmarks/investigations/observe_after.py [--repeats 5] [--batch 16]
+        [--out benchmarks/results/observe_after.md]
 
 ``integrate.simulate`` runs a forward-mode run with a small state by recording (q, v) at the
 output times and calling ``observe`` once over all of them after the loop (``_Config.after``);
@@ -30,7 +31,7 @@ import numpy as np  # noqa: E402
 from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, _chain, build_reduced_pendulum, release_sweep  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(__file__))
+sys.path[:0] = [os.path.dirname(__file__), os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 
 simulate_module = importlib.import_module("nrrncf_jax.integrate.simulate")
@@ -99,7 +100,7 @@ def main():
     lines = [
         "# Observing after the adaptive loop against in it (issue 35)",
         "",
-        f"Produced by `benchmarks/observe_after.py`. Machine: {machine()}.",
+        f"Produced by `benchmarks/investigations/observe_after.py`. Machine: {machine()}.",
         "",
         "The same compiled run but for where `observe` is called (module docstring). Steps: accepted steps (all "
         "members for the batch). Compile: the first compilation of each mode [s]. Run: median and range over the "

@@ -2,7 +2,8 @@
 call, and an LU written in XLA operations whose ``vmap`` is one batched computation (issue 35's
 third item, measured before it is built into the integrator).
 
-    python benchmarks/batched_lu.py [--sizes 20 99] [--batches 1 16 64] [--out benchmarks/results/batched_lu.md]
+    python benchmarks/investigations/batched_lu.py [--sizes 20 99] [--batches 1 16 64]
+        [--out benchmarks/results/batched_lu.md]
 
 For each order n (20: a reduced body; 99: the NR-RNCF pendulum's iteration matrix with its
 joints) and batch size b: b random well-conditioned systems A x = r solved by
@@ -34,7 +35,7 @@ import jax.scipy.linalg as jsl  # noqa: E402
 import numpy as np  # noqa: E402
 from jax import lax  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(__file__))
+sys.path[:0] = [os.path.dirname(__file__), os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 
 from nrrncf_jax.linalg.dense import solve_once  # noqa: E402
@@ -115,7 +116,7 @@ def main():
                 rows.append((n, b, name, 1e6 * t / b, res, float(np.max(np.abs(x - ref)) / np.max(np.abs(ref)))))
                 print(rows[-1], flush=True)
     lines = [f"# A batch of small dense solves on the {platform.upper()} (issue 35)", "",
-             f"Produced by `benchmarks/batched_lu.py`. Machine: {machine()}.", "",
+             f"Produced by `benchmarks/investigations/batched_lu.py`. Machine: {machine()}.", "",
              "b random systems of order n, each solved by LU with partial pivoting; µs a member (best of 5 "
              "repeats of 20 calls, compiled first). Residual: max over members of |A x − r| / (|A| |x|); "
              "difference: max |x − x_LAPACK| / max |x_LAPACK|.", "",

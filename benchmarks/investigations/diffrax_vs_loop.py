@@ -1,6 +1,6 @@
 """Generalized-α as a diffrax solver, timed against the hand-written loop (``simulate``).
 
-Run:  cd /work/main && PYTHONPATH=. python benchmarks/diffrax_galpha.py
+Run:  cd /work/main && PYTHONPATH=. python benchmarks/investigations/diffrax_vs_loop.py
 Writes benchmarks/results/diffrax_vs_loop.md.
 
 ``DiffraxGeneralizedAlpha`` takes the same step as ``nrrncf_jax.integrate.simulate``: Arnold-Brüls
@@ -345,7 +345,7 @@ def main():
                f"{os.cpu_count()} CPU cores, no GPU; jax {jax.__version__}, diffrax {diffrax.__version__}, "
                f"equinox {eqx.__version__}; backend {jax.default_backend()}, float64.")
     out = ["# Generalized-α: diffrax solver vs hand-written loop", "",
-           "Produced by `benchmarks/diffrax_galpha.py`. Paper beam spin-up in the rotating frame "
+           "Produced by `benchmarks/investigations/diffrax_vs_loop.py`. Paper beam spin-up in the rotating frame "
            "(RotatingFrameModel, SpinUp with T_s = 15 s), outputs every 0.01 s, rtol = 1e-4, atol = 1e-6, "
            "ρ∞ = 0.9. Tip displacement observed in the rotating frame.", "", machine, "",
            "compile s = (first call − second call) wall time; run s = second call (`jax.block_until_ready`); "
@@ -385,7 +385,7 @@ def main():
             "- Accuracy against the tight-tolerance reference is comparable for all variants.",
             "- Timings are from a shared 2-core machine (other jobs running); repeated runs of the loop in case B "
             "ranged 5.3-7.3 s, so differences under ~20 % are noise.", ""]
-    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results", "diffrax_vs_loop.md")
+    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "results", "diffrax_vs_loop.md")
     os.makedirs(os.path.dirname(path), exist_ok=True)
     with open(path, "w") as fh:
         fh.write("\n".join(out))

@@ -1,6 +1,6 @@
 """The reduced pendulum's arithmetic a step against its time a step: a roofline row (issue 35).
 
-    python benchmarks/roofline.py [--cases 1e-4:plain 1e-3:plain 2e-3:pi] [--repeats 5] [--no-accuracy]
+    python benchmarks/investigations/roofline.py [--cases 1e-4:plain 1e-3:plain 2e-3:pi] [--repeats 5] [--no-accuracy]
                                   [--out benchmarks/results/roofline.md]
 
 Each case is an error tolerance (rtol; atol = rtol/10) and a step-size controller by name
@@ -42,7 +42,7 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(__file__))
+sys.path[:0] = [os.path.dirname(__file__), os.path.dirname(os.path.dirname(os.path.abspath(__file__)))]
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 from hlo_ops import computations, counts, loop_bodies  # noqa: E402
 
@@ -209,7 +209,7 @@ def main():
     lines = [
         "# The reduced pendulum's arithmetic against its time: a roofline row (issue 35)",
         "",
-        f"Produced by `benchmarks/roofline.py`. Machine: {machine()}.",
+        f"Produced by `benchmarks/investigations/roofline.py`. Machine: {machine()}.",
         "",
         "The NR-RNCF pendulum (10 C1 elements a beam, 5 VMs + 15 MDs a beam, 81 DOFs), 0-2 s, ρ∞ = 0.9, "
         "Newton to 1 % of the step's tolerance, outputs every 10 ms. Arithmetic from the optimized HLO "
