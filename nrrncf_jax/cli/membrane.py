@@ -102,18 +102,12 @@ def register(sub) -> None:
     t.add_argument("--mds", type=lambda s: s if s == "none" else _pair(s), nargs="+", default=None,
                    help="nr-rncf: modal derivatives as pairs i,j, or 'none' (default: all pairs of the VMs)")
     t.add_argument("--modes", type=int, default=24, help="nr-rncf: candidate modes (the MMI's)")
-    t.add_argument("--tol", type=float, default=None, metavar="P",
-                   help="nr-rncf: choose the basis to a target chi_rel of P per cent (the smallest prefix of the MMI "
-                        "ranking whose run's error estimate is <= P/2; --vms and --mds are then not used)")
     _common.add_estimate_options(t, method_help=(
         "nr-rncf: the error estimate: static (the quasi-static correction at 16 sampled outputs, "
         "a factorisation each) or dynamic (the linearised error equation over every output, a "
         "factorisation each: minutes on the full mesh, but it flags a basis whose error grows as "
         "drift; estimate_valid_until_s says where its linearisation stopped holding)"))
-    t.add_argument("--reference", choices=("rncf",), default=None,
-                   help="nr-rncf: also run the full RNCF model and report chi_rel and the speed-up (the reference at "
-                        "the run's own tolerance: chi_rel is the difference of two runs' errors, reference_converged "
-                        "false)")
+    _common.add_tol_and_reference_options(t, "nr-rncf")
     t.add_argument("--rings", type=int, default=15, help="rings of the hexagonal disk mesh (15: 1350 triangles)")
     t.add_argument("--thickness", type=float, default=1.36e-3, help="plate thickness [m]")
     t.add_argument("--t-end", type=float, default=3.0, help="end time [s]")

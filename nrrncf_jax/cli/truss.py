@@ -129,18 +129,12 @@ def register(sub) -> None:
     t.add_argument("--vms", type=int, default=4, help="dynamics, nr-rncf: vibration modes chosen by MMI")
     t.add_argument("--mds", type=int, default=6, help="dynamics, nr-rncf: modal derivatives chosen by MMI")
     t.add_argument("--modes", type=int, default=12, help="dynamics, nr-rncf: candidate modes for the MMI")
-    t.add_argument("--tol", type=float, default=None, metavar="P",
-                   help="dynamics, nr-rncf: choose the basis to a target chi_rel of P per cent (the smallest prefix of "
-                        "the MMI ranking whose run's error estimate is <= P/2; --vms and --mds are then not used)")
     _common.add_estimate_options(t, method_help=(
         "dynamics, nr-rncf: the error estimate: static (the quasi-static correction at 16 sampled "
         "outputs, a sparse factorisation each) or dynamic (the linearised error equation over every "
         "output, a factorisation each: minutes, but it flags a basis whose error grows as drift; "
         "estimate_valid_until_s says where its linearisation stopped holding)"))
-    t.add_argument("--reference", choices=("rncf",), default=None,
-                   help="dynamics, nr-rncf: also run the full RNCF model and report chi_rel and the speed-up (the "
-                        "reference at the run's own tolerance: chi_rel is the difference of two runs' errors, "
-                        "reference_converged false)")
+    _common.add_tol_and_reference_options(t, "dynamics, nr-rncf")
     t.add_argument("--t-end", type=float, default=10.0, help="dynamics: end time [s]")
     t.add_argument("--dt-out", type=float, default=0.02, help="dynamics: output interval [s]")
     t.add_argument("--plot", help="write a plot (PNG) here: mode shapes, or the free end's y and z responses")
