@@ -70,7 +70,7 @@ from .mechanism import Mechanism
 
 
 def _reduced(body) -> bool:
-    return isinstance(body, FloatingBody) and body.k > 0 and not getattr(body.tensors, "full_order", False)
+    return isinstance(body, FloatingBody) and body.k > 0 and not body.tensors.full_order
 
 
 def full_counterpart(system: Mechanism) -> Mechanism:
@@ -106,7 +106,7 @@ def _lift_maps(full: Mechanism, reduced: Mechanism) -> list:
                 raise ValueError(f"body {k}: the full and reduced systems' bodies differ")
             maps.append(None)
             continue
-        if not (isinstance(bf, FloatingBody) and getattr(bf.tensors, "full_order", False)) or \
+        if not (isinstance(bf, FloatingBody) and bf.tensors.full_order) or \
                 bf.body.n_dof != br.body.n_dof or not np.allclose(np.asarray(bf.body.q_hat), np.asarray(br.body.q_hat)):
             raise ValueError(f"body {k}: the full system's body must be the full-order RNCF body of the reduced one's "
                              "element body (full_counterpart)")

@@ -344,7 +344,7 @@ class FloatingBody(AbstractBodyKind):
     def kind(self) -> str:  # type: ignore[override]
         if self.k == 0:
             return "rigid"
-        return "rncf" if getattr(self.tensors, "full_order", False) else "nr-rncf"
+        return "rncf" if self.tensors.full_order else "nr-rncf"
 
     def describe(self) -> str:
         """The body's kind, coordinates and, for a reduced body, how its basis was chosen."""
