@@ -7,6 +7,7 @@ import pytest
 
 from nrrncf_jax.multibody import (
     GROUND,
+    EccentricBall,
     Marker,
     Mechanism,
     MultibodySystem,
@@ -70,6 +71,39 @@ def test_ball_and_clamp_on_markers():
     xs = tuple(np.asarray(x) for x in tilted.nodal_vectors(tilted.reference()))
     np.testing.assert_allclose(j.axis(xs)[0], axis, atol=1e-15)
     np.testing.assert_allclose(j.normals(xs) @ axis, 0.0, atol=1e-15)
+
+
+def test_an_eccentric_ball_keeps_a_point_fixed_in_a_section_frame():
+    """``ball(a, b, eccentric=True)``: b's node at a point off a's node, fixed in a's section frame:
+    its equations vanish in the reference and after any rigid motion of the pair (the point turns
+    with a's node), and not after a's node alone turns; without ``eccentric`` the differing points
+    are refused, and on the ground it is refused."""
+    beam = _beam(PendulumSpec(elements=2))
+    offset = np.array([0.0, 0.02, -0.01])
+    bodies = [beam, placed(beam, translation=(1.0, 0.0, 0.0) + offset)]
+    a, b = Marker(0, (1.0, 0.0, 0.0)), Marker(1, tuple((1.0, 0.0, 0.0) + offset))
+    system = MultibodySystem(bodies, [clamp(GROUND, Marker(0, (0.0, 0.0, 0.0))), ball(a, b, eccentric=True)])
+    joint = system.joints[1]
+    assert isinstance(joint, EccentricBall) and joint.n_equations == 3
+    xs = [np.asarray(x) for x in system.nodal_vectors(system.reference())]
+    np.testing.assert_allclose(joint(xs), 0.0, atol=1e-15)
+    c, s_ = np.cos(0.7), np.sin(0.7)
+    Q = np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]]) @ np.array([[1.0, 0.0, 0.0], [0.0, c, -s_],
+                                                                           [0.0, s_, c]])
+    shift = np.array([0.3, -0.1, 0.2])
+    moved = []
+    for body, x in zip(system.bodies, xs):
+        pos = np.asarray(body.geometry().is_position)[:, None]
+        moved.append(np.where(pos, x @ Q.T + shift, x @ Q.T))
+    np.testing.assert_allclose(joint(moved), 0.0, atol=1e-14)
+    # a's directions turned, every position only shifted: b's node is not at a's turned point
+    turned_a = [np.where(np.asarray(body.geometry().is_position)[:, None], x + shift, y)
+                for body, x, y in zip(system.bodies, xs, (moved[0], xs[1]))]
+    assert np.abs(np.asarray(joint(turned_a))).max() > 1e-3
+    with pytest.raises(ValueError, match="the markers' points differ"):
+        MultibodySystem(bodies, [ball(a, b)])
+    with pytest.raises(ValueError, match="eccentric ball's point is fixed in a's node"):
+        ball(None, b, eccentric=True)
 
 
 def test_bad_markers_are_refused_naming_the_problem():

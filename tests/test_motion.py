@@ -24,7 +24,7 @@ from nrrncf_jax import (
     SpinUp,
     Stationary,
 )
-from nrrncf_jax.motion import skew
+from nrrncf_jax.motion import HalfCosine, skew
 from nrrncf_jax.reduction import vibration_modes
 from nrrncf_jax.reduction.reduced_model import reduce_rotating_model
 
@@ -198,3 +198,20 @@ def _terms(m, t, Q, V, general: bool):
     if general:
         return AbstractMotion.frame_terms(m, t, Q, V), AbstractMotion.frame_matrices(m, t)
     return m.frame_terms(t, Q, V), m.frame_matrices(t)
+
+
+def test_half_cosine_turns_by_its_angle_with_its_own_rates():
+    """``HalfCosine(angle, T)``: θ = (angle/2)(1 − cos πt/T) up to T, then held; its θ̇ and θ̈ are
+    the derivatives of its θ (forward mode) inside (0, T), zero after T, and θ̇ is zero at both
+    ends; a non-positive T is refused."""
+    m = HalfCosine(np.pi, 0.4, axis=(0.0, -1.0, 0.0))
+    for t in (0.05, 0.2, 0.33):
+        th, dth, ddth = (float(x) for x in m(t))
+        assert th == pytest.approx(np.pi / 2 * (1 - np.cos(np.pi * t / 0.4)), rel=1e-15)
+        assert dth == pytest.approx(float(jax.jacfwd(lambda s: m(s)[0])(t)), rel=1e-13)
+        assert ddth == pytest.approx(float(jax.jacfwd(lambda s: m(s)[1])(t)), rel=1e-13)
+    assert [float(x) for x in m(0.0)[:2]] == [0.0, 0.0]
+    assert [float(x) for x in m(0.6)] == [pytest.approx(np.pi, rel=1e-15), 0.0, 0.0]
+    np.testing.assert_allclose(np.asarray(m.angular_velocity(0.2)), [0.0, -np.pi**2 / 0.8, 0.0], rtol=1e-14)
+    with pytest.raises(ValueError, match="T must be > 0"):
+        HalfCosine(1.0, 0.0)

@@ -14,4 +14,7 @@ with ``nrrncf run <name>`` (``scenarios.mechanism_file``).
   critical speed (a driven hinge, a cylindrical bearing, a welded rigid disk).
 - ``princeton_beam``: the same set's static cantilever strip under a turned tip load
   (``nrrncf static``).
+- ``lateral_buckling``: the same set's thin cantilever pushed up by a driven crank and a link
+  past Prandtl's critical load, so that it buckles sideways (MBDyn's deck: C offset from the tip
+  by 0.1 mm, the imperfection; full ANCF or NR-RNCF bars).
 """

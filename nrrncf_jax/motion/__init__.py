@@ -26,5 +26,6 @@ from .prescribed import skew as skew
 from .prescribed import spin_up_angle as spin_up_angle
 from .prescribed import unit_axis as unit_axis
 from .profiles import FourierSpinUp as FourierSpinUp
+from .profiles import HalfCosine as HalfCosine
 from .profiles import RestToRest as RestToRest
 from .profiles import SpinSchedule as SpinSchedule

@@ -189,3 +189,30 @@ class SpinSchedule(AbstractAxisMotion):
         inside = (t[..., None] > t0) & (t[..., None] < t1)
         acc = jnp.where(inside, 0.5 * (w1 - w0) * jnp.pi / T * jnp.sin(jnp.pi * s), 0.0)
         return (self.ramps[0, 2] * t + angle.sum(-1), self.ramps[0, 2] + rate.sum(-1), acc.sum(-1))
+
+
+class HalfCosine(AbstractAxisMotion):
+    """A rotation by ``angle`` about ``axis`` along a half cosine over ``T``, then held:
+    θ(t) = (angle/2)(1 − cos(π t/T)) for 0 ≤ t ≤ T, ``angle`` after (MBDyn's ``cosine`` drive over
+    half a cycle; the validation set's lateral buckling turns its crank so). θ̇ starts and ends at
+    zero; θ̈ jumps at 0 and T."""
+
+    angle: Float[Array, ""]
+    T: Float[Array, ""]
+    axis: Float[Array, " 3"]
+
+    def __init__(self, angle, T, axis=(0.0, 0.0, 1.0)):
+        if not float(T) > 0:
+            raise ValueError(f"T must be > 0, got {T!r}")
+        self.angle = jnp.asarray(angle, dtype=float)
+        self.T = jnp.asarray(T, dtype=float)
+        self.axis = unit_axis(axis)
+
+    def __call__(self, t):
+        t = jnp.asarray(t, dtype=float)
+        w = jnp.pi / self.T
+        s = w * jnp.clip(t, 0.0, self.T)
+        moving = (t > 0.0) & (t < self.T)
+        half = 0.5 * self.angle
+        return (half * (1.0 - jnp.cos(s)), jnp.where(moving, half * w * jnp.sin(s), 0.0),
+                jnp.where(moving, half * w**2 * jnp.cos(s), 0.0))

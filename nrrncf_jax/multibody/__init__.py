@@ -5,7 +5,7 @@
   mesh); ``Directions`` fixed in it.
 - ``joints``: ``Spherical``, ``Revolute`` (on section frames), ``Fixed`` (nodal vectors
   prescribed); ``weld``: ``Weld``; ``prismatic``: ``Prismatic``; ``cylindrical``: ``Cylindrical``;
-  ``universal``: ``Universal``;
+  ``universal``: ``Universal``; ``eccentric_ball``: ``EccentricBall``;
   ``drivers``: ``AngleDriver``, ``DistanceDriver``, an angle or a slider's travel prescribed in
   time (their multipliers the driving torque or force).
 - ``markers``: the joints in physical terms, ``hinge``, ``ball``, ``clamp``, ``slider``,
@@ -68,6 +68,7 @@ of the paper, all three ways: ``scenarios.pendulum``, ``notebooks/07_pendulum.ip
 from .cylindrical import Cylindrical as Cylindrical
 from .drivers import AngleDriver as AngleDriver
 from .drivers import DistanceDriver as DistanceDriver
+from .eccentric_ball import EccentricBall as EccentricBall
 from .floating import FloatingBody as FloatingBody
 from .forces import Actuator as Actuator
 from .forces import SpringDamper as SpringDamper

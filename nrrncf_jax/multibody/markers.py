@@ -26,6 +26,7 @@ import numpy as np
 
 from .cylindrical import Cylindrical
 from .drivers import AngleDriver, DistanceDriver
+from .eccentric_ball import EccentricBall
 from .joints import Revolute, Spherical, normals
 from .measures import HingeAngle, Travel
 from .prismatic import Prismatic
@@ -148,6 +149,10 @@ class JointSpec:
         na = None if self.a is None else geometry[self.a.body].node(self.a)
         if self.kind in ("slider", "cylindrical"):
             return self._slider(geometry, nb, na)
+        if self.kind == "eccentric ball":
+            offset = np.asarray(self.b.point) - geometry[self.a.body].vectors[na]
+            return EccentricBall(self.a.body, na, geometry[self.a.body].directions(self.a.body, na, [offset]),
+                                 self.b.body, nb)
         if self.a is not None and np.linalg.norm(geometry[self.a.body].vectors[na] - gb.vectors[nb]) > \
                 POINT_TOL * max(1.0, np.abs(gb.vectors).max()):
             raise ValueError(f"the markers' points differ, {_fmt(self.a.point)} and {_fmt(self.b.point)} (the "
@@ -273,10 +278,15 @@ def angle_driver(a: Marker | None, b: Marker, axis, drive) -> JointSpec:
     return JointSpec("angle", a, b, tuple(float(x) for x in _unit(axis)), _check_drive(drive))
 
 
-def ball(a: Marker | None, b: Marker) -> JointSpec:
+def ball(a: Marker | None, b: Marker, eccentric: bool = False) -> JointSpec:
     """A spherical joint: the nodes at ``a`` and ``b`` keep one position (``Spherical``); with
-    ``a=None``, b's node stays at its point in space."""
-    return JointSpec("ball", a, b)
+    ``a=None``, b's node stays at its point in space. ``eccentric=True``: b's node may lie off a's;
+    it keeps to the point at b's marker fixed in a's node's section frame, which turns with it
+    (``eccentric_ball.EccentricBall``)."""
+    if eccentric and a is None:
+        raise ValueError("ball(None, b, eccentric=True): an eccentric ball's point is fixed in a's node; on the "
+                         "ground, ball(None, b) holds b's node at its own point")
+    return JointSpec("eccentric ball" if eccentric else "ball", a, b)
 
 
 def clamp(a: Marker | None, b: Marker) -> JointSpec:
