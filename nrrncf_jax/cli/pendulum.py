@@ -54,7 +54,8 @@ def _run(args) -> int:
     ref = None
     full = args.formulation in ("ancf", "rncf")
     if full:
-        ref = run_pendulum(spec, **kw, **({} if args.formulation == "ancf" else {"formulation": "rncf"}))
+        ref = run_pendulum(spec, **kw, error_on=args.error_on,
+                           **({} if args.formulation == "ancf" else {"formulation": "rncf"}))
     elif args.reference is not None:
         rtol = args.rtol if args.reference_rtol is None else args.reference_rtol
         ref = run_pendulum(spec, **(kw | dict(rtol=rtol, atol=args.atol * rtol / args.rtol)),
@@ -70,7 +71,8 @@ def _run(args) -> int:
         _common.say(args, search.describe())
         run = run_chain(search.system, args.t_end, args.dt_out, args.rho_inf, args.rtol, args.atol,
                         kw["progress"], estimate=not args.no_estimate, estimate_method=args.estimate_method,
-                        step_control=args.step_control, **_common.estimate_samples(args, True))
+                        step_control=args.step_control, error_on=args.error_on,
+                        **_common.estimate_samples(args, True))
         run.search = search
         if ref is not None:
             run.compare(ref)
@@ -78,7 +80,7 @@ def _run(args) -> int:
         run = run_pendulum(spec, formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
                            joint_modes=args.joint_modes, craig_bampton=args.craig_bampton,
                            estimate=not args.no_estimate, estimate_method=args.estimate_method,
-                           **_common.estimate_samples(args, True), **kw)
+                           error_on=args.error_on, **_common.estimate_samples(args, True), **kw)
         if ref is not None:
             run.compare(ref)
     if args.out:
@@ -186,6 +188,9 @@ def register(sub) -> None:
     t.add_argument("--atol", type=float, default=1e-5, help="the step error's absolute tolerance")
     t.add_argument("--rho-inf", type=float, default=0.9, help="generalized-alpha spectral radius at infinity")
     _common.add_step_control(t)
+    t.add_argument("--error-on", choices=("nodes", "tips"), default="nodes",
+                   help="what the step error is measured on: every nodal vector, or the beams' right ends (the run's "
+                        "outputs; a --reference run still measures every nodal vector)")
     t.add_argument("--out", help="write the right ends' positions (t, x1, y1, x2, y2, x3, y3) to this CSV file")
     t.add_argument("--plot", help="write the shapes (Fig. 17) and the right ends' motion (Fig. 18) as a PNG here")
     t.add_argument("--animate", help="write an animated GIF of the motion here")
