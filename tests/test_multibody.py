@@ -169,7 +169,8 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
             str(tmp_path / "p.gif"), "--vtk", str(tmp_path / "vtk"), "--json"]
     assert main(argv) == 0
     (spec, kw), = calls
-    assert spec == PendulumSpec(elements=2) and kw == dict(PENDULUM_RUN, progress=False, step_control="plain")
+    assert spec == PendulumSpec(elements=2)
+    assert kw == dict(PENDULUM_RUN, progress=False, step_control="plain", error_on="nodes")
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     for key in ("dofs", "steps", "newton_iters", "compile_s", "run_s"):
         assert d[key] == pendulum_run.summary()[key]
@@ -254,6 +255,20 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
                       (["--formulation", "nr-rncf", "--train-t", "0.3"], "give --tol too")):
         assert main(["pendulum"] + bad) == 2
         assert says in capsys.readouterr().err
+
+
+def test_pendulum_command_defaults_follow_the_formulation():
+    """``nrrncf pendulum``: the reduced chain runs at rtol 1e-3 with the PI controller, the full
+    models at 1e-4 with the plain one, atol a tenth of rtol; what a user gives is kept."""
+    from nrrncf_jax.cli import parse
+
+    for argv, want in ((["--formulation", "nr-rncf"], (1e-3, 1e-4, "pi")), ([], (1e-4, 1e-5, "plain")),
+                       (["--formulation", "rncf"], (1e-4, 1e-5, "plain")),
+                       (["--formulation", "nr-rncf", "--rtol", "1e-5", "--step-control", "plain"],
+                        (1e-5, 1e-6, "plain")),
+                       (["--rtol", "1e-3", "--atol", "1e-2"], (1e-3, 1e-2, "plain"))):
+        a = parse(["pendulum"] + argv)
+        assert (a.rtol, a.step_control) == (want[0], want[2]) and a.atol == pytest.approx(want[1], rel=1e-15), argv
 
 
 def test_multipliers_are_the_reactions():

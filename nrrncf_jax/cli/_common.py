@@ -98,12 +98,13 @@ def output_times(t_end: float, dt_out: float) -> None:
 
 
 
-def add_step_control(parser) -> None:
-    """``--step-control``: the adaptive controller by name, as the scenario runners take it."""
-    parser.add_argument("--step-control", choices=STEP_CONTROL_NAMES, default="plain",
+def add_step_control(parser, default: str | None = "plain", default_help: str = "") -> None:
+    """``--step-control``: the adaptive controller by name, as the scenario runners take it
+    (``default`` None: the command resolves it, as ``default_help`` says)."""
+    parser.add_argument("--step-control", choices=STEP_CONTROL_NAMES, default=default,
                         help="the adaptive step-size controller: plain, or Gustafsson's PI controller (fewer "
                              "rejected steps, more accurate at the same tolerance; "
-                             "benchmarks/results/step_control.md)")
+                             "benchmarks/results/step_control.md)" + default_help)
 
 
 def add_estimate_options(parser, method_help: str) -> None:
