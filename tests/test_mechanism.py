@@ -518,26 +518,59 @@ def test_the_fused_dae_residual_is_the_residual_with_the_joints_forces(example):
     np.testing.assert_allclose(C, C_ref, rtol=0, atol=RTOL_RESIDUAL * max(np.abs(C_ref).max(), 1.0))
 
 
-def test_a_rerun_with_new_parameter_values_does_not_compile():
+@pytest.fixture(scope="module")
+def reduced_crank():
+    """The reduced slider-crank on 2 elements and its first 2 ms: a setup and run two tests share
+    (building and compiling it is most of their time)."""
+    from nrrncf_jax.examples.slider_crank import mechanism
+
+    setup = mechanism("nr-rncf", elements=2, E=1.0e10)
+    return setup, run_setup(setup, t_end=2e-3, n_out=5)
+
+
+@pytest.mark.xdist_group("reduced_crank")
+def test_a_rerun_with_new_parameter_values_does_not_compile(reduced_crank):
     """``run_setup`` compiles the system as an argument of its program, not as constants in it:
     a second run with another Young's modulus (the same shapes) compiles nothing, and its answer
     moves (the rod's stiffness reaches the run)."""
     import jax
 
     from nrrncf_jax.examples.slider_crank import mechanism
-    from nrrncf_jax.scenarios.mechanism_file import run_setup
 
-    def run(setup):
-        return run_setup(setup, t_end=2e-3, n_out=5)
-
-    first = run(mechanism("nr-rncf", elements=2, E=1.0e10))
+    _, first = reduced_crank
     stiffer = mechanism("nr-rncf", elements=2, E=1.3e10)
     compiles = []
     listener = lambda event, *args, **kwargs: compiles.append(event) if "backend_compile" in event else None  # noqa: E731
     jax.monitoring.register_event_duration_secs_listener(listener)
     try:
-        second = run(stiffer)
+        second = run_setup(stiffer, t_end=2e-3, n_out=5)
     finally:
         jax.monitoring.unregister_event_duration_listener(listener)
     assert compiles == []
     assert not np.allclose(first.series["w_mid"], second.series["w_mid"], rtol=1e-6, atol=0)
+
+
+@pytest.mark.xdist_group("reduced_crank")
+def test_a_setup_runs_with_the_users_solver_controller_and_newton(reduced_crank):
+    """``run_setup(solver=, controller=, newton=)``, the integrator's objects as ``simulate`` takes
+    them: the default objects give the default run exactly (the same program, not compiled again),
+    the settings say what ran, and a tighter Newton iterates more; an object with its scalar twin,
+    or of the wrong kind, is refused before anything runs."""
+    from nrrncf_jax.examples.slider_crank import mechanism
+    from nrrncf_jax.integrate import ConstantStepSize, Newton, adaptive_step_size
+
+    setup = mechanism("nr-rncf", elements=2)
+    base = run_setup(setup, t_end=2e-3, n_out=5)
+    same = run_setup(setup, t_end=2e-3, n_out=5, solver=GeneralizedAlphaIndex3(setup.rho_inf),
+                     controller=adaptive_step_size(setup.rtol, setup.rtol / 10, setup.step_control))
+    for k in base.series:
+        np.testing.assert_array_equal(same.series[k], base.series[k])
+    assert (same.steps, same.rejected) == (base.steps, base.rejected)
+    assert same.settings["controller"] == "AdaptiveStepSize" and same.settings["solver"] == "GeneralizedAlphaIndex3"
+    with pytest.raises(ValueError, match="a controller or rtol/dt/step_control, not both"):
+        run_setup(setup, rtol=1e-3, controller=ConstantStepSize(1e-4))
+    with pytest.raises(ValueError, match="a solver or rho_inf, not both"):
+        run_setup(setup, rho_inf=0.5, solver=GeneralizedAlphaIndex3(0.5))
+    with pytest.raises(ValueError, match="newton must be a Newton, got float"):
+        run_setup(setup, newton=1e-3)
+    assert run_setup(setup, t_end=2e-3, n_out=5, newton=Newton(1e-6)).newton_iters >= base.newton_iters

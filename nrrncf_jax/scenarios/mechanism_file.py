@@ -19,7 +19,14 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ..integrate import ConstantStepSize, GeneralizedAlphaIndex3, simulate_timed
+from ..integrate import (
+    AbstractSolver,
+    AbstractStepSizeController,
+    ConstantStepSize,
+    GeneralizedAlphaIndex3,
+    Newton,
+    simulate_timed,
+)
 from ..integrate.step_size import STEP_CONTROLS, adaptive_step_size
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody.sensors import Observer, observe
@@ -165,7 +172,9 @@ class _WithOutline(eqx.Module):
 
 def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | None = None, n_out: int = 201,
               rho_inf: float | None = None, progress: bool = False, positions: bool = False,
-              dt: float | None = None, error_on=None, step_control: str | None = None) -> MechanismRun:
+              dt: float | None = None, error_on=None, step_control: str | None = None, *,
+              solver: AbstractSolver | None = None, controller: AbstractStepSizeController | None = None,
+              newton: Newton | None = None) -> MechanismRun:
     """Run ``setup`` to ``t_end`` (its default) at ``rtol`` (atol = rtol/10 of the nodal vectors'
     metres) with ``GeneralizedAlphaIndex3(rho_inf)``, the sensors at ``n_out`` equal output times;
     compile and run timed apart (ahead-of-time compilation, then a blocked run). ``rho_inf``: the
@@ -175,7 +184,21 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     run quasi-static mechanisms, instead of error-controlled ones. ``error_on``: the sensors whose
     values the step error is measured on (names, a comma-separated string, or ``"nodes"`` for every
     nodal vector; the setup's ``error_on`` by default, ``multibody.Mechanism.observed_error``).
-    ``step_control``: the adaptive controller by name (the setup's by default)."""
+    ``step_control``: the adaptive controller by name (the setup's by default).
+
+    Or, as ``simulate`` takes them, objects: ``solver`` (instead of ``rho_inf``: an index-3 solver,
+    ``GeneralizedAlphaIndex3``), ``controller`` (instead of ``rtol``, ``dt`` and ``step_control``:
+    ``AdaptiveStepSize``, ``ConstantStepSize``, or one of the user's own) and ``newton`` (each
+    step's ``Newton``; ``simulate``'s default otherwise)."""
+    if controller is not None and (rtol is not None or dt is not None or step_control is not None):
+        raise ValueError("run_setup takes a controller or rtol/dt/step_control, not both (the controller holds "
+                         "its tolerances and step)")
+    if solver is not None and rho_inf is not None:
+        raise ValueError("run_setup takes a solver or rho_inf, not both (the solver holds its rho_inf)")
+    for name, value, kind in (("solver", solver, AbstractSolver), ("newton", newton, Newton),
+                              ("controller", controller, AbstractStepSizeController)):
+        if value is not None and not isinstance(value, kind):
+            raise ValueError(f"{name} must be a {kind.__name__}, got {type(value).__name__}")
     t_end = setup.t_end if t_end is None else float(t_end)
     rtol = setup.rtol if rtol is None else float(rtol)
     rho_inf = setup.rho_inf if rho_inf is None else float(rho_inf)
@@ -203,19 +226,29 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     y0 = setup.y0 if setup.y0 is not None else (system.reference(), 0.0 * system.reference())
 
     step_control = setup.step_control if step_control is None else step_control
-    controller = adaptive_step_size(rtol, rtol / 10, step_control) if dt is None else \
-        ConstantStepSize(float(dt), rtol=rtol, atol=rtol / 10)
+    settings = {"rtol": rtol, "atol": float(f"{rtol / 10:.12g}"), "rho_inf": rho_inf,
+                "error_on": list(error_on) or "nodes"}
+    if controller is None:
+        controller = adaptive_step_size(rtol, rtol / 10, step_control) if dt is None else \
+            ConstantStepSize(float(dt), rtol=rtol, atol=rtol / 10)
+        settings |= {"step_control": step_control} if dt is None else {"dt": float(dt)}
+    else:
+        settings |= {"rtol": float(controller.rtol), "atol": float(controller.atol),
+                     "controller": type(controller).__name__}
+        settings |= {"dt": float(controller.dt)} if hasattr(controller, "dt") else {}
+    if solver is None:
+        solver = GeneralizedAlphaIndex3(rho_inf)
+    else:
+        settings |= {"rho_inf": float(solver.rho_inf) if hasattr(solver, "rho_inf") else None,
+                     "solver": type(solver).__name__}
 
     # the system is an argument of the compiled program, not a constant in it (``simulate_timed``):
     # XLA does not fold its arrays, and a reduced mechanism compiles with ``simulate``'s small-kernel
     # options, which a program of the user's own ``jax.jit`` around ``simulate`` would not get; a
     # run that stops early raises ``integrate.SimulationError`` with the time and the reason
-    sol, compile_s, run_s = simulate_timed(system, GeneralizedAlphaIndex3(rho_inf), controller, ts, observe=fn,
-                                           y0=y0, progress=progress)
+    sol, compile_s, run_s = simulate_timed(system, solver, controller, ts, observe=fn, y0=y0, progress=progress,
+                                           newton=newton)
     series = {k: np.asarray(sol.ys[k]) for k in setup.sensors}  # in the setup's order (a dict pytree is sorted)
-    settings = {"rtol": rtol, "atol": float(f"{rtol / 10:.12g}"), "rho_inf": rho_inf,
-                "error_on": list(error_on) or "nodes"}
-    settings |= {"step_control": step_control} if dt is None else {"dt": float(dt)}
     return MechanismRun(ts, series, system.n_dof, int(sol.num_steps), int(sol.num_rejected), int(sol.num_newton),
                         compile_s, run_s, system.formulation,
                         np.asarray(sol.ys[_POINTS]) if positions else None, lines,
