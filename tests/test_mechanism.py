@@ -360,10 +360,12 @@ def test_welded_rigid_bodies_hang_still_and_carry_their_weight():
 def test_section_resultants_of_a_stretched_turned_beam():
     """``post.stress.SectionResultant`` at the root, an interior node and the tip of a beam stretched
     uniformly by ε along its axis and turned (rotated and moved) as a whole: the section vectors
-    keep their length, so E11 = ε + ε²/2 is the only strain, S11 = E E11 (``Material.beam_D``)
-    and N = E A (ε + ε²/2) exactly; the shear forces, torque and moments are zero (to the round-off
-    of F's products, relative to N). Read the same through an ANCF body and a floating-frame body
-    (``reduce(basis="full")``) whose frame carries the rotation."""
+    keep their length, so E11 = ε + ε²/2 is the only strain, S11 = E E11 (``Material.beam_D``),
+    the force the section carries N = (1 + ε) E A (ε + ε²/2) (the first Piola-Kirchhoff traction
+    F S e₁ on the stretched axis; ``kind="conjugate"``: ∫ S11 = E A (ε + ε²/2)), exactly; the
+    shear forces, torque and moments are zero (to the round-off of F's products, relative to N).
+    Read the same through an ANCF body and a floating-frame body (``reduce(basis="full")``) whose
+    frame carries the rotation."""
     from scipy.spatial.transform import Rotation
 
     from nrrncf_jax.multibody.floating import euler_parameters
@@ -377,9 +379,11 @@ def test_section_resultants_of_a_stretched_turned_beam():
     R = np.array([0.4, -1.0, 2.0])
     stretched = np.asarray(beam.q_hat) * np.array([1.0 + eps, 1.0, 1.0])  # x components: positions and r_x
     x = stretched @ A.T + np.asarray(beam.is_position)[:, None] * R
-    N = E * np.pi * r**2 * (eps + eps**2 / 2)
+    N_conjugate = E * np.pi * r**2 * (eps + eps**2 / 2)
+    N = (1.0 + eps) * N_conjugate
     sensors = {f"at_{s}": SectionResultant(Marker(0, (s, 0.0, 0.0))) for s in (0.0, 0.5, 1.0)}
     sensors["N_tip"] = SectionResultant(Marker(0, (1.0, 0.0, 0.0)), "N")
+    sensors["S_tip"] = SectionResultant(Marker(0, (1.0, 0.0, 0.0)), "N", kind="conjugate")
     full = reduce(beam, [(0.0, 0.0, 0.0)], basis="full")
     p = (stretched - np.asarray(full.body.q_hat)).reshape(-1)[np.asarray(full.free)]
     for mech, z in ((Mechanism([beam]), x.reshape(-1)),
@@ -389,6 +393,9 @@ def test_section_resultants_of_a_stretched_turned_beam():
             expected = np.array([N, 0.0, 0.0, 0.0, 0.0, 0.0])
             np.testing.assert_allclose(out[f"at_{s}"], expected, rtol=1e-10, atol=1e-9 * N)
         np.testing.assert_allclose(out["N_tip"], N, rtol=1e-10)
+        np.testing.assert_allclose(out["S_tip"], N_conjugate, rtol=1e-10)
+    with pytest.raises(ValueError, match="kind must be"):
+        SectionResultant(Marker(0, (0.0, 0.0, 0.0)), "N", kind="cauchy")
     with pytest.raises(ValueError, match="quantity must be"):
         SectionResultant(Marker(0, (0.0, 0.0, 0.0)), "moment")
     with pytest.raises(ValueError, match="no C1 beam elements"):

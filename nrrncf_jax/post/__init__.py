@@ -23,6 +23,7 @@ from .stress import SectionResultant as SectionResultant
 from .stress import bar_strain_stress as bar_strain_stress
 from .stress import beam_element_resultants as beam_element_resultants
 from .stress import beam_resultants as beam_resultants
+from .stress import beam_section_forces as beam_section_forces
 from .stress import beam_section_resultants as beam_section_resultants
 from .stress import beam_strain_stress as beam_strain_stress
 from .stress import element_vectors as element_vectors

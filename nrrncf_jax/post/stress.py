@@ -70,6 +70,7 @@ from ..elements.base import local_frame
 from ..elements.beam import C1Beam, beam_shape_functions
 from ..elements.plate import THICKNESS_POINTS, THICKNESS_WEIGHTS, TrianglePlate, plate_D
 from ..multibody.markers import Marker
+from ..multibody.section_frame import triad
 from ..multibody.sensors import _MarkerSensor, _node
 
 BEAM_RESULTANTS = ("N", "V2", "V3", "T", "M2", "M3")
@@ -94,15 +95,22 @@ def _voigt_stress(S: Float[Array, "3 3"]) -> Float[Array, " 6"]:
     return jnp.stack([S[0, 0], S[1, 1], S[2, 2], S[1, 2], S[0, 2], S[0, 1]])
 
 
-def _local_green_lagrange(q_hat_e, q_e, dS):
-    """Green-Lagrange strain (3 × 3) in the reference's local orthonormal frame, that frame R
-    (columns, reference coordinates) and det J at a point whose shape-function derivatives
-    ∂S_α/∂ξ are ``dS`` (n_e × 3); the element's own mapping ``T = J⁻¹ R`` (module docstring)."""
+def _local_gradients(q_hat_e, q_e, dS):
+    """The position gradients F and F̂ (3 × 3: spatial rows, the reference's local orthonormal
+    frame's columns), that frame R (columns, reference coordinates) and det J at a point whose
+    shape-function derivatives ∂S_α/∂ξ are ``dS`` (n_e × 3); the element's own mapping
+    ``T = J⁻¹ R`` (module docstring)."""
     J = q_hat_e.T @ dS  # J[a, i] = ∂r̂_a/∂ξ_i
     R = local_frame(J)
     g = dS @ jnp.linalg.solve(J, R)  # g[α, k] = ∂S_α/∂x_k in the local frame
-    F, F_hat = q_e.T @ g, q_hat_e.T @ g
-    return 0.5 * (F.T @ F - F_hat.T @ F_hat), R, jnp.linalg.det(J)
+    return q_e.T @ g, q_hat_e.T @ g, R, jnp.linalg.det(J)
+
+
+def _local_green_lagrange(q_hat_e, q_e, dS):
+    """Green-Lagrange strain (3 × 3) in the reference's local orthonormal frame, that frame R
+    (columns, reference coordinates) and det J (``_local_gradients``)."""
+    F, F_hat, R, det_J = _local_gradients(q_hat_e, q_e, dS)
+    return 0.5 * (F.T @ F - F_hat.T @ F_hat), R, det_J
 
 
 # --- C1 beams -------------------------------------------------------------------------------------
@@ -150,6 +158,50 @@ def beam_section_resultants(element: C1Beam, q_hat_e: Float[Array, "12 3"], q_e:
     y_n, z_n, _ = element.section.quadrature()
     S13, S12 = S[:, 4], S[:, 5]
     return jnp.stack([w @ S11, w_s @ S12, w_s @ S13, w_s @ (y * S13 - z * S12), w @ (z_n * S11), -(w @ (y_n * S11))])
+
+
+def beam_section_forces(element: C1Beam, q_hat_e: Float[Array, "12 3"], q_e: Float[Array, "12 3"], s,
+                        length) -> Float[Array, " 6"]:
+    """``BEAM_RESULTANTS`` (N, V2, V3, T, M2, M3) of the force and the moment that the section at
+    ``s = ξ/l`` carries in the deformed state, resolved in its deformed frame: what a
+    geometrically exact beam code (and a force balance on a cut) reports.
+
+    The traction on the section per reference area is the first Piola-Kirchhoff stress on the
+    axis's normal, t = P e₁ = F S e₁ = F (S11, S12, S13); the force is n = ∫ t dA and the moment
+    about the centre line m = ∫ (r(y, z) − r(0, 0)) × t dA, each over the element's quadratures as
+    ``beam_section_resultants`` (the shears on the shear quadrature with its moduli factors); the
+    frame (e₁, e₂, e₃) is the orthonormal triad of the section vectors F e₂, F e₃ at the centre
+    line (``multibody.section_frame.triad``). Then N = n·e₁, V2 = n·e₂, V3 = n·e₃, T = m·e₁,
+    M2 = m·e₂, M3 = m·e₃: the same signs as ``beam_section_resultants``, whose ∫ S11 they equal to
+    first order. They differ where the strain is not small against one: a bar stretched by ε
+    carries N = (1 + ε) ∫ S11, and a bent one N ≈ ∫ S11 + κ M (κ its curvature), the difference
+    between the work-conjugate resultant of the Green-Lagrange strain and the force."""
+    def tractions(quadrature, pick):
+        ys, zs, w = quadrature
+
+        def point(y, z):
+            shape, dS = beam_shape_functions(s, y, z, length)
+            F, F_hat, _, det_J = _local_gradients(q_hat_e, q_e, dS)
+            S = element.material.beam_D() @ _voigt_strain(0.5 * (F.T @ F - F_hat.T @ F_hat))
+            return F, S, det_J, q_e.T @ shape
+
+        F, S, det_J, r = jax.vmap(point)(ys, zs)
+        return jnp.einsum("pij,pj->pi", F, pick(S)) * (w * det_J)[:, None], r
+
+    t_n, r_n = tractions(element.section.quadrature(), lambda S: S[:, [0]] * jnp.array([1.0, 0.0, 0.0]))
+    shear = element.section.shear_quadrature()
+    if shear is None:
+        shear, factors = element.section.quadrature(), jnp.ones(3)
+    else:
+        factors = element.section.shear_moduli_factors()
+    t_s, r_s = tractions(shear, lambda S: jnp.stack([0.0 * S[:, 0], factors[2] * S[:, 5], factors[1] * S[:, 4]], -1))
+    shape, dS = beam_shape_functions(s, 0.0, 0.0, length)
+    F0 = _local_gradients(q_hat_e, q_e, dS)[0]
+    e = triad(F0[:, 1], F0[:, 2])  # columns e₁, e₂, e₃
+    r0 = q_e.T @ shape
+    n = t_n.sum(0) + t_s.sum(0)
+    m = jnp.cross(r_n - r0, t_n).sum(0) + jnp.cross(r_s - r0, t_s).sum(0)
+    return jnp.concatenate([e.T @ n, e.T @ m])
 
 
 def _group(body, kind):
@@ -303,20 +355,27 @@ class SectionResultant(_MarkerSensor):
     marker's node, at an interior node the mean of its two elements' ends (as
     ``beam_resultants``): ``quantity`` one of
     ``post.stress.BEAM_RESULTANTS`` ("N", "V2", "V3", "T", "M2", "M3"), "V" or "M" (the shear
-    force's or the bending moment's magnitude), or None for all six. The
-    strain is the Green-Lagrange strain of the inertial nodal vectors against the body's
+    force's or the bending moment's magnitude), or None for all six. ``kind``: ``"force"`` (the
+    default) the force and moment the section carries, in its deformed frame
+    (``beam_section_forces``), as a geometrically exact beam code or a force balance reports
+    them; ``"conjugate"`` the integrals of the second Piola-Kirchhoff stress
+    (``beam_section_resultants``), work-conjugate to the element's strains, equal to first order.
+    The strain is the Green-Lagrange strain of the inertial nodal vectors against the body's
     stress-free ones (rigid motion of the body or its frame drops out), so full-order (ANCF) and
     floating-frame (RNCF, NR-RNCF) bodies read alike. The elements' lengths are their chords
     (exact on straight beams; see **Element lengths** above)."""
 
     marker: Marker = eqx.field(static=True)
     quantity: str | None = eqx.field(static=True, default=None)
+    kind: str = eqx.field(static=True, default="force", kw_only=True)
     stations: tuple[tuple[int, float], ...] | None = eqx.field(static=True, default=None, kw_only=True)
 
     def __check_init__(self):
         if self.quantity is not None and self.quantity not in BEAM_RESULTANTS + ("V", "M"):
             raise ValueError(f"quantity must be one of {BEAM_RESULTANTS + ('V', 'M')} or None, got "
                              f"{self.quantity!r}")
+        if self.kind not in ("force", "conjugate"):
+            raise ValueError(f"kind must be 'force' or 'conjugate', got {self.kind!r}")
 
     @staticmethod
     def _beam(system, b):
@@ -344,7 +403,8 @@ class SectionResultant(_MarkerSensor):
         body, g = self._beam(system, self.marker.body)
         x = system.nodal_vectors(z)[self.marker.body]
         idx, lengths = np.asarray(g.elements), _beam_lengths(g, body.q_hat, None)
-        r = sum(beam_section_resultants(g.element, body.q_hat[idx[e]], x[idx[e]], s, lengths[e])
+        resultants = beam_section_forces if self.kind == "force" else beam_section_resultants
+        r = sum(resultants(g.element, body.q_hat[idx[e]], x[idx[e]], s, lengths[e])
                 for e, s in self.stations) / len(self.stations)
         if self.quantity in ("V", "M"):  # the magnitude of the shear force or the bending moment
             k = 1 if self.quantity == "V" else 4
@@ -352,6 +412,7 @@ class SectionResultant(_MarkerSensor):
         return r if self.quantity is None else r[BEAM_RESULTANTS.index(self.quantity)]
 
 
-__all__ = ["BEAM_RESULTANTS", "PLATE_RESULTANTS", "SectionResultant", "bar_strain_stress", "beam_element_resultants",
-           "beam_resultants", "beam_section_resultants", "beam_strain_stress", "element_vectors", "plate_resultants",
-           "plate_section_resultants", "plate_strain_stress"]
+__all__ = ["BEAM_RESULTANTS", "PLATE_RESULTANTS", "SectionResultant", "bar_strain_stress",
+           "beam_element_resultants", "beam_resultants", "beam_section_forces", "beam_section_resultants",
+           "beam_strain_stress", "element_vectors", "plate_resultants", "plate_section_resultants",
+           "plate_strain_stress"]
