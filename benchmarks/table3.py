@@ -21,7 +21,7 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-from _machine import machine  # noqa: E402
+from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax import chi_rel  # noqa: E402
 from nrrncf_jax.post.plotting import plot_mmi, plot_tip  # noqa: E402
@@ -165,9 +165,7 @@ def main(argv=None):
              "active vibration modes, no modal derivatives. A compile time near 0 means JAX reused code compiled for "
              "an earlier row of the same shapes (the VM-only run after the NR-RNCF run of the same size). The CPU is "
              "shared with other jobs, so timings are indicative.\n")
-    print(text)
-    with open(a.out, "w") as f:
-        f.write(text)
+    report(text, a.out, keep_notes="## Notes")  # the notes read from an earlier run's figures stay
 
 
 if __name__ == "__main__":
