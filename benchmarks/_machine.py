@@ -47,3 +47,14 @@ def report(text: str, path: str, keep_notes: str | None = None) -> None:
     os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
     with open(path, "w") as f:
         f.write(text)
+
+
+def missing(module: str, install: str) -> bool:
+    """True, after one line saying how to install it, where the optional ``module`` (a peer code,
+    not a dependency of the library) cannot be imported."""
+    import importlib.util
+
+    if importlib.util.find_spec(module) is None:
+        print(f"{module} is not installed: {install}")
+        return True
+    return False

@@ -28,7 +28,7 @@ from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.mechanism_file import load_setup, run_setup  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _machine import machine, pin_to_one_core, report  # noqa: E402
+from _machine import machine, missing, pin_to_one_core, report  # noqa: E402
 
 OMEGA, CRANK, ROD, E, RHO, RADIUS, SLIDER = 150.0, 0.152, 0.304, 1.0e10, 2770.0, 0.005, 0.033
 T_END, N_OUT = 0.1, 201  # outputs every 0.5 ms: a whole number of every Exudyn step below
@@ -94,10 +94,7 @@ def exudyn_slider_crank(elements: int = 8, h: float = 1e-4, rho_inf: float = 0.5
 
 
 def main():
-    try:
-        import exudyn  # noqa: F401
-    except ImportError:
-        print("Exudyn is not installed: pip install exudyn")
+    if missing("exudyn", "pip install exudyn"):
         return 1
     pin_to_one_core()
     rows, ref = [], None

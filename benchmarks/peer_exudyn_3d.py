@@ -39,7 +39,7 @@ import numpy as np  # noqa: E402
 from nrrncf_jax.scenarios.mechanism_file import load_setup, run_setup  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _machine import machine, pin_to_one_core, report  # noqa: E402
+from _machine import machine, missing, pin_to_one_core, report  # noqa: E402
 
 HERE = os.path.dirname(__file__)
 
@@ -565,10 +565,7 @@ def figure(fb, sh, path):
 
 
 def main():
-    try:
-        import exudyn  # noqa: F401
-    except ImportError:
-        print("Exudyn is not installed: pip install exudyn")
+    if missing("exudyn", "pip install exudyn"):
         return 1
     pin_to_one_core()
     t_start = time.perf_counter()

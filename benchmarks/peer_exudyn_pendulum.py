@@ -45,7 +45,7 @@ from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _machine import machine, pin_to_one_core, report  # noqa: E402
+from _machine import machine, missing, pin_to_one_core, report  # noqa: E402
 
 SPEC = PendulumSpec()
 T_END, DT_OUT = 2.0, 1e-3  # the library's outputs (run_pendulum's default)
@@ -158,10 +158,7 @@ def main():
     p.add_argument("--cache", default=None, help="a folder keeping the full ANCF runs between invocations")
     p.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "results", "peer_exudyn_pendulum.md"))
     a = p.parse_args()
-    try:
-        import exudyn  # noqa: F401
-    except ImportError:
-        print("Exudyn is not installed: pip install exudyn")
+    if missing("exudyn", "pip install exudyn"):
         return 1
     for h in a.steps:
         if abs(DT_CMP / h - round(DT_CMP / h)) > 1e-9:

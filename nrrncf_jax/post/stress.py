@@ -95,32 +95,28 @@ def _voigt_stress(S: Float[Array, "3 3"]) -> Float[Array, " 6"]:
     return jnp.stack([S[0, 0], S[1, 1], S[2, 2], S[1, 2], S[0, 2], S[0, 1]])
 
 
-def _local_gradients(q_hat_e, q_e, dS):
-    """The position gradients F and F̂ (3 × 3: spatial rows, the reference's local orthonormal
-    frame's columns), that frame R (columns, reference coordinates) and det J at a point whose
-    shape-function derivatives ∂S_α/∂ξ are ``dS`` (n_e × 3); the element's own mapping
-    ``T = J⁻¹ R`` (module docstring)."""
+def _local_green_lagrange(q_hat_e, q_e, dS):
+    """Green-Lagrange strain (3 × 3) in the reference's local orthonormal frame, that frame R
+    (columns, reference coordinates), det J and the position gradient F (3 × 3: spatial rows, the
+    local frame's columns) at a point whose shape-function derivatives ∂S_α/∂ξ are ``dS``
+    (n_e × 3); the element's own mapping ``T = J⁻¹ R`` (module docstring)."""
     J = q_hat_e.T @ dS  # J[a, i] = ∂r̂_a/∂ξ_i
     R = local_frame(J)
     g = dS @ jnp.linalg.solve(J, R)  # g[α, k] = ∂S_α/∂x_k in the local frame
-    return q_e.T @ g, q_hat_e.T @ g, R, jnp.linalg.det(J)
-
-
-def _local_green_lagrange(q_hat_e, q_e, dS):
-    """Green-Lagrange strain (3 × 3) in the reference's local orthonormal frame, that frame R
-    (columns, reference coordinates) and det J (``_local_gradients``)."""
-    F, F_hat, R, det_J = _local_gradients(q_hat_e, q_e, dS)
-    return 0.5 * (F.T @ F - F_hat.T @ F_hat), R, det_J
+    F, F_hat = q_e.T @ g, q_hat_e.T @ g
+    return 0.5 * (F.T @ F - F_hat.T @ F_hat), R, jnp.linalg.det(J), F
 
 
 # --- C1 beams -------------------------------------------------------------------------------------
 
 
 def _beam_point(element: C1Beam, q_hat_e, q_e, s, y, z, length):
-    _, dS = beam_shape_functions(s, y, z, length)
-    E_loc, _, det_J = _local_green_lagrange(q_hat_e, q_e, dS)
+    """Strain and stress (Voigt), det J, the position gradient F and the position r at a point
+    of one C1 beam element (``beam_strain_stress``)."""
+    shape, dS = beam_shape_functions(s, y, z, length)
+    E_loc, _, det_J, F = _local_green_lagrange(q_hat_e, q_e, dS)
     E = _voigt_strain(E_loc)
-    return E, element.material.beam_D() @ E, det_J
+    return E, element.material.beam_D() @ E, det_J, F, q_e.T @ shape
 
 
 def beam_strain_stress(element: C1Beam, q_hat_e: Float[Array, "12 3"], q_e: Float[Array, "12 3"], s, y, z,
@@ -131,7 +127,7 @@ def beam_strain_stress(element: C1Beam, q_hat_e: Float[Array, "12 3"], q_e: Floa
     frame (1 the axis); ``length`` the element's parameter length l. ``S = D E`` with
     ``Material.beam_D``: ``S11 = E E11`` whatever the section does (the element's Poisson-locking
     remedy), the section a plane-stress layer, the shears with G."""
-    E, S, _ = _beam_point(element, q_hat_e, q_e, s, y, z, length)
+    E, S = _beam_point(element, q_hat_e, q_e, s, y, z, length)[:2]
     return E, S
 
 
@@ -144,7 +140,7 @@ def beam_section_resultants(element: C1Beam, q_hat_e: Float[Array, "12 3"], q_e:
     force resultants (module docstring)."""
     def stresses(quadrature):
         ys, zs, w = quadrature
-        _, S, det_J = jax.vmap(lambda y, z: _beam_point(element, q_hat_e, q_e, s, y, z, length))(ys, zs)
+        _, S, det_J, _, _ = jax.vmap(lambda y, z: _beam_point(element, q_hat_e, q_e, s, y, z, length))(ys, zs)
         return ys, zs, w * det_J, S
 
     y, z, w, S = stresses(element.section.quadrature())
@@ -176,31 +172,23 @@ def beam_section_forces(element: C1Beam, q_hat_e: Float[Array, "12 3"], q_e: Flo
     first order. They differ where the strain is not small against one: a bar stretched by ε
     carries N = (1 + ε) ∫ S11, and a bent one N ≈ ∫ S11 + κ M (κ its curvature), the difference
     between the work-conjugate resultant of the Green-Lagrange strain and the force."""
-    def tractions(quadrature, pick):
+    def force_and_moment(quadrature, traction):
+        """n and m of the tractions ``traction(S)`` (the stress components that act) on the points."""
         ys, zs, w = quadrature
+        _, S, det_J, F, r = jax.vmap(lambda y, z: _beam_point(element, q_hat_e, q_e, s, y, z, length))(ys, zs)
+        t = jnp.einsum("pij,pj->pi", F, traction(S)) * (w * det_J)[:, None]
+        return t.sum(0), jnp.cross(r - r_c, t).sum(0)
 
-        def point(y, z):
-            shape, dS = beam_shape_functions(s, y, z, length)
-            F, F_hat, _, det_J = _local_gradients(q_hat_e, q_e, dS)
-            S = element.material.beam_D() @ _voigt_strain(0.5 * (F.T @ F - F_hat.T @ F_hat))
-            return F, S, det_J, q_e.T @ shape
-
-        F, S, det_J, r = jax.vmap(point)(ys, zs)
-        return jnp.einsum("pij,pj->pi", F, pick(S)) * (w * det_J)[:, None], r
-
-    t_n, r_n = tractions(element.section.quadrature(), lambda S: S[:, [0]] * jnp.array([1.0, 0.0, 0.0]))
+    _, _, _, F_c, r_c = _beam_point(element, q_hat_e, q_e, s, 0.0, 0.0, length)  # the centre line
+    e = triad(F_c[:, 1], F_c[:, 2])  # columns e₁, e₂, e₃
     shear = element.section.shear_quadrature()
-    if shear is None:
-        shear, factors = element.section.quadrature(), jnp.ones(3)
-    else:
-        factors = element.section.shear_moduli_factors()
-    t_s, r_s = tractions(shear, lambda S: jnp.stack([0.0 * S[:, 0], factors[2] * S[:, 5], factors[1] * S[:, 4]], -1))
-    shape, dS = beam_shape_functions(s, 0.0, 0.0, length)
-    F0 = _local_gradients(q_hat_e, q_e, dS)[0]
-    e = triad(F0[:, 1], F0[:, 2])  # columns e₁, e₂, e₃
-    r0 = q_e.T @ shape
-    n = t_n.sum(0) + t_s.sum(0)
-    m = jnp.cross(r_n - r0, t_n).sum(0) + jnp.cross(r_s - r0, t_s).sum(0)
+    if shear is None:  # one quadrature for every component
+        n, m = force_and_moment(element.section.quadrature(), lambda S: S[:, jnp.array([0, 5, 4])])
+    else:  # the shears where the element integrates them, with its moduli factors (``RectangleSection``)
+        k = element.section.shear_moduli_factors()  # on (2E23, 2E13, 2E12)
+        n_1, m_1 = force_and_moment(element.section.quadrature(), lambda S: S[:, [0]] * jnp.array([1.0, 0.0, 0.0]))
+        n_s, m_s = force_and_moment(shear, lambda S: jnp.stack([0.0 * S[:, 0], k[2] * S[:, 5], k[1] * S[:, 4]], -1))
+        n, m = n_1 + n_s, m_1 + m_s
     return jnp.concatenate([e.T @ n, e.T @ m])
 
 
@@ -289,7 +277,7 @@ def _plate_points(element: TrianglePlate, q_hat_e, q_e, L, zeta):
     D = _plate_D(element, q_hat_e)
 
     def at(dS):
-        E_loc, R, det_J = _local_green_lagrange(q_hat_e, q_e, dS)
+        E_loc, R, det_J, _ = _local_green_lagrange(q_hat_e, q_e, dS)
         S_loc = _tensor_stress(D @ _voigt_strain(E_loc))
         return R @ E_loc @ R.T, R @ S_loc @ R.T, det_J
 
