@@ -139,8 +139,7 @@ def element_group(element: AbstractElement, q_hat: Float[Array, "n 3"], elements
     else:
         # Large meshes: a vmapped kernel over chunks of _CHUNK elements (the last one padded by
         # repeating its last element), compiled once for the chunk's shape: per-element calls,
-        # one dispatch each, would dominate the build of a large mesh
-        # (benchmarks/results/design_notes.md).
+        # one dispatch each, would dominate the build of a large mesh.
         n_el = q_e.shape[0]
         pad = -n_el % _CHUNK
         q_np = np.concatenate([np.asarray(q_e), np.repeat(np.asarray(q_e)[-1:], pad, axis=0)])

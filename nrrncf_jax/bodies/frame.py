@@ -22,8 +22,8 @@ independent of the mesh.
 strains at the joint point too, not only their rotations: a batten's section strain along the
 truss axis becomes the longeron's axial strain there, and the element next to the joint carries
 that constraint over its length, an over-stiffening of O(element length) that refinement removes
-only slowly. With links the frequencies hardly change under refinement
-(``benchmarks/results/truss.md``). The price is five more nodal vectors at each member end.
+only slowly. With links the frequencies hardly change under refinement. The price is five more
+nodal vectors at each member end.
 
 **Pins**: a bar (``elements.Bar``) joins the position vectors of two joints and nothing else, so
 it carries axial force only.

@@ -103,8 +103,7 @@ def add_step_control(parser, default: str | None = "plain", default_help: str = 
     (``default`` None: the command resolves it, as ``default_help`` says)."""
     parser.add_argument("--step-control", choices=STEP_CONTROL_NAMES, default=default,
                         help="the adaptive step-size controller: plain, or Gustafsson's PI controller (fewer "
-                             "rejected steps, more accurate at the same tolerance; "
-                             "benchmarks/results/step_control.md)" + default_help)
+                             "rejected steps, more accurate at the same tolerance)" + default_help)
 
 
 def add_estimate_options(parser, method_help: str) -> None:
@@ -114,8 +113,7 @@ def add_estimate_options(parser, method_help: str) -> None:
     parser.add_argument("--estimate-method", choices=ESTIMATE_METHODS, default="static", help=method_help)
     parser.add_argument("--estimate-samples", type=int, default=None, metavar="N",
                         help="nr-rncf: output times at which the static error estimate factors the full tangent, "
-                             ">= 2 (default 16; fewer cost less and integrate the chi_rel norm more coarsely: "
-                             "benchmarks/results/error_estimate.md)")
+                             ">= 2 (default 16; fewer cost less and integrate the chi_rel norm more coarsely)")
 
 
 def add_tol_and_reference_options(parser, scope: str) -> None:

@@ -25,7 +25,7 @@ estimate from the run alone (``chi_rel_estimate_percent``, ``multibody.error_est
 (the default) sees each beam's deformation error, not the drift of the chain's swing that error
 causes over time, and reads low where that drift dominates; ``dynamic`` integrates the
 linearised error equation and follows the drift until its linearisation fails
-(``estimate_valid_until_s``; ``benchmarks/results/error_estimate_mechanism.md``).
+(``estimate_valid_until_s``).
 
 ``--out`` writes the columns ``t, x1, y1, x2, y2, x3, y3``: each beam's right end, global (the
 hinge at the origin, the beams initially along +x). ``--plot`` draws the shapes at 0, 0.5, 1, 1.5
@@ -39,9 +39,9 @@ from . import _common
 
 DEFAULTS = {"nr-rncf": (1e-3, "pi"), "ancf": (1e-4, "plain"), "rncf": (1e-4, "plain")}
 """Each formulation's default (rtol, step control); atol = rtol / 10. The reduced chain's error is
-its basis's (about 1.1 % with the default basis): at rtol 1e-3 with the PI controller it runs in
-half the default full-model settings' steps and Newton iterations for the same χ_rel
-(``benchmarks/results/pendulum.md``). A full model is the reference and keeps the tighter rtol."""
+its basis's, well above the integration error at rtol 1e-3: with the PI controller that looser
+tolerance takes far fewer steps and Newton iterations than the full-model settings for the same
+χ_rel. A full model is the reference and keeps the tighter rtol."""
 
 TRAIN_T = 0.5
 """``--train-t``'s default [s]: the basis search's training run, inside the span where the chain's

@@ -25,7 +25,7 @@ shape functions and the element integrals κ, M, ϱ, m; and what they are made o
   angle (``bodies.frame``). The joint carries its position and its full position gradient F; each
   member end shares the position and is tied to F by a link, in rotation and shear but not in
   stretch, and the joint cell, the joint's own small solid, keeps F a rotation, so that the joint
-  stays rigid and the frequencies converge under mesh refinement (``benchmarks/results/truss.md``).
+  stays rigid and the frequencies converge under mesh refinement.
 """
 
 from .bar import Bar as Bar

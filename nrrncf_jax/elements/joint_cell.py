@@ -6,7 +6,7 @@ A joint node of a frame (``frame.frame_body``) carries the full position gradien
 at an angle, need a stiffness of their own that does not depend on the mesh: a point constraint
 on a shear-deformable beam's slope costs nothing in the continuum limit, so with the members
 alone the joint would turn into a hinge under refinement (its compliance growing with each
-refinement; ``benchmarks/results/design_notes.md``).
+refinement).
 
 The joint cell is the elastic energy of the joint's own material, a small isotropic solid of
 volume V (default: a cube of the members' outer diameter, the size of a welded or bolted node)

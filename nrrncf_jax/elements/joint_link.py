@@ -10,7 +10,7 @@ no relative shear), but must leave the member's own stretches alone: making G eq
 (Shabana & Mikkola's gradient transformation, where the members *share* F) also makes a batten's
 section strain along the truss axis equal to the longeron's axial strain at the joint, an
 over-stiffening that the element next to the joint carries over its length, O(element length),
-which refinement removes only slowly (``benchmarks/results/truss.md``).
+which refinement removes only slowly.
 
 The link penalises the axis–section entries of ``GᵀF_m`` and the section's relative twist:
 

@@ -55,15 +55,14 @@ is of degree 4 in X and 2 in ζ). M, ϱ, m by the same rule, with the director's
 - *Shear locking*: the shear-free state d = normal needs the P2 director to equal the
   gradient of the cubic deflection w: inside an element both are complete quadratics, so it
   can, and a thin plate is driven to a conforming C1 piecewise-cubic Kirchhoff plate. That
-  limit still converges (O(ℓ²) in frequency on the meshes tested), but its error is larger
-  than at moderate thickness (``benchmarks/results/membrane.md``). The element therefore uses the
-  stabilised shear modulus of Pitkäranta and of Lyly, Stenberg and Vihinen,
-  ``k G h²/(h² + α ℓ²)``, ℓ = √(2A) the element size, ``α = stabilization`` (default 0.02):
-  the transverse shear stiffness of an element is then at most O(1/α) times its bending
-  stiffness, the frequencies hardly depend on h/b (far less than the plain element's do;
-  tested; ``benchmarks/results/membrane.md``), and the change is consistent: it acts as an
-  extra shear compliance O(α ℓ²/h²) that vanishes under refinement (an O(αℓ²/λ²) softening of
-  a mode of wavelength λ). ``stabilization=0`` gives the plain element.
+  limit still converges (O(ℓ²) in frequency on the meshes tested), but its error is larger than at
+  moderate thickness. The element therefore uses the stabilised shear modulus of Pitkäranta and of
+  Lyly, Stenberg and Vihinen, ``k G h²/(h² + α ℓ²)``, ℓ = √(2A) the element size,
+  ``α = stabilization`` (default 0.02): the transverse shear stiffness of an element is then at
+  most O(1/α) times its bending stiffness, the frequencies hardly depend on h/b (far less than the
+  plain element's do; tested), and the change is consistent: it acts as an extra shear compliance
+  O(α ℓ²/h²) that vanishes under refinement (an O(αℓ²/λ²) softening of a mode of wavelength λ).
+  ``stabilization=0`` gives the plain element.
 
 **Limits.** Straight-sided flat elements: a curved boundary is a polygon (an O(ℓ²) geometric
 error in frequencies and displacements, the largest error in the annulus tests). The normal

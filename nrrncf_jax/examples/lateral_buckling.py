@@ -34,8 +34,7 @@ plane until round-off, amplified by the instability, tips it. Coming down, the l
 P_cr and the beam straightens. Held from 0.4 s, the link leans by about 22° and pulls the tip down
 by about 2 cm with about 3.6 kN, above P_cr; but a pull through a link pinned below the beam
 draws a sideways-displaced tip back (a load below the shear centre stabilises), and the beam,
-undamped, vibrates sideways about its plane by about ±2.4 cm and ±0.1 rad
-(``benchmarks/results/lateral_buckling.md``).
+undamped, vibrates sideways about its plane by about ±2.4 cm and ±0.1 rad.
 
 ``formulation="ancf"``: every bar of C1 elements in the inertial frame (``elements`` the beam's,
 ``link_elements``, ``crank_elements``); ``"nr-rncf"``: each bar in a floating frame at its first
@@ -43,9 +42,9 @@ interface (the beam at R, the link at C, the crank at G), ``vms`` cantilever mod
 attachment modes of the force and moment at its other joint and the modal derivatives of them
 all (``multibody.reduce`` with ``interface_rotations`` and ``interface_mds``, as
 ``examples.fourbar``). That default follows the full model until the beam leaves its plane (the
-same onset and load) but only half of the buckled amplitude (``benchmarks/results/
-lateral_buckling.md``): the buckled shape, sideways bending with twist that grows along the beam,
-is not a combination of the tip's attachment modes and their derivatives.
+same onset and load) but falls well short of the buckled amplitude: the buckled shape, sideways
+bending with twist that grows along the beam, is not a combination of the tip's attachment modes
+and their derivatives.
 
 The tip itself hardly moves sideways (millimetres): the link, hinged to the crank about y, holds it;
 the beam buckles between its clamp and the link, so the mid-span sensors show it best.

@@ -18,7 +18,7 @@ at its root along its axis, which spins with it, with the reference conditions o
 the tip, so the basis carries the tip's bearing and the system drops the cylindrical joint), ``vms``
 vibration modes (clamped-clamped in bending), the attachment modes of the disk's forces at
 mid-span and the modal derivatives of them all (39 coordinates). It follows the full shaft's whirl
-to a fraction of a per cent at a fraction of its cost (``benchmarks/results/validation.md``).
+closely at a fraction of its cost.
 ``conditions="clamped"`` (with ``interface_rotations=True``) is the cantilever basis held at the
 root alone: its modes do not know the bearing, so the whirl must live in the attachment modes of
 the bearing's forces and moments, whose derivatives make a basis of about a hundred columns,

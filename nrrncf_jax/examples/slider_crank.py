@@ -18,10 +18,9 @@ rigid rod: the closed-form kinematics x_B = r cos θ + √(L² − r² sin² θ)
 
 Why pinned modes by default: the rod is pinned at both ends, and a frame along its chord leaves
 the modes only the bending between the pins. One simply supported mode and its derivative (23
-DOFs in the mechanism) follow the full rod's midpoint deflection to about 2 %, where the
-cantilever frame needs four modes and ten derivatives (35 DOFs) for the same and takes four
-times the steps: its modes must meet the slider's pin with a sum of high modes
-(``benchmarks/results/mechanisms.md``).
+DOFs in the mechanism) follow the full rod's midpoint deflection closely, where the cantilever
+frame needs several modes and many more derivatives for the same and takes many more steps: its
+modes must meet the slider's pin with a sum of high modes.
 
 The pins are balls (spherical joints): with hinges at both ends a rigid link in a planar loop is
 over-constrained (its rotation out of the plane is fixed twice), and the system refuses redundant
@@ -56,7 +55,7 @@ def mechanism(formulation: str = "ancf", elements: int = 8, vms: int = 1, mds="a
     w_mid and x_B (``error_on``, ``multibody.Mechanism.observed_error``), rtol = 2e-5 (atol 2e-6 m
     on them), Gustafsson's PI controller and ρ∞ = 0.5: the rod's axial vibration (kHz, through its
     modal derivatives) is damped rather than resolved, and the steps follow the deflection the user
-    observes, not the axial strain on the slope vectors (``benchmarks/results/mechanisms.md``).
+    observes, not the axial strain on the slope vectors.
     ``conditions`` and ``basis`` (nr-rncf): the rod's reference conditions and basis,
     ``multibody.reduce``'s (module docstring); by default
     ``"pinned"``, and ``"clamped"`` with Craig-Bampton (whose boundary coordinates are the

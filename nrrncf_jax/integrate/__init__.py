@@ -24,11 +24,8 @@ estimate drives the step size, and dense output gives the requested output times
 times on which steps must end, where an output is then a step's end state). The loop works
 under ``jax.vmap`` and is differentiable with ``jax.grad``: reverse mode runs a checkpointed loop
 with implicit differentiation of each step's Newton solve, so its memory grows with the number of
-checkpoints, not of steps (``benchmarks/results/identification.md``). A run that stops early (a
-non-finite state, Newton failing at the smallest step, the step limit) raises ``SimulationError``
-naming the time reached. ``benchmarks/results/diffrax_vs_loop.md`` compares the loop with the same
-step written as a diffrax solver, ``tolerance.md`` splits χ_rel into integration and reduction
-error.
+checkpoints, not of steps. A run that stops early (a non-finite state, Newton failing at the
+smallest step, the step limit) raises ``SimulationError`` naming the time reached.
 """
 
 from .base import AbstractSolver as AbstractSolver

@@ -3,7 +3,7 @@
 Most of a cold NR-RNCF offline stage is compilation: run again in the same process, the stage
 takes a small fraction of its first run's time. JAX can keep compiled executables on disk, so
 that a later process (a restarted notebook kernel, the next command) loads them instead of
-compiling; ``benchmarks/offline.py`` measures the cases (``benchmarks/results/offline.md``).
+compiling; ``benchmarks/offline.py`` measures the cases.
 
 The cache is JAX configuration, so the library never sets it on its own: ``compilation_cache()``
 is a context manager that sets it for the code inside and restores the previous settings on

@@ -32,16 +32,14 @@ constraint) and joints on the bodies' nodal vectors, the oscillation is the larg
 step error estimate: without the projection the step-size control takes needlessly small steps,
 and with ρ∞ = 1, which leaves the oscillation undamped, stalls. Every ``multibody.Mechanism``
 asks for it (for a mechanism of inertial-frame ANCF bodies alone, whose velocities satisfy
-C_q v = 0 to round-off already, it changes nothing beyond round-off). (Figures:
-``benchmarks/results/design_notes.md``.)
+C_q v = 0 to round-off already, it changes nothing beyond round-off).
 
 Newton stops when its correction, or the error the correction leaves (estimated from the
 observed contraction, ``integrate.newton``), is below the tolerance, with full and modified
 Newton alike (the unconstrained ``GeneralizedAlpha`` uses the contraction test with full Newton
-only). Modified Newton contracts fast on this step (``benchmarks/results/newton_contraction.md``),
-so its second correction usually leaves far less than the tolerance even when it is itself above
-it: the test saves iterations, and changes a run by less than its own time-integration error
-(figures: ``benchmarks/results/design_notes.md``).
+only). Modified Newton contracts fast on this step, so its second correction usually leaves far
+less than the tolerance even when it is itself above it: the test saves iterations, and changes
+a run by less than its own time-integration error.
 
 With ``Newton(reuse=True)`` the matrix a step solved with is kept for the next one
 (``AbstractGeneralizedAlpha._modified``): the bodies' factors with the Schur complement of
@@ -50,8 +48,8 @@ last step left them.
 
 The step error estimate and the Newton stopping test measure q alone: the multipliers carry a
 damped O(h) transient after every change of step size (which ρ∞ < 1 damps; index-3 constraints
-with ρ∞ = 1 leave it undamped), and are out of the error norm, as MULTIBODY.md says. Exact
-reactions at any state come from ``AbstractConstrainedModel.reactions``.
+with ρ∞ = 1 leave it undamped), and are out of the error norm (docs/multibody-theory.md, §Index-3
+constraints). Exact reactions at any state come from ``AbstractConstrainedModel.reactions``.
 """
 
 from collections.abc import Callable

@@ -20,8 +20,7 @@ iteration first trips the test is decided by round-off, so the step sequence, an
 result, would depend on the CPU's floating-point arithmetic and would not be a smooth function of
 the parameters. Without the test such steps converge. In an adaptive run the test stays on: a
 step whose Newton wanders is usually too large for the error tolerance too, and a smaller step is
-cheaper than the wander; there the step sequence is a tolerance-controlled choice anyway. The
-run that showed this: ``benchmarks/results/design_notes.md`` (``integrate/newton.py``).
+cheaper than the wander; there the step sequence is a tolerance-controlled choice anyway.
 """
 
 from collections.abc import Callable
@@ -76,7 +75,7 @@ def newton(update: Callable, norm: Callable, x0, tol, max_iter: int, *, contract
     then called as ``update(x, prepare(x))``. Carried, it is an array in memory that the
     residual's kernels read; computed inside them, XLA's CPU backend recomputes it in each
     kernel that reads it, once for every element read (the packed cubic force reads each modal
-    coordinate hundreds of times: ``benchmarks/results/kernels.md``)."""
+    coordinate hundreds of times)."""
 
     def cond(s):
         return s[3] == 0

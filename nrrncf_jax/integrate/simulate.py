@@ -213,8 +213,8 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
 
     ``small_kernels=True`` compiles the batch with ``SMALL_KERNEL_OPTIONS`` on a CPU, as a single
     run of a reduced model is: it compiles faster, but a batch's wider fused kernels may run slower
-    with them (``benchmarks/results/xla_options.md``), so it pays where compilation dominates
-    (short runs, a one-off batch) and is off by default. Inside a user's ``jit``,
+    with them, so it pays where compilation dominates (short runs, a one-off batch) and is off by
+    default. Inside a user's ``jit``,
     ``vmap`` or ``grad`` the outer program's options apply: pass
     ``compiler_options=kernel_options(True)`` to that ``jax.jit`` instead.
 
@@ -250,11 +250,9 @@ CPU_BATCH_LANES = 4
 """``simulate_batch``'s default lanes on a CPU. On one CPU core a batched member-step costs about
 what it costs alone whatever the lane count, so what a batch gains or loses is its padding: lanes
 that keep stepping, masked, after their member is done, while the slowest member runs on. A few
-lanes fed from the queue leave little padding and still share each kernel's overhead: on the
-reduced pendulum 4 lanes ran a batch of 16 much faster than 16 lanes, and no span or model
-measured ran much slower with them (figures: ``benchmarks/results/pendulum_batch.md``, "Lanes",
-and ``sweep.md``). On an accelerator every member gets a lane: its cost is time per
-batched step, which wide batches amortise."""
+lanes fed from the queue leave little padding and still share each kernel's overhead, so on a CPU
+a few lanes run a batch faster than a lane for every member. On an accelerator every member gets
+a lane: its cost is time per batched step, which wide batches amortise."""
 
 
 def batch_lanes(n: int, width: int | None = None, platform: str | None = None) -> int:
@@ -634,9 +632,9 @@ def states_at(model: "AbstractModel", solver: AbstractSolver, controller: Abstra
     accurate to the step's error but can sit off the equations' stiff directions by far more: a
     reduced model's stiff coordinates (its modal derivatives) carry the interpolation's error as an
     elastic force out of balance, which an equation-based acceleration at that state reads as a
-    large one (``reduction.run_error``, ``benchmarks/results/error_estimate.md``). Compiled through
-    ``simulate``'s cache (``simulate_timed``): a later call for the same model structure and number
-    of times does not compile again. Raises ``SimulationError`` if the run stops early."""
+    large one (``reduction.run_error``). Compiled through ``simulate``'s cache
+    (``simulate_timed``): a later call for the same model structure and number of times does not
+    compile again. Raises ``SimulationError`` if the run stops early."""
     times = np.asarray(times, dtype=float).reshape(-1)
     if times.size < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
         raise ValueError(f"times must be at least two finite, strictly increasing times, got {times.tolist()}")
@@ -671,16 +669,16 @@ SMALL_KERNEL_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
 the reduced models) on a CPU: the older (LLVM IR) emitter for fused element-wise kernels instead of
 the MLIR-based one: it compiles such a run's loop faster, and the loop runs as fast. The
 full-order models' large fused kernels (element forces at every Gauss point) and a batch's wider
-ones run slower with it, so those keep XLA's defaults (figures:
-``benchmarks/results/xla_options.md``). Per program (``jax.jit``'s ``compiler_options``): no global
-flag is changed, and inside a user's own ``jit`` the outer program's options apply."""
+ones run slower with it, so those keep XLA's defaults. Per program (``jax.jit``'s
+``compiler_options``): no global flag is changed, and inside a user's own ``jit`` the outer
+program's options apply."""
 
 _simulate = eqx.filter_jit(_simulate_program)
 _SINGLE_RUN_OPTIONS = SMALL_KERNEL_OPTIONS | {"xla_cpu_experimental_ynn_fusion_type": ""}
 """A single run's options: ``SMALL_KERNEL_OPTIONS`` and no YNNPACK kernels for the small dot
-products. YNNPACK plans its kernels when a program first runs, a one-off few tens of milliseconds
-that is as much as a whole reduced mechanism's run, and its kernels are no faster on products of a
-few tens of rows (``benchmarks/results/xla_options.md``); a batch's wider products keep it."""
+products. YNNPACK plans its kernels when a program first runs, a one-off cost comparable to a
+whole reduced mechanism's run, and its kernels are no faster on products of a few tens of rows;
+a batch's wider products keep it."""
 _simulate_small = eqx.filter_jit(_simulate_program, compiler_options=_SINGLE_RUN_OPTIONS)
 
 
@@ -734,10 +732,10 @@ def _simulate_batch_program(model_fn, params, solver, controller, ts, t0, newton
     of ``width`` lanes by one attempted step (``vmap`` of the step), until every member is done.
 
     Written out rather than ``vmap(simulate)``: a vmapped ``while_loop`` with a per-member
-    condition selects between the new and the old carry of every member at every step, the
-    output buffers included: a copy and a select of every member's whole output buffer per step
-    (figures: ``benchmarks/results/sweep.md``). Here the condition is one ``any``, and the lanes
-    carry only the small state: each step's output window is written straight into its member's
+    condition selects between the new and the old carry of every member at every step, the output
+    buffers included: a copy and a select of every member's whole output buffer per step. Here the
+    condition is one ``any``, and the lanes carry only the small state: each step's output window
+    is written straight into its member's
     row of the results.
 
     The queue: a lane holds the index of its member (``n`` once the queue is empty) and that

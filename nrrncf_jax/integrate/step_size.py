@@ -76,7 +76,7 @@ class AdaptiveStepSize(AbstractStepSizeController):
     ``dt0`` (default 1e-3 of the run's span), the smallest step ``dt_min`` below which a failing
     run stops, and the largest ``dt_max``. ``pcoeff``, ``icoeff``: the PI controller's
     coefficients (module docstring; diffrax's names and meaning, for an error of order 3);
-    ``pcoeff=0.4, icoeff=0.3`` is Gustafsson's choice (``benchmarks/results/step_control.md``)."""
+    ``pcoeff=0.4, icoeff=0.3`` is Gustafsson's choice."""
 
     rtol: Float[Array, ""]
     atol: Float[Array, ""]
@@ -120,8 +120,7 @@ class AdaptiveStepSize(AbstractStepSizeController):
 
 STEP_CONTROLS = {"plain": {}, "pi": {"pcoeff": 0.4, "icoeff": 0.3}}
 """The adaptive controllers the scenario runners and the command line offer by name: ``"plain"``
-(``AdaptiveStepSize``'s default) and ``"pi"``, Gustafsson's PI controller
-(``benchmarks/results/step_control.md``)."""
+(``AdaptiveStepSize``'s default) and ``"pi"``, Gustafsson's PI controller."""
 
 
 def adaptive_step_size(rtol, atol, step_control: str = "plain", **kw) -> AdaptiveStepSize:

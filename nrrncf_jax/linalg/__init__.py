@@ -17,8 +17,7 @@ DOFs); ``solver.factor(parts, free)`` assembles element groups and factors, and 
 The full-order models choose among the three with ``solver=`` ("auto": by size and pattern).
 The sparse factorisation runs inside the jit-compiled integration loop, derivatives included,
 which is what lets the membrane and the truss run at full order (tens of thousands of DOFs) as the
-NR-RNCF reference. ``benchmarks/results/sparse.md`` measures factor and solve time and memory of
-the three at growing sizes, and the first modes of a large model by sparse shift-invert.
+NR-RNCF reference.
 """
 
 from .assembly import (

@@ -37,8 +37,7 @@ DENSE_MAX_DOFS = 1000
 """``"auto"`` factors matrices of fewer DOFs than this dense, larger ones sparse (when the mesh is
 not one chain): below it a dense factorisation is cheap and keeps what the sparse one lacks
 (batching under ``vmap``, accelerators, no host callbacks); above it the dense cost and its n²
-memory grow past SuperLU's (figures: ``benchmarks/results/sparse.md``). On a GPU, pass
-``solver="dense"`` to keep larger models there."""
+memory grow past SuperLU's. On a GPU, pass ``solver="dense"`` to keep larger models there."""
 
 
 class AbstractLinearSolver(eqx.Module):

@@ -16,8 +16,8 @@ from .base import AbstractFactorization, Parts
 EXPLICIT_INVERSE_MAX = 128
 """Above this order ``DenseLU`` keeps the permutation instead of L⁻¹P: forming L⁻¹P costs n³
 more flops, which for large n outweighs what it saves (the permutation's loop of n small steps,
-which matters next to the factorisation only for small n). The threshold was set by timing; see
-``benchmarks/results/sparse.md``."""
+which matters next to the factorisation only for small n). The threshold was set by timing the
+two forms."""
 
 
 class DenseLU(AbstractFactorization):
@@ -74,7 +74,7 @@ def pivoted_lu(A: Float[Array, "n n"]) -> tuple[Float[Array, "n n"], Float[Array
     Why not ``lu_factor``'s pivots and ``lu_solve``: ``lu_solve`` turns the pivots into a
     permutation with a loop of n scatter steps, each a few XLA operations, and on a CPU each
     operation has a fixed dispatch cost whatever its size, so for the small matrices of reduced
-    models that loop can cost more than the factorisation (``benchmarks/results/sparse.md``).
+    models that loop can cost more than the factorisation.
     On a CPU, one LAPACK getrf of ``[A | I]`` pivots on A's columns and carries I along:
     ``P [A | I] = L [U | L⁻¹P]``, no permutation needed (``solve_once`` does the same with one
     right-hand side). Elsewhere (a GPU, where jaxlib's getrf factors rectangular matrices of a
@@ -137,8 +137,7 @@ def _solve_on_cpu_batched(axis_size, in_batched, A, b):
     batched getrf on the CPU may split the batch across XLA's CPU thread pool and block a pool
     thread until the parts are done, which deadlocks when every pool thread does so at once
     (several host devices, ``--xla_force_host_platform_device_count``, each in a batched LU, on
-    as many cores). The one-by-one form costs a little more per batched solve; the deadlock and
-    the cost: ``benchmarks/results/sweep.md``."""
+    as many cores). The one-by-one form costs a little more per batched solve."""
     A, b = (x if batched else jnp.broadcast_to(x, (axis_size,) + x.shape) for x, batched in zip((A, b), in_batched))
     return lax.map(lambda Ab: _solve_on_cpu(*Ab), (A, b)), True
 

@@ -68,14 +68,14 @@ CACHE_SIZE = 8
 CACHE_BYTES = 1 << 30
 """...and at most this much memory in their factors (the newest is always kept). A plate mesh's
 factors are large (a 2-D mesh fills far more than a chain): ``CACHE_SIZE`` factorisations of the
-rotating membrane alone would take several GB (``benchmarks/results/membrane.md``)."""
+rotating membrane alone would take several GB."""
 
 PERMC_SPEC = "MMD_AT_PLUS_A"
 """SuperLU's fill-reducing column ordering. The iteration matrix is structurally symmetric and
 nearly symmetric in value, so a minimum-degree ordering of Aᵀ + A with a preference for diagonal
 pivots (``DIAG_PIVOT_THRESH``, symmetric mode) keeps the fill of a symmetric factorisation: on a
 2-D mesh it fills less and factors faster than SciPy's default COLAMD, and on a chain it does as
-well (``benchmarks/results/sparse.md``)."""
+well."""
 
 DIAG_PIVOT_THRESH = 0.1
 """SuperLU takes the diagonal entry as pivot unless it is smaller than this fraction of its
@@ -170,7 +170,7 @@ class SparsityPattern:
         for (Ge, dofs), slots in zip(parts, self.slots):
             # Masked per element, not per slot: f[rows]·f[cols] over all nnz slots, with ``free``
             # a constant, is a large gather that XLA constant-folds at compile time, slowly for
-            # large meshes (benchmarks/results/sparse.md).
+            # large meshes.
             fe = f[jnp.asarray(dofs)]
             data = data.at[slots].add(Ge * fe[:, :, None] * fe[:, None, :])
         return data.at[self.diag].add(1.0 - f)
@@ -202,9 +202,8 @@ _handles = itertools.count(1)
 # the memory SuperLU allocates in a per-thread registry and frees only what the freeing thread's
 # registry holds, so factors made on one thread and dropped on another are never freed
 # (scipy/scipy#15921). XLA runs host callbacks on threads of its own, so factoring on one and
-# evicting from the cache on another would leak one factorisation a step
-# (benchmarks/results/membrane.md). Solves go through it too: a solve may hold the last reference
-# to factors another callback has just evicted.
+# evicting from the cache on another would leak one factorisation a step. Solves go through it
+# too: a solve may hold the last reference to factors another callback has just evicted.
 _superlu_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="nrrncf-superlu")
 
 
@@ -232,9 +231,8 @@ class ScaledSuperLU:
     coordinates. A body whose nodal vectors have very different stiffnesses (a frame's joint
     gradients against a beam's curvature vectors, as on the truss of ``scenarios.truss``) fails
     the test on many columns; the pivots then leave the diagonal and the fill-reducing ordering is
-    lost, which multiplies the factors' size and the factorisation time
-    (``benchmarks/results/truss.md``). With a unit diagonal the test measures how diagonally
-    dominant a column is, whatever the units."""
+    lost, which multiplies the factors' size and the factorisation time. With a unit diagonal the
+    test measures how diagonally dominant a column is, whatever the units."""
 
     def __init__(self, A: sp.spmatrix):
         A = sp.csc_matrix(A)
@@ -326,7 +324,7 @@ def _host_call(fn, result_shape_dtypes, *args, vmap_method: str | None = None):
     placed with ``device_put`` from the running computation's buffers, and reading one
     (``np.asarray``) waits for that copy. On a machine where XLA's CPU client has one thread (one
     core: ``taskset -c 0``, a one-CPU container), the copy can be queued behind the very
-    computation that waits for it, a deadlock (jax-ml/jax#24255; ``benchmarks/results/sparse.md``).
+    computation that waits for it, a deadlock (jax-ml/jax#24255).
     ``buffer_callback`` hands over XLA's own buffers (valid during the call; copied here before
     anything keeps them), with no transfer to wait for. It reads buffers as NumPy arrays on the
     CPU only, so other platforms keep ``pure_callback`` (``lax.platform_dependent`` lowers just
@@ -353,7 +351,7 @@ def _solve(pattern: SparsityPattern, trans: str, data, handle, b):
     """``A⁻¹ b`` (``trans="N"``) or ``A⁻ᵀ b`` (``"T"``) with the factors under ``handle``. The
     values go to the host only when the factors have been dropped (``lax.cond``): passing the
     nnz values to every callback would copy them each time, which on a large mesh takes most of
-    a solve's time (``benchmarks/results/sparse.md``)."""
+    a solve's time."""
 
     @jax.custom_batching.custom_vmap
     def solve(data, handle, b):

@@ -10,11 +10,10 @@ of that frame (``motion``; paper Eqs. 8 and 41), the full model that NR-RNCF red
 Both take gravity and point loads (``Loads``, ``Harmonic``), reach static equilibrium by load
 stepping (``integrate.static_equilibrium``), and have their iteration matrix factored by ``linalg``
 as the body's size and pattern suggest (``solver=``: dense, block-tridiagonal for beam chains,
-sparse for large bodies). ``benchmarks/results/spinup_full.md`` runs both on the paper's beam: RNCF
-takes far fewer and larger steps at high spin rates. ``RayleighDamping``, D = αM + βK̂, is off by
-default; ``RayleighDamping.from_ratio(ζ, ωa, ωb)`` sets it from a damping ratio at two frequencies,
-in the RNCF and the reduced models alike, and free decay matches the closed form
-(``tests/test_damping.py``)."""
+sparse for large bodies). At high spin rates RNCF takes far fewer and larger steps than ANCF.
+``RayleighDamping``, D = αM + βK̂, is off by default; ``RayleighDamping.from_ratio(ζ, ωa, ωb)``
+sets it from a damping ratio at two frequencies, in the RNCF and the reduced models alike, and
+free decay matches the closed form (``tests/test_damping.py``)."""
 
 from .base import AbstractModel as AbstractModel
 from .damping import RayleighDamping as RayleighDamping

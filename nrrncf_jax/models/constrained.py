@@ -1,4 +1,5 @@
-"""Constrained systems: bodies joined by joints, the index-3 DAE (THEORY §7; MULTIBODY.md)
+"""Constrained systems: bodies joined by joints, the index-3 DAE (docs/theory.md, §7 Jointed
+bodies; docs/multibody-theory.md, §Index-3 constraints)
 
     M(x) a + g(t, x, v) + C_xᵀ λ = 0,      C(x) = 0,
 

@@ -107,7 +107,7 @@ class AbstractAxisMotion(AbstractMotion):
     # The frame terms with the rates factored out, θ̇ ẽ and θ̈ ẽ: fewer products than the general
     # form. The general form rounds differently inside the integrator's fused loop, which can move
     # an adaptive step decision; this form keeps the fixed-axis models' results unchanged to the
-    # bit (benchmarks/results/design_notes.md).
+    # bit.
     def frame_terms(self, t, Q, V):
         _, dth, ddth = self(t)
         e = self.axis

@@ -60,9 +60,8 @@ each beam in the frame of its left end's centre-line tangent, every other nodal 
 the elements' own elastic force; it is the ANCF model in other coordinates (its residual is Jᵀ of
 the ANCF one), and the two agree to their integration error. Its iteration matrix carries the
 inertia terms' derivatives with respect to the deformation in closed form, without which modified
-Newton contracts slowly (``benchmarks/results/newton_contraction.md``). The three-beam pendulum
-of the paper, all three ways: ``scenarios.pendulum``, ``notebooks/07_pendulum.ipynb``,
-``benchmarks/results/pendulum.md`` (and what is not met there yet).
+Newton contracts slowly. The three-beam pendulum of the paper, all three ways:
+``scenarios.pendulum``, ``notebooks/07_pendulum.ipynb``.
 """
 
 from .cylindrical import Cylindrical as Cylindrical

@@ -18,8 +18,7 @@ Where it stops working: a mechanism's basis error grows with time (the drift of 
 and the error equation holds only as long as its linearisation does (a soft chain compressed
 past its buckling load makes it grow without bound: ``error_estimate``). A training window
 short enough for the estimate to hold is therefore shorter than the run the basis is for, and
-its χ_rel reads lower than that run's: ``safety`` is the margin for it, and the measured ratio
-for the paper's pendulum is in ``benchmarks/results/pendulum_to_tolerance.md``.
+its χ_rel reads lower than that run's: ``safety`` is the margin for it.
 """
 
 import dataclasses
@@ -99,8 +98,7 @@ class MechanismSearch:
 TRAINING_TIGHTEN = 10.0
 """The training runs' tolerances are the run's divided by this. The training runs end their steps
 on the estimate's times (every output for the error equation; ``reduction.run_error`` says why),
-so their estimates barely depend on it, and a tighter factor costs steps for nothing
-(``benchmarks/results/pendulum_to_tolerance.md``)."""
+so their estimates barely depend on it, and a tighter factor costs steps for nothing."""
 
 
 def mechanism_to_tolerance(build: Callable[[list], Mechanism], order: Sequence, ts, tol: float, *, y0=None,

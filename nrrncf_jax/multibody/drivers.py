@@ -1,5 +1,5 @@
 """Drivers: joints that prescribe a relative motion as a function of time (a rheonomic
-constraint, C(x, t) = 0; MULTIBODY.md).
+constraint, C(x, t) = 0; docs/multibody-theory.md, §Joints: driven joints).
 
 - ``AngleDriver``: the angle of body b about a hinge's axis relative to body a (or the ground)
   follows φ(t) = θ(t) − θ(0), θ from a motion (``motion.SteadySpin``, ``SpinUp``, ``FourierSpinUp``

@@ -44,8 +44,7 @@ run: output intervals of the order of the motion's time scale, not of the integr
 
 Either way the estimate of χ_rel is 100 √(Σ_t |δx(t)|²) / √(Σ_t |w(t)|²) over the flexible
 bodies' position vectors, w(t) their displacement from the run's first output: the norm of
-``scenarios.pendulum.PendulumRun.compare``. Measured cases (the paper's pendulum, both methods):
-``benchmarks/results/error_estimate_mechanism.md``."""
+``scenarios.pendulum.PendulumRun.compare``."""
 
 import time
 

@@ -41,14 +41,13 @@ Choices, and why:
   with respect to the frame's coordinates and the rest of the joints' Hessian are left to
   Newton's iterations. The p columns make modified Newton contract faster, on the full-order
   pendulum (frames on the left ends' tangents, ``scenarios.pendulum.LEFT_END_FRAME``) and on the
-  reduced one (figures: ``benchmarks/results/newton_contraction.md``). The constrained matrix is
-  factored body by body with the joints' Schur complement (``factor_augmented``).
+  reduced one. The constrained matrix is factored body by body with the joints' Schur complement
+  (``factor_augmented``).
 - ``project_velocities``: the index-3 step (``integrate.GeneralizedAlphaIndex3``) projects ż onto
   C_z ż = 0 after each step. Without it the frames' accelerations oscillate from step to step
   (the O(h) velocity-constraint violation that index 3 leaves), which the step-size control
   reads as error: it takes needlessly small steps, and with ρ∞ = 1, which leaves the
-  oscillation undamped, stalls (``integrate.index3``; history:
-  ``benchmarks/results/design_notes.md``).
+  oscillation undamped, stalls (``integrate.index3``).
 """
 
 import equinox as eqx
@@ -218,8 +217,7 @@ class FloatingBody(AbstractBodyKind):
     def _deflection(self, p):
         """Ψ p as nodal vectors, computed as the row p Ψᵀ: under ``vmap`` over bodies that share
         Ψ (``mechanism._stacks``), or over a batch, XLA's CPU backend runs that as one matrix
-        product, where Ψ p becomes a product with a transposed operand that runs several times
-        slower (``benchmarks/results/kernels.md``)."""
+        product, where Ψ p becomes a product with a transposed operand that runs much slower."""
         return (p @ self.basis_rows).reshape(-1, 3)
 
     def _local(self, p):
@@ -280,10 +278,9 @@ class FloatingBody(AbstractBodyKind):
             M_ep = [Σ D_k:(Â V_m)]_km,  M_pp = Σ Â_ia Â_ib H_ab = |e|⁴ Σ_a H_aa
 
         (Â(e) = |e|² A(e) with A orthogonal, so ÂᵀÂ = |e|⁴ I: M_pp is the constant ``H_trace``
-        scaled, a k × k product saved, the largest one on a full-order body). A few 3 × 3 × k
-        (× k) products instead of J ᵀM J over every nodal vector, which costs several times more
-        (figures: ``benchmarks/results/design_notes.md``); equal to it to round-off
-        (tests/test_floating.py)."""
+        scaled, a k × k product saved, the largest one on a full-order body). A few 3 × 3 × k (× k)
+        products instead of J ᵀM J over every nodal vector, which costs far more; equal to it to
+        round-off (tests/test_floating.py)."""
         e, p = z[3:7], z[7:]
         A, D = _A_hat(e), _dA_hat(e)
         c = self.c0 + self.C @ p
@@ -320,8 +317,7 @@ class FloatingBody(AbstractBodyKind):
         full-order body a frame rotation undone by its deformation coordinates moves only the
         few vectors that hold the frame (the left node's section vectors, or its tangent), whose
         inertia is tiny: there these terms are not small, and with them modified Newton contracts
-        much faster (figures, and the one state where they did not help:
-        ``benchmarks/results/newton_contraction.md``)."""
+        much faster."""
         e, p, de = z[3:7], z[7:], v[3:7]
         A, D = _A_hat(e), _dA_hat(e)
         A_dd = 2.0 * jnp.einsum("k,l,klij->ij", de, de, jnp.asarray(_B)) + jnp.einsum("k,kij->ij", a[3:7], D)
@@ -446,7 +442,7 @@ def _times_transpose(X: Float[Array, "nv 3"], A: Float[Array, "3 3"]) -> Float[A
     equal bodies, and more so under ``vmap`` over a batch of runs), which costs far more than its
     arithmetic; the added columns fuse with the operations around them. A (a few flops) is
     formed once by a product and shared: as a sum of terms it would be fused into every
-    consumer and recomputed for each of X's rows, which was slower (``benchmarks/results/hlo_ops.md``)."""
+    consumer and recomputed for each of X's rows, which is slower."""
     return X[:, 0:1] * A[None, :, 0] + X[:, 1:2] * A[None, :, 1] + X[:, 2:3] * A[None, :, 2]
 
 

@@ -1,4 +1,5 @@
-"""Force elements: spring-dampers and actuators between points and at joints (MULTIBODY.md).
+"""Force elements: spring-dampers and actuators between points and at joints
+(docs/multibody-theory.md, §Joints: the spring-damper).
 
 A force element is a scalar measure g(x) of the bodies' nodal vectors, a distance between two
 points, a hinge's angle or a slider's travel, and a force f(t, g, ġ) along it. By virtual work,

@@ -22,8 +22,7 @@ Newton's iterations (``preferred_newton = "modified"``).
 
 Consecutive bodies of one structure (a chain of equal beams, a rotor's blades after its hub) are
 evaluated in one ``vmap`` a run (``runs``, ``stacks``): on a CPU the time of these small models
-is per XLA operation, and XLA's compile time grows with the operations it is handed
-(``benchmarks/results/compile_breakdown.md``).
+is per XLA operation, and XLA's compile time grows with the operations it is handed.
 """
 
 from typing import ClassVar
@@ -96,7 +95,7 @@ def _stacks(bodies, runs) -> tuple:
     reduced tensors; only their frames differ) is kept once, unstacked, and not mapped
     (``_stack_axes``): the run's contractions then read it once for all its bodies (a matrix
     times several vectors instead of one product a body), where reading three copies of them
-    was a large share of a step (``benchmarks/results/kernels.md``)."""
+    was a large share of a step."""
     stacks = []
     for first, n in runs:
         if n == 1:
@@ -242,8 +241,7 @@ class Mechanism(AbstractConstrainedModel):
         outputs with the body as their leading axis.
         Equal bodies have equal coordinate counts, so a vector's parts are a reshape of its run's
         slice (of the whole vector for a chain of equal bodies), not slices and a stack, whose
-        copies are a noticeable share of a small model's operations (figures:
-        ``benchmarks/results/design_notes.md``)."""
+        copies are a noticeable share of a small model's operations."""
         first, n = run
         o, size = self.offsets[first], self.body_sizes()[first]
 
@@ -351,8 +349,7 @@ class Mechanism(AbstractConstrainedModel):
         the step error is measured on (``observed_error``), since every coordinate must converge.
         Each body's vectors are taken component by component (3 × nv, not nv × 3): the loop only
         forms norms of these, which do not depend on the order, and with the nodal vectors
-        innermost XLA computes them in rows as long as the body's vectors instead of rows of three
-        (``benchmarks/results/hlo_ops.md``)."""
+        innermost XLA computes them in rows as long as the body's vectors instead of rows of three."""
         x = self._concat_map(lambda b, zb: b.nodal_vectors(zb).T, z)
         dx = self._concat_map(lambda b, zb, eb: b.tangent(zb, eb).T, z, e)
         return x, dx, jnp.ones(x.shape[0], bool)
@@ -401,12 +398,11 @@ class Mechanism(AbstractConstrainedModel):
         """The joints' equations on those rows alone: the joints read ``xs[body][vector]``, so a
         dict a body of the rows they read stands for the whole nodal arrays. Differentiated with
         respect to the rows, nothing is scattered into the whole arrays: fewer operations in the
-        constraint Jacobian, which a step computes twice (``benchmarks/results/hlo_ops.md``).
+        constraint Jacobian, which a step computes twice.
         Every section frame the joints read is computed here, all nodes in one batch
         (``Directions.triad`` reads it from the dict): a frame's scalars (its section vectors'
         lengths and angle) node by node were a few XLA operations each, per frame and per
-        derivative, twice a reduced pendulum's step's operations
-        (``benchmarks/results/design_notes.md``)."""
+        derivative, a large share of a reduced pendulum's step's operations."""
         xs = tuple({v: xr[k] for k, v in enumerate(r)} for r, xr in zip(self._joint_rows(), x_rows))
         keys = self._frame_keys()
         if keys:
@@ -439,7 +435,7 @@ class Mechanism(AbstractConstrainedModel):
         """Σ_b J_bᵀ(M_b ẍ_b − Q_b) + ∂U/∂z, without the joints' forces (the stepper adds C_zᵀ λ).
         Through the nodal vectors, not the inertia invariants: written with the invariants it
         takes a dozen 3 × 3 × k × k contractions, more operations, and XLA's time here is per
-        operation (figures: ``benchmarks/results/design_notes.md``)."""
+        operation."""
         return self._bodies_residual(t, z, v, a)
 
     def _bodies_residual(self, t, z, v, a, reactions=None) -> Float[Array, " n"]:
@@ -554,10 +550,9 @@ class Mechanism(AbstractConstrainedModel):
         chain, factors its block itself: ``AbstractBodyKind.factor``).
         The joints' Hessian c_K H_λ is left out: of the order of the reactions times c_K. Small
         LU factorisations of the bodies' blocks instead of one of the whole matrix: a small
-        fraction of its arithmetic, and on a CPU one LU of the whole matrix can cost more than
-        the rest of the step (figures: ``benchmarks/results/design_notes.md``). A small block's
-        inverse is formed from its LU (``linalg.factor_block``), so that each Newton iteration's
-        solve is a product, one for a chain of equal bodies."""
+        fraction of its arithmetic, and on a CPU one LU of the whole matrix can cost more than the
+        rest of the step. A small block's inverse is formed from its LU (``linalg.factor_block``),
+        so that each Newton iteration's solve is a product, one for a chain of equal bodies."""
         B = self.constraint_jacobian(z, t)
         blocks = self._blocks(z, 1.0, c_K, v, a, lam, c_C)
         if self.forces:

@@ -1,4 +1,4 @@
-"""The prismatic (sliding) joint (MULTIBODY.md: the translational joint), on section frames.
+"""The prismatic (sliding) joint (docs/multibody-theory.md, §Joints: the prismatic joint), on section frames.
 
 Body b's position vector r_b slides along an axis fixed in body a's section frame and keeps its
 orientation relative to a. With n₁, n₂ two directions fixed in a's section frame normal to the

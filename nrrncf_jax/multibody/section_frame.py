@@ -4,11 +4,10 @@
 Why not the tangent. A C1 beam node carries the slope r_x and the section vectors r_y, r_z. A
 joint that writes a moment through r_x loads the end element's local shear: r_x is the
 centre-line slope, and a generalized force on it is resisted by the shear stiffness of one
-element's length, so the compliance it adds grows like one over the element's length and the
-answer moves away from the truth as the mesh is refined (``benchmarks/results/validation.md``).
-A moment on the
-section vectors is a moment on the cross-section, which is what the continuum and every
-geometrically exact beam code (Exudyn, MBDyn, Simo-Reissner) apply it to: exact at every mesh.
+element's length, so the compliance it adds grows like one over the element's length and the answer
+moves away from the truth as the mesh is refined. A moment on the section vectors is a moment on
+the cross-section, which is what the continuum and every geometrically exact beam code (Exudyn,
+MBDyn, Simo-Reissner) apply it to: exact at every mesh.
 
 The frame. From a node's two section vectors d₁, d₂ (a C1 beam's r_y, r_z; two of a rigid
 body's unit axes), normalised to a, b, the symmetric orthonormalisation
@@ -46,8 +45,7 @@ def triad(d1: Float[Array, " 3"], d2: Float[Array, " 3"]) -> Float[Array, "3 3"]
 
     Every operation is element-wise on the vectors' components (no reductions, no norms): XLA
     fuses the frame, its derivatives and a joint's equations into a few kernels, where the
-    normalise-four-times form cost a reduced pendulum's step twice its operations
-    (``benchmarks/results/design_notes.md``)."""
+    normalise-four-times form cost a reduced pendulum's step many more operations."""
     x1, y1, z1 = d1[..., 0], d1[..., 1], d1[..., 2]
     x2, y2, z2 = d2[..., 0], d2[..., 1], d2[..., 2]
     r1 = jax.lax.rsqrt(x1 * x1 + y1 * y1 + z1 * z1)

@@ -12,16 +12,15 @@ the reduced cubic elastic force f + Kp + Lpp + Nppp (Eq. 24) built element by el
 einsum kernels (``tensors``). The reduced model (``reduced_model.ReducedRotatingModel``) is an
 ``equinox.Module`` integrated by the same generalized-α loop as the full one; it vmaps and
 differentiates (e.g. with respect to Young's modulus with the basis held fixed,
-``studies.families``). The offline stage's cost is mostly compilation
-(``benchmarks/results/offline.md``; the persistent cache, ``integrate.compilation_cache``, saves
-most of it).
+``studies.families``). The offline stage's cost is mostly compilation (the persistent cache,
+``integrate.compilation_cache``, saves most of it).
 
 Beyond the paper, the spinning-state enrichment (``spin_state``, on by default as a check): at the
 manoeuvre's top spin rate the spinning equilibrium and its modes are computed; when the rest
 basis's Rayleigh-Ritz estimate misses the dominant spinning frequency by more than ``spin_tol``,
 the first spinning mode and modal derivatives of spinning-mode pairs join the basis within the same
 DOF budget. ``nr_rncf(..., spin_state=False)`` (``nrrncf spinup --spin-state off``) gives the
-paper's basis alone; ``benchmarks/results/table3.md`` runs both where they differ.
+paper's basis alone.
 
 Round tubes' bending modes come in equal-frequency pairs, and the eigensolver returns any mix of
 the two planes: ``align_degenerate_modes`` turns each pair to the load, and ``excited_modes`` with

@@ -40,9 +40,8 @@ the tolerance was not met, with the largest basis tried.
 The spinning-state enrichment of ``nr_rncf`` is not part of the order: each basis tried is
 checked as ``nr_rncf`` checks its own, and enriched with the spinning-state columns where the
 check fails (a fast spin whose stiffened first mode the rest basis misses). The quasi-static
-estimate cannot see the drift such a frequency error causes over a run: unenriched, the paper
-beam's 40 rad/s search passed a basis on an estimate several times below its measured error
-(``benchmarks/results/basis_to_tolerance.md``).
+estimate cannot see the drift such a frequency error causes over a run: unenriched, a fast
+spin-up's search can pass a basis on an estimate far below its true error.
 """
 
 import dataclasses

@@ -24,7 +24,7 @@ extended basis of Wu & Tiso (2016), beyond THEORY §7's interior-only list. A bo
 through its constraint modes (a rod moved at its joint) needs them: a transverse deflection
 stretches the centre line to second order, the constraint modes carry no axial shortening to
 go with it, and without their derivatives the basis locks, much as vibration modes without
-modal derivatives do (the slider-crank's rod: ``benchmarks/results/mechanisms.md``).
+modal derivatives do (the slider-crank's rod).
 """
 
 import equinox as eqx

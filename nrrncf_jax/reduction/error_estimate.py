@@ -21,22 +21,20 @@ full run.
 Why this estimator: it needs nothing but the full model's residual and tangent, which the
 offline stage has; it costs a few sparse factorisations, not a full run; and where the basis
 captures the motion (χ_rel below a few per cent) it is first-order accurate, so its effectivity
-(estimate / measured) is near 1 (``benchmarks/results/error_estimate.md``). Where it stops
-working: when the basis misses a large part of the motion (χ_rel of tens of per cent, e.g. a
-basis of vibration modes only under large deflection) the correction is no longer small, the
-linearisation about the reduced state fails, and the estimate says only that the error is large
-(``reliable`` is False above ``RELIABLE_PERCENT``). The states must lie on the reduced
-equations: p̈ comes from them, so a state interpolated between a run's steps, whose stiff
+(estimate / measured) is near 1. Where it stops working: when the basis misses a large part of the
+motion (χ_rel of tens of per cent, e.g. a basis of vibration modes only under large deflection) the
+correction is no longer small, the linearisation about the reduced state fails, and the estimate
+says only that the error is large (``reliable`` is False above ``RELIABLE_PERCENT``). The states
+must lie on the reduced equations: p̈ comes from them, so a state interpolated between a run's
+steps, whose stiff
 coordinates (the modal derivatives) sit off their balance by the interpolation's error, gives an
-acceleration far above the motion's and a residual that measures the interpolation, not the
-basis (on the paper beam's 40 rad/s spin-up, orders of magnitude above the basis error:
-``benchmarks/results/error_estimate.md``). ``reduction.run_error`` therefore takes its states at
-the ends of steps (``integrate.states_at``), and the scenarios' estimates go through it. The
+acceleration far above the motion's and a residual that measures the interpolation, not the basis
+(it can lie orders of magnitude above the basis error). ``reduction.run_error`` therefore takes its
+states at the ends of steps (``integrate.states_at``), and the scenarios' estimates go through it.
+The
 quasi-static model is blind to error that accumulates over the run: it *under*estimates where a
-small basis lets error grow (a slightly wrong frequency drifting in phase): a third of the true
-error on the paper beam's 11-DOF basis at 20 rad/s, and on the bending-torsion membrane's three
-VMs (11.8 % for 32.5 %, below ``RELIABLE_PERCENT`` and so not flagged;
-``benchmarks/results/basis_to_tolerance.md``, ``error_estimate_large.md``).
+small basis lets error grow (a slightly wrong frequency drifting in phase), possibly by a large
+factor while the estimate stays below ``RELIABLE_PERCENT`` and so is not flagged.
 ``basis_to_tolerance`` asks for half its tolerance for that reason.
 
 ``method="dynamic"`` integrates the linearised error equation M ë + R_q̇ ė + R_q e = −r(t)
@@ -44,8 +42,7 @@ along all the output times instead (``integrate_error_equation``, shared with
 ``multibody.error_estimate``), which carries error from one output to the next. Where its
 linearisation holds it follows the measured error output by output; where it grows faster than
 the motion can make it, it stops being valid (``valid_outputs``, ``ErrorEstimate.valid_until``).
-It costs a factorisation of the full iteration matrix per output, not per sample
-(``benchmarks/results/error_estimate.md``).
+It costs a factorisation of the full iteration matrix per output, not per sample.
 """
 
 import dataclasses
@@ -61,8 +58,7 @@ from .._types import Array, Float
 
 RELIABLE_PERCENT = 20.0
 """Above this estimate (χ_rel in per cent) the linearised correction is not small next to the
-displacement and the estimate is an order of magnitude, not a figure
-(``benchmarks/results/error_estimate.md``)."""
+displacement and the estimate is an order of magnitude, not a figure."""
 
 METHODS = ("static", "dynamic")
 
@@ -78,9 +74,7 @@ BLOWUP_FACTOR = 10.0
 grows by more than this factor within 1/ω_max, ω_max the frames' largest angular speed over the
 run: an exponential rate above ln(10) ω_max ≈ 2.3 ω_max. A reduced run's own error grows with
 the motion, at rates below ω_max; an unstable linearisation (a soft beam in compression, which
-buckles) grows faster, as fast as its buckling modes (on the pendulum, ω_max ≈ 31 rad/s, its
-error at up to 20 /s, the unstable error equation at 90-460 /s:
-``benchmarks/results/error_estimate_mechanism.md``)."""
+buckles) grows faster, as fast as its buckling modes."""
 
 
 def integrate_error_equation(ts, states, linearised, measure, n: int, m: int = 0, refinements: int = 1,
@@ -251,10 +245,9 @@ solver batches them well (``linalg.AbstractLinearSolver.batches_factors``: block
 beam chain): the static estimate's samples (a ``vmap`` within each batch, the batches one after
 another) and the error equation's outputs (``integrate_error_equation``'s windows). A
 factorisation is then the element tangents, their assembly and a block LU (a scan over the nodes
-of small LAPACK factorisations): many small operations, whose fixed cost a batch shares.
-Batches of a few share it, where all 16 samples at once were slower on the paper beam's finer
-mesh (``benchmarks/results/error_estimate.md``). The batches are equal (``_batches``, padded with
-copies of the last item), so that one program serves them.
+of small LAPACK factorisations): many small operations, whose fixed cost a batch shares. Batches of
+a few share it; one batch of all the samples at once can be slower on a fine mesh. The batches are
+equal (``_batches``, padded with copies of the last item), so that one program serves them.
 
 Other solvers (``batches_factors`` false) factor one at a time. A dense tangent's LU is one large
 LAPACK call, which a batch does not make cheaper, and jaxlib's batched LAPACK LU on the CPU can

@@ -59,7 +59,7 @@ class ReducedRotatingModel(AbstractModel):
     speed, since the centrifugal stiffening is nonlinear)."""
     # Full Newton: ``newton_update`` takes F and ∂F/∂p from one cubic contraction, so an iteration
     # with a fresh factor costs about what a modified-Newton residual does, and converges
-    # quadratically (benchmarks/results/design_notes.md).
+    # quadratically.
     preferred_newton: ClassVar[str] = "full"
 
     @property
@@ -212,7 +212,7 @@ def force_evaluation_costs(body: Body, km: int) -> dict:
     tensor: the packed Jacobian contraction (Km² · Km(Km+1)/2) plus the force (Km · triples);
     projected: element tangents (n_el · 3 n_e⁴) and their projection (n_el · (3 n_e)² · Km).
     Returns ``{"tensor": ..., "projected": ...}``; ``force='auto'`` takes the smaller. The estimate
-    agrees with measured run times (``benchmarks/results/design_notes.md``).
+    agrees with measured run times.
     """
     tensor = km * km * km * (km + 1) // 2 + km * km * (km + 1) * (km + 2) // 6
     projected = sum(g.n_elements * (3 * g.elements.shape[1] ** 4 + (3 * g.elements.shape[1]) ** 2 * km)
@@ -227,8 +227,7 @@ def reduce_rotating_model(full: RotatingFrameModel, Psi: Float[Array, "ndof km"]
     ``error_rows`` (indices of physical coordinates, e.g. those of the position vectors): the
     integrator's step error is measured on these rows of q = q° + Ψp only, instead of all of
     them. Each step maps the error to the physical coordinates (``Ψ e``), which for a large body
-    costs more than the reduced step itself, so measuring it on fewer rows makes the run faster
-    (``benchmarks/results/truss.md``).
+    costs more than the reduced step itself, so measuring it on fewer rows makes the run faster.
 
     ``force='auto'`` evaluates the elastic force the cheaper way for this model (see
     ``force_evaluation_costs``); ``'tensor'`` or ``'projected'`` force a choice. The full

@@ -8,12 +8,10 @@ output between two steps is interpolated (cubic Hermite); its error is within th
 tolerance, but the reduced model's stiff coordinates (the modal derivatives, up to thousands of
 rad/s) carry it as an elastic force out of balance, which the reduced equations turn into an
 acceleration far above the motion's. The lifted residual, and the static correction with it, then
-measure the interpolation, not the basis: on the paper beam's 40 rad/s spin-up, orders of
-magnitude above the basis error at the run's tolerance, and at a hundred times tighter still
-several times above it and changing with the number of samples
-(``benchmarks/results/error_estimate.md``). At the end of a step the reduced equations hold with
-the step's own acceleration, and the estimate is the same at the run's tolerance as at tighter
-ones.
+measure the interpolation, not the basis: they can lie orders of magnitude above the basis
+error, still above it at far tighter tolerances, and change with the number of samples. At the
+end of a step the reduced equations hold with the step's own acceleration, and the estimate is the
+same at the run's tolerance as at tighter ones.
 
 So the run itself ends steps on the estimate's samples: ``estimate_times`` gives them
 (``run_step_ts``: where a run should take them), and the run takes them as ``simulate``'s

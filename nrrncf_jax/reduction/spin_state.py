@@ -6,8 +6,7 @@ the frame's rotation (Eq. 8's ω×(ω×q)); in-plane the two nearly cancel, so t
 vibration after the manoeuvre runs at a frequency that is a small difference of large terms. At
 the paper's ωs = 40 rad/s the rest basis puts the first in-plane frequency of the spinning beam
 too high, and the phase error of the residual vibration dominates χ_rel. Adding the first mode of
-the spinning beam and the modal derivatives of its lowest spinning modes fixes that shape
-(``benchmarks/results/table3.md``: the rows with and without them).
+the spinning beam and the modal derivatives of its lowest spinning modes fixes that shape.
 
 Whether to enrich is decided without a full simulation (``ritz_frequencies``): the rest basis's
 Rayleigh-Ritz estimate of the spinning body's dominant frequency is compared with the exact one;

@@ -29,14 +29,13 @@ class ElasticTensors(eqx.Module):
     ``3 N p p`` is a symmetric matrix: ``N2u`` holds N on the Km(Km+1)/2 distinct (k, l) rows
     and (i, j) columns, and ``unpack`` maps a symmetric (i, j) back to its column. The contraction
     is memory-bound, so reading about a sixth (force) or a quarter (Jacobian) of the Km⁴ entries
-    makes it that much cheaper (``benchmarks/results/design_notes.md``).
+    makes it that much cheaper.
 
     The packed forms (and ``L_rows``, L with its contracted index first) put the index that is
     summed over on their rows: the contractions are a row vector times a matrix, ``x @ A``.
     Under ``vmap`` over bodies that share the tensors (a chain of equal beams) or over a batch,
     XLA's CPU backend runs that as one matrix product of the stacked rows, where ``A @ x`` became
-    a product with the matrix's transpose that runs at a fraction of the speed
-    (``benchmarks/results/kernels.md``).
+    a product with the matrix's transpose that runs at a fraction of the speed.
     """
 
     full_order: ClassVar[bool] = False
@@ -118,8 +117,7 @@ def _plain_operand(x):
     gathered products p_j p_k (p_l) come out with the batch axis innermost, and XLA's CPU backend,
     left to itself, folds that layout into the product (it contracts the operand's first axis),
     which then runs at a fraction of a plain product's speed. The barrier (removed again before
-    code generation) keeps the layout change a small copy of its own and the product a plain one
-    (``benchmarks/results/kernels.md``)."""
+    code generation) keeps the layout change a small copy of its own and the product a plain one."""
     return lax.optimization_barrier(x)
 
 

@@ -28,9 +28,7 @@
   the truss and the membrane.
 
 Each example has its ``nrrncf`` subcommand, its notebook and its benchmark; the measured figures
-are in ``benchmarks/results/`` (``table3.md``, ``membrane.md``, ``truss.md``, ``pendulum.md``, and
-what is not met yet, e.g. the pendulum's open targets, in the same files), summed up in the
-README's results table.
+are on the documentation's Benchmark results page, summed up in the README's results table.
 """
 
 from .beams import BEAMS as BEAMS

@@ -88,13 +88,12 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     ``ForcedRun``) with ``fields`` added. ``estimate``: an NR-RNCF run's a-posteriori error
     estimate from the reduced run alone (``reduction.run_error``, at ``estimate_samples`` output
     times, on which the run then ends steps, over the position vectors as χ_rel is): one sparse
-    factorisation of the full model per sample, seconds on the 19k-DOF bodies.
+    factorisation of the full model per sample.
     ``estimate_integration``: also the run's own time-integration error, by a repetition of the
     run at tightened tolerances. ``estimate_method``: ``"static"`` (the quasi-static correction at
     the samples, above) or ``"dynamic"`` (the linearised error equation over every output, on a
-    repetition of the run ending a step on each: a sparse factorisation an output, minutes on the
-    19k-DOF bodies, but the one that flags a basis whose error grows over the run as drift:
-    ``benchmarks/results/error_estimate_large.md``).
+    repetition of the run ending a step on each: a sparse factorisation an output, far costlier
+    on a large body, but the one that flags a basis whose error grows over the run as drift).
     ``tol``: the basis chosen to a target χ_rel in per cent
     instead (``nr_rncf(..., tol=...)``, the run itself the training manoeuvre; ``vms`` and ``mds``
     are then not used, and ``spin_state`` governs the spinning-state check of each basis tried)."""

@@ -19,8 +19,7 @@ maximum modal interaction; ``pendulum_to_tolerance`` grows the beams' basis alon
 ``candidate_order`` until the error estimate of a training run meets a target χ_rel
 (``multibody.basis_to_tolerance``); ``release_sweep`` runs any of them released at a batch of
 angles in one compiled, vmapped loop. ``run_pendulum``/``run_chain`` record a run (``PendulumRun``), and
-``PendulumRun.compare`` its χ_rel and speed-up against a full-order one
-(``benchmarks/results/pendulum.md``).
+``PendulumRun.compare`` its χ_rel and speed-up against a full-order one.
 """
 
 import dataclasses
@@ -126,10 +125,9 @@ Why the tangent and not the section vectors (``LEFT_SECTION_FRAME``): a C1 beam'
 vectors shear against its centre line, and their shear and stretch vibrate at the mesh's highest
 frequencies. A frame that follows them carries that vibration into every coordinate of the body
 (each one measured from the frame), and the step-size control then rejects many of its steps;
-with the tangent frame the step counts follow the ANCF model's, as the same equations should
-(``benchmarks/results/design_notes.md``). The NR-RNCF basis holds the section vectors entirely
-(``REFERENCE_CONDITIONS``, a cantilever's clamp): its modes have no shear vibration at the clamp
-to carry."""
+with the tangent frame the step counts follow the ANCF model's, as the same equations should. The
+NR-RNCF basis holds the section vectors entirely (``REFERENCE_CONDITIONS``, a cantilever's clamp):
+its modes have no shear vibration at the clamp to carry."""
 
 LEFT_SECTION_FRAME = ((_R, 0), (_R, 1), (_R, 2), (_RY, 0), (_RY, 2), (_RZ, 0))
 """The alternative: the Gram-Schmidt frame of the left node's section vectors, x normal to r_y
@@ -256,7 +254,7 @@ def candidate_order(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, t_end: 
     outputs, ``mmi_per_body``; ties broken by index), with ``JOINT_MODES`` second, right after
     the first VM: a joint's static modes carry its load as Craig-Bampton's constraint modes do
     (two columns a beam, in-plane), which the free cantilever's modes and MDs approach only
-    slowly (the paper's basis with and without them: ``benchmarks/results/pendulum.md``)."""
+    slowly."""
     from ..reduction.basis_to_tolerance import greedy_order
 
     selections = mmi_per_body(spec, n_vms, n_mds=1, t_end=t_end, rtol=rtol, n_samples=n_samples)
@@ -286,8 +284,8 @@ def pendulum_to_tolerance(spec: PendulumSpec = PendulumSpec(), tol: float = 0.5,
     every ``dt_out``, has an error estimate of at most ``tol / safety`` per cent χ_rel
     (``multibody.basis_to_tolerance.mechanism_to_tolerance``: the linearised error equation by
     default, which holds on this soft chain only until its beams buckle in compression, so the
-    training window is shorter than the run; ``safety`` covers the error's growth after it;
-    ``benchmarks/results/pendulum_to_tolerance.md``). ``rho_inf``, ``rtol``,
+    training window is shorter than the run; ``safety`` covers the error's growth after it).
+    ``rho_inf``, ``rtol``,
     ``atol``: the settings of the run the basis is for. Returns the ``MechanismSearch``."""
     from ..multibody.basis_to_tolerance import mechanism_to_tolerance
 
@@ -451,9 +449,8 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     ``newton_tol``: Newton stops when its correction, or the error it leaves, is below this
     fraction of the step's error tolerance. 1 % here, against ``simulate``'s 0.1 %: the reduced
     pendulum's modified Newton converges linearly (its iteration matrix leaves out the inertia
-    terms' derivatives), so a tighter stop costs iterations without changing χ_rel
-    (``benchmarks/results/design_notes.md``). The full model's Newton stops after its second
-    correction either way.
+    terms' derivatives), so a tighter stop costs iterations without changing χ_rel. The full
+    model's Newton stops after its second correction either way.
 
     ``estimate`` (a reduced system): the run's a-posteriori error estimate from the run alone, at
     ``estimate_samples`` output times (``multibody.error_estimate``, against the system's
@@ -465,7 +462,7 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
 
     ``step_control``: the adaptive controller by name (``integrate.STEP_CONTROLS``): ``"plain"``, or
     ``"pi"``, whose runs are more accurate at the same tolerance and reject fewer steps, so that it
-    can be run at a looser one (``benchmarks/results/step_control.md``).
+    can be run at a looser one.
 
     ``error_on``: what the step error is measured on: ``"nodes"``, every nodal vector (of the
     full-order counterpart, for a reduced body), or ``"tips"``, the beams' right ends, the run's
@@ -569,8 +566,8 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
 
     # The queue runs the highest releases first, with their results put back in the order of
     # ``angles``: a higher release has more energy to swing with and costs more steps, and with
-    # fewer lanes than members a costly member that starts last runs on alone at the end (figures:
-    # benchmarks/results/pendulum_batch.md). A heuristic: any order gives the same results.
+    # fewer lanes than members a costly member that starts last runs on alone at the end.
+    # A heuristic: any order gives the same results.
     order = np.argsort(-np.sin(angles), kind="stable")
     back = np.argsort(order)
     args = jnp.asarray(angles[order])

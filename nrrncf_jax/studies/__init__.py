@@ -19,20 +19,17 @@ checkpointed integrator; either with the basis held fixed (``SpinupFamily``: κ 
 through the whole offline stage (``offline_family``: modes, modal derivatives, deflation, tensors,
 with a degeneracy-safe derivative of ``eigh``, and a warning and the fixed-basis fallback when a
 selected mode has a repeated eigenvalue). The demonstration: ``nrrncf identify --demo``,
-``scenarios.identification``, ``notebooks/02_identification.ipynb``,
-``benchmarks/results/identification.md``.
+``scenarios.identification``, ``notebooks/02_identification.ipynb``.
 
 A sweep is one compiled, vmapped run over a (ωs, Ts, E) grid on one shared basis, built at the
 grid's hardest case, split across devices with ``shard_map`` (no cross-device communication per
 step); ``integrate.simulate_batch`` runs any batch of models the same way, each member with its
 own adaptive steps, and with fewer lanes than members the rest queue for the lane of a member
-that ends (``notebooks/03_sweep.ipynb``, ``benchmarks/results/sweep.md``, which also says what a
-CPU can and cannot reach).
+that ends (``notebooks/03_sweep.ipynb``).
 
 Control: the spin-up to a given ωs within Ts that leaves the least residual vibration, by gradient
 descent over the Fourier correction of ``motion.FourierSpinUp`` through the reduced simulation,
-checked on the full RNCF model (``notebooks/04_optimal_spinup.ipynb``,
-``benchmarks/results/optimal_spinup.md`` and its figure).
+checked on the full RNCF model (``notebooks/04_optimal_spinup.ipynb``).
 """
 
 from .control import OptimalSpinup as OptimalSpinup

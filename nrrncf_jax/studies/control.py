@@ -127,9 +127,9 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
     nearly linear in θ̈, so J is nearly quadratic in x, where quasi-Newton converges fast.
     ``grad='reverse'`` differentiates the checkpointed loop (``simulate(adjoint='reverse')``;
     memory grows with ``max_steps``), ``'forward'`` pushes 2·n_terms tangents (constant memory,
-    but slower than reverse mode at the default 8 coefficients;
-    ``benchmarks/results/optimal_spinup.md``). ``rtol``, ``atol``, ``adaptive``, ``dt0`` and
-    ``max_steps`` go to ``simulate``; adaptive step sizes are held fixed under differentiation. One
+    but slower than reverse mode at the default 8 coefficients). ``rtol``, ``atol``, ``adaptive``,
+    ``dt0`` and ``max_steps`` go to ``simulate``; adaptive step sizes are held fixed under
+    differentiation. One
     value-and-gradient function is compiled and reused for every evaluation. Returns an
     ``OptimalSpinup`` with the iterate of least loss.
     """

@@ -465,7 +465,7 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     apart; with ``time_single=True`` the slowest case is then run alone for comparison.
     ``small_kernels``: compile with ``integrate.SMALL_KERNEL_OPTIONS`` on CPU devices, as a single
     reduced run is (``simulate_batch``'s option of that name): the sweep's loop compiles faster and
-    runs as fast (``benchmarks/results/xla_options.md``); False: XLA's defaults.
+    runs as fast; False: XLA's defaults.
     ``throw=True`` raises ``SimulationError`` naming a case that stopped early. ``progress=True``
     prints each stage (compilation, the run, the single run) on stderr.
 
@@ -497,7 +497,7 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     per_dev = -(-grid.cases // n_dev)
     if lanes is None:
         # On a CPU a wider batch gains little per case (its cost is many small batched kernels);
-        # the lane counts are the fastest of those timed (benchmarks/results/sweep.md, "Lanes").
+        # the lane counts are the fastest of those timed.
         if devs[0].platform == "cpu":
             c = min(per_dev, _CPU_SHARDED_LANES if n_dev > 1 else _CPU_LANES)
         else:
