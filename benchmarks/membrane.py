@@ -134,7 +134,7 @@ def main(argv=None):
               "Case A (in-plane): Eq. 43 with Ts = 2 s, 0-3 s. Case B (bending-torsion): ωs = 4 rad/s, Ts = 2 s, "
               "hub w_z = 0.012 sin(0.5πt) m, 0-4 s. Outputs every 0.01 s, generalized-α ρ∞ = 0.9, rtol 1e-5, "
               "atol 1e-7 (run_membrane's defaults). NR-RNCF: the paper's bases, no spinning-state enrichment. "
-              "χ_rel (THEORY §9) over the "
+              "χ_rel (docs/theory.md, §9 Accuracy measures and checks) over the "
               "displacements of all position vectors; rim: the rim point on +X in the reference frame "
               "(radial X, tangential Y, axial Z); its error: the largest difference from the full run over the "
               "run, relative to the full run's largest value, per component.", ""] + header

@@ -92,7 +92,8 @@ def main(argv=None):
     lines += ["## Forced response", "",
               f"F(t) = F0 sin(2π f1 t) along y at the free end's centroid (shared by the three tip joints), "
               f"f1 = {f1:.5f} Hz, F0 = {F0:.4g} N; 0-{a.t_end:g} s, outputs every 0.02 s, generalized-α ρ∞ = 0.9, "
-              "rtol 1e-4, atol 1e-6. χ_rel (THEORY §9) over the displacements of all position vectors.", "",
+              "rtol 1e-4, atol 1e-6. χ_rel (docs/theory.md, §9 Accuracy measures and checks) over the "
+              "displacements of all position vectors.", "",
               "| model | DOFs | basis | steps (rejected) | Newton it. | offline [s] | compile [s] | run [s] | "
               "χ_rel [%] | speed-up | tip y max [m] | tip z max [m] |",
               "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]

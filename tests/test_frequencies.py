@@ -1,5 +1,5 @@
 """Cantilever natural frequencies against Euler-Bernoulli and the axial-bar closed forms
-(THEORY §9), mode counting, and the singular-stiffness error."""
+(docs/theory.md, §9 Accuracy measures and checks), mode counting, and the singular-stiffness error."""
 
 import numpy as np
 import pytest

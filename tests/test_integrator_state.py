@@ -1,6 +1,6 @@
-"""The integrator's typed state and its diffrax-style ``init``/``step`` (THEORY §8): the state is
-a pytree, ``init`` solves for the consistent acceleration, a loop of ``step`` calls is the
-fixed-step ``simulate``, and an unconstrained model carries no multipliers."""
+"""The integrator's typed state and its diffrax-style ``init``/``step`` (docs/theory.md, §8 Time
+integration): the state is a pytree, ``init`` solves for the consistent acceleration, a loop of
+``step`` calls is the fixed-step ``simulate``, and an unconstrained model carries no multipliers."""
 
 import functools
 

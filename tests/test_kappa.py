@@ -1,4 +1,5 @@
-"""κ symmetries, F = ∂U/∂q, tangent = ∂F/∂q, and rigid-motion invariance (THEORY §2)."""
+"""κ symmetries, F = ∂U/∂q, tangent = ∂F/∂q, and rigid-motion invariance (docs/theory.md, §2 Elastic
+force)."""
 
 import jax
 import jax.numpy as jnp

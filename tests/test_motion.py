@@ -138,8 +138,8 @@ def _inertia_and_loads(model, t, q, v, a):
 
 @pytest.mark.parametrize("force", [pytest.param("tensor", marks=pytest.mark.slow), "projected"])
 def test_reduced_residual_is_the_projected_full_residual_under_general_motion(beam, force):
-    """THEORY §4: the reduced residual equals Ψᵀ r(q° + Ψp, Ψṗ, Ψp̈) of the full RNCF model, for a
-    motion whose ω spans all three directions and whose origin accelerates."""
+    """docs/theory.md, §4 Reduction: the reduced residual equals Ψᵀ r(q° + Ψp, Ψṗ, Ψp̈) of the full
+    RNCF model, for a motion whose ω spans all three directions and whose origin accelerates."""
     full = RotatingFrameModel(beam, GENERAL, loads=Loads(gravity=[0.0, -9.81, 0.0]))
     Psi = vibration_modes(beam, full.free_mask(), 5).phi
     red = reduce_rotating_model(full, Psi, force=force)

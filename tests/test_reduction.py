@@ -1,5 +1,5 @@
 """NR-RNCF reduction: modes, modal derivatives (closed form vs autodiff), the reduced-force and
-reduced-residual identities of THEORY §4, deflation, selection, and the reduced spin-up."""
+reduced-residual identities (docs/theory.md, §4 Reduction), deflation, selection, and the reduced spin-up."""
 
 import equinox as eqx
 import jax
@@ -349,7 +349,7 @@ def test_reduction_input_errors(spin4_model):
 
 
 def test_craig_bampton_basis_keeps_the_boundary_and_is_exact_for_boundary_loads():
-    """The extended Craig-Bampton basis (``reduction.craig_bampton``, THEORY §7) of the
+    """The extended Craig-Bampton basis (``reduction.craig_bampton``, docs/theory.md, §7 Jointed bodies) of the
     pendulum's beam (4 C1 elements, left end's reference conditions held, in-plane coordinates),
     the right end's position the boundary:
 

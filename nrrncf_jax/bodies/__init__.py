@@ -1,5 +1,6 @@
 """What builds a flexible body from elements (``elements/``, with their material and section): its
-reference geometry and the body itself, element groups on one set of nodal vectors (THEORY §1-2).
+reference geometry and the body itself, element groups on one set of nodal vectors (docs/theory.md,
+§1 RNCF kinematics and §2 Elastic force).
 
 - ``mesh``: beam reference geometry (straight, circular arcs, any framed curve);
 - ``body.Body``: element groups (``elements/``) on one set of nodal vectors, with the elastic

@@ -1,5 +1,5 @@
 """A meshed flexible body: groups of elements on one set of nodal vectors, and the elastic
-force, tangent stiffness and inertia of THEORY §1-2 (Eqs. 9-11).
+force, tangent stiffness and inertia of docs/theory.md, §1 RNCF kinematics and §2 Elastic force (Eqs. 9-11).
 
 A body holds one ``ElementGroup`` per element type (beams, bars, ...), each with the element
 integrals stacked element by element (κ: ``n_e⁴`` numbers each) and its connectivity into the
@@ -163,7 +163,7 @@ product at the limit); above it they go element by element (``Body.mass_product`
 
 
 class Body(eqx.Module):
-    """A flexible body in its own frame: the data of THEORY §1-2.
+    """A flexible body in its own frame: the data of docs/theory.md, §1 RNCF kinematics and §2 Elastic force.
 
     ``q_hat``: the stress-free nodal vectors (n × 3); ``groups``: the element groups on them;
     ``is_position``: which nodal vectors are positions (a rigid translation moves these only).
@@ -268,7 +268,7 @@ class Body(eqx.Module):
         rot = np.cross(e[:, None, :], np.asarray(self.q_hat)[None, :, :])
         return np.concatenate([trans, rot]).reshape(6, -1).T
 
-    # --- inertia (THEORY §1) ------------------------------------------------------------------
+    # --- inertia (docs/theory.md, §1 RNCF kinematics) -----------------------------------------
     def mass_matrix(self) -> Float[Array, "n n"]:
         """The scalar M_αβ (the full mass matrix is ``M ⊗ I3``)."""
         n = self.n_vectors

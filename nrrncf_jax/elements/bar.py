@@ -3,7 +3,7 @@
 The position along the axis is linear, ``r(s) = (1 − s) r₁ + s r₂`` with s = ξ/L ∈ [0, 1], so
 the axial Green-Lagrange strain is ``ε = ½(|r'|² − 1) = B_αβ Q_αβ`` with ``B = [[1, −1], [−1,
 1]]/L²`` (r' = (r₂ − r₁)/L) and ``Q_αβ = ½(q_α·q_β − q̂_α·q̂_β)``. With the axial stiffness EA
-the energy is ``U = ½ EA L ε²``, so in closed form (THEORY §2)
+the energy is ``U = ½ EA L ε²``, so in closed form (docs/theory.md, §2 Elastic force)
 
     κ^{αβμν} = EA L B_αβ B_μν,   M = ρAL/6 [[2, 1], [1, 2]],   ϱ = ρAL/2 [1, 1],   m = ρAL.
 

@@ -1,10 +1,11 @@
 """What a body needs from an element type: its nodal layout and its constant integrals.
 
 Every element of this library has a position field linear in its nodal vectors,
-``r(x) = S_α(x) q_α`` (THEORY §1), and a Green-Lagrange strain quadratic in them, so that its
-elastic energy is ``U = ½ κ^{αβμν} Q_αβ Q_μν`` with ``Q_αβ = ½(q_α·q_β − q̂_α·q̂_β)`` and a
-constant 4th-order tensor κ (THEORY §2, Eqs. 9-11). An element type is therefore fully described
-by the integrals over one element of its reference configuration:
+``r(x) = S_α(x) q_α`` (docs/theory.md, §1 RNCF kinematics), and a Green-Lagrange strain quadratic
+in them, so that its elastic energy is ``U = ½ κ^{αβμν} Q_αβ Q_μν`` with
+``Q_αβ = ½(q_α·q_β − q̂_α·q̂_β)`` and a constant 4th-order tensor κ (docs/theory.md, §2 Elastic
+force, Eqs. 9-11). An element type is therefore fully described by the integrals over one element
+of its reference configuration:
 
 - ``kappa`` κ^{αβμν} (n_e⁴ numbers),
 - ``M`` the scalar mass matrix ``M_αβ = ∫ρ S_α S_β``, ``varrho`` ``ϱ_α = ∫ρ S_α`` and the
@@ -26,7 +27,7 @@ from .._types import Array, Float
 
 
 class ElementIntegrals(NamedTuple):
-    """The integrals of one element (THEORY §1-2)."""
+    """The integrals of one element (docs/theory.md, §1 RNCF kinematics and §2 Elastic force)."""
 
     kappa: Float[Array, "ne ne ne ne"]
     M: Float[Array, "ne ne"]

@@ -7,7 +7,7 @@ cross-section vectors; across the section the field is linear:
 
     r(ξ, y, z) = Σ_nodes h_r r + h_x r_x + y (h_r r_y + h_x r_xy) + z (h_r r_z + h_x r_xz)
 
-so ``r = S_α(ξ, y, z) q_α`` with 12 scalar shape functions per element (THEORY §1).
+so ``r = S_α(ξ, y, z) q_α`` with 12 scalar shape functions per element (docs/theory.md, §1 RNCF kinematics).
 
 **Why it does not lock.**
 - *Shear locking* comes from interpolating the centreline slope and the cross-section rotation
@@ -18,7 +18,7 @@ so ``r = S_α(ξ, y, z) q_α`` with 12 scalar shape functions per element (THEOR
   strain is uncoupled from the cross-section strains.
 The closed-form frequency and elastica tests check both.
 
-κ and the inertia integrals come from the Green-Lagrange strain of the continuum (THEORY §2),
+κ and the inertia integrals come from the Green-Lagrange strain of the continuum (docs/theory.md, §2 Elastic force),
 with the covariant strain mapped to a local orthonormal frame (axis, section y, section z) of
 the *reference* geometry at every quadrature point, so curved reference geometry is exact:
 ``E_loc = Tᵀ E_cov T`` with ``T = J⁻¹ R``, ``J = ∂r̂/∂(ξ, y, z)`` and ``R`` the orthonormalised
@@ -125,7 +125,8 @@ def beam_element_integrals(
     section: AbstractSection,
     n_axial: int = 5,
 ) -> tuple[Float[Array, "12 12 12 12"], Float[Array, "12 12"], Float[Array, " 12"], Float[Array, ""]]:
-    """κ^{αβμν}, M_αβ, ϱ_α and m of one element (THEORY §1-2) by Gauss quadrature.
+    """κ^{αβμν}, M_αβ, ϱ_α and m of one element (docs/theory.md, §1 RNCF kinematics and §2 Elastic
+    force) by Gauss quadrature.
 
     ``q_hat`` is the element's stress-free configuration. 5 axial points integrate the straight
     element's κ (degree 8 in ξ) and mass (degree 6) exactly.
@@ -151,7 +152,7 @@ def beam_element_integrals(
     S, B, W = over(section.quadrature())
     shear = section.shear_quadrature()
     if shear is None:
-        # κ^{αβμν} = ∫ B^a_{αβ} D_ab B^b_{μν} dV   (THEORY §2)
+        # κ^{αβμν} = ∫ B^a_{αβ} D_ab B^b_{μν} dV   (docs/theory.md, §2 Elastic force)
         kappa = jnp.einsum("q,qaij,ab,qbkl->ijkl", W, B, D, B)
     else:
         # the normal strains over the section, the shear strains over the section's shear

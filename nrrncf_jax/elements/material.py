@@ -1,4 +1,4 @@
-"""Linear-elastic isotropic material and the beam's constitutive matrix D (THEORY §2)."""
+"""Linear-elastic isotropic material and the beam's constitutive matrix D (docs/theory.md, §2 Elastic force)."""
 
 import equinox as eqx
 import jax.numpy as jnp

@@ -1,6 +1,6 @@
-"""A triangular thin plate/membrane element with membrane and bending stiffness whose position
-field is linear in its nodal vectors (THEORY §1-2), so that its full Green-Lagrange strain energy is
-quartic in them and κ constant.
+"""A triangular thin plate/membrane element with membrane and bending stiffness whose position field
+is linear in its nodal vectors (docs/theory.md, §1 RNCF kinematics and §2 Elastic force), so that
+its full Green-Lagrange strain energy is quartic in them and κ constant.
 
 **Nodal layout (16 nodal vectors, 48 DOF per element).**
 - Each of the three vertices carries ``[r, r_1, r_2, r_z]``: the mid-surface position, its
@@ -39,9 +39,10 @@ beam does). Through the thickness E = E⁰ + ζ E¹ + ζ² E²: membrane strain
 and the director's stretch ``½(d·d − 1)``. D (``plate_D``, Voigt
 [E11, E22, E33, 2E23, 2E13, 2E12]) is the plane-stress law in the plane (E/(1−ν²), ν; G), the
 stretch ``E33`` carries E alone, uncoupled, and the transverse shear ``k G`` (k = 5/6) with
-the stabilisation below. κ^{αβμν} = ∫ B^a_{αβ} D_ab B^b_{μν} dV (THEORY §2) by a degree-8
-triangle rule (Dunavant, 16 points) times 3 Gauss points in ζ: exact for a flat element (B
-is of degree 4 in X and 2 in ζ). M, ϱ, m by the same rule, with the director's rotary inertia.
+the stabilisation below. κ^{αβμν} = ∫ B^a_{αβ} D_ab B^b_{μν} dV (docs/theory.md, §2 Elastic
+force) by a degree-8 triangle rule (Dunavant, 16 points) times 3 Gauss points in ζ: exact for a
+flat element (B is of degree 4 in X and 2 in ζ). M, ϱ, m by the same rule, with the director's
+rotary inertia.
 
 **Why it does not lock.**
 - *Poisson (thickness) locking*: d is constant through the thickness, so the director cannot
@@ -285,7 +286,7 @@ class TrianglePlate(AbstractElement):
         B = jax.vmap(_voigt_B)(jnp.einsum("qak,qkl->qal", dS, T))
         W = (np.asarray(TRIANGLE_WEIGHTS)[:, None] * np.asarray(THICKNESS_WEIGHTS)[None, :]).reshape(-1)
         W = W * area * 0.5 * h * detJ  # dV
-        # κ^{αβμν} = ∫ B^a_{αβ} D_ab B^b_{μν} dV   (THEORY §2)
+        # κ^{αβμν} = ∫ B^a_{αβ} D_ab B^b_{μν} dV   (docs/theory.md, §2 Elastic force)
         kappa = jnp.einsum("qaij,qakl->ijkl", W[:, None, None, None] * B, jnp.einsum("ab,qbkl->qakl", D, B))
         M = self.rho * jnp.einsum("q,qi,qj->ij", W, S, S)  # M_αβ = ∫ρ S_α S_β
         varrho = self.rho * jnp.einsum("q,qi->i", W, S)  # ϱ_α = ∫ρ S_α

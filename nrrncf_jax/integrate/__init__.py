@@ -1,6 +1,6 @@
 """Time integration: ``simulate(model, solver, controller, ts)``.
 
-- solvers (``base.AbstractSolver``): ``GeneralizedAlpha`` (THEORY §8, Arnold-Brüls form) for
+- solvers (``base.AbstractSolver``): ``GeneralizedAlpha`` (docs/theory.md, §8 Time integration; Arnold-Brüls form) for
   models with prescribed coordinates, ``GeneralizedAlphaIndex3`` for constrained systems (joints,
   Lagrange multipliers in the state);
 - step-size controllers (``step_size``): ``AdaptiveStepSize`` (error control; plain or PI,

@@ -1,4 +1,4 @@
-"""The adaptive loop's interface to its solver (THEORY §8): the ``init``/``step`` contract
+"""The adaptive loop's interface to its solver (docs/theory.md, §8 Time integration): the ``init``/``step`` contract
 (``AbstractSolver``), the typed state a solver carries from step to step, and the Newton
 settings of a step (``Newton``, the user's; ``NewtonOptions``, as a step receives them).
 
@@ -22,9 +22,9 @@ from .newton import NewtonSolution
 
 
 class GeneralizedAlphaState(eqx.Module):
-    """The generalized-α state at the end of a step (THEORY §8): coordinates q, velocities v,
-    the true acceleration a, the auxiliary acceleration ā (``abar``), and the Lagrange
-    multipliers λ (``lam``; shape (0,) for an unconstrained model, the default).
+    """The generalized-α state at the end of a step (docs/theory.md, §8 Time integration):
+    coordinates q, velocities v, the true acceleration a, the auxiliary acceleration ā (``abar``),
+    and the Lagrange multipliers λ (``lam``; shape (0,) for an unconstrained model, the default).
 
     The adaptive loop carries it with (q, v, a, ā) stacked into one (4, n) array, one buffer
     in the ``while_loop`` rather than four (``simulate._Stacked``).

@@ -1,4 +1,4 @@
-"""The generalized-α method (THEORY §8): coefficients, kinematics, and the step.
+"""The generalized-α method (docs/theory.md, §8 Time integration): coefficients, kinematics, and the step.
 
 Arnold-Brüls form: the equations hold at t_{n+1} with the true acceleration a_{n+1}; an
 auxiliary acceleration ā carries the α-weighting,
@@ -51,8 +51,8 @@ def _not_run(shapes) -> NewtonSolution:
 
 class AbstractGeneralizedAlpha(AbstractSolver):
     """Chung-Hulbert parameters from the spectral radius at infinity ρ∞ ∈ [0, 1] and the
-    generalized-α kinematics (THEORY §8), shared by the unconstrained step (``GeneralizedAlpha``)
-    and the index-3 step of constrained systems (``GeneralizedAlphaIndex3``).
+    generalized-α kinematics (docs/theory.md, §8 Time integration), shared by the unconstrained step
+    (``GeneralizedAlpha``) and the index-3 step of constrained systems (``GeneralizedAlphaIndex3``).
 
     ρ∞ is an array, so runs with different ρ∞ share one compilation (and can be vmapped).
     """
@@ -156,8 +156,9 @@ class AbstractGeneralizedAlpha(AbstractSolver):
 
 
 class GeneralizedAlpha(AbstractGeneralizedAlpha):
-    """The generalized-α step (THEORY §8) for unconstrained models (prescribed coordinates only):
-    ``init`` finds the consistent initial acceleration, ``step`` solves for a_{n+1} by Newton."""
+    """The generalized-α step (docs/theory.md, §8 Time integration) for unconstrained models
+    (prescribed coordinates only): ``init`` finds the consistent initial acceleration, ``step``
+    solves for a_{n+1} by Newton."""
 
     rho_inf: Float[Array, ""]
 

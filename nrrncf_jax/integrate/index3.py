@@ -1,6 +1,7 @@
 """Generalized-α for constrained systems, index 3 (Arnold & Brüls 2007): the step of
-``GeneralizedAlpha`` with the joints' equations C(q) = 0 imposed at the end of every step and
-their multipliers λ in the state (THEORY §7-8).
+``GeneralizedAlpha`` with the joints' equations C(q) = 0 imposed at the end of every step and their
+multipliers λ in the state (docs/theory.md, §7 Jointed bodies and §8 Time integration;
+docs/multibody-theory.md, §Index-3 constraints).
 
 The unknowns of a step are the new acceleration a_{n+1} and λ_{n+1}; q_{n+1} and v_{n+1} follow
 from a_{n+1} by the generalized-α kinematics (∂q/∂a = c_K, ∂v/∂a = c_C). Newton solves

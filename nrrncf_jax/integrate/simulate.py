@@ -3,7 +3,7 @@ one jit-compiled loop.
 
 The loop rejects and retries steps, writes the outputs (cubic Hermite dense output) and batches
 runs; the step itself is the solver's (diffrax-style ``solver.init``/``solver.step``,
-``base.AbstractSolver``: ``GeneralizedAlpha``, THEORY §8, or ``GeneralizedAlphaIndex3`` for
+``base.AbstractSolver``: ``GeneralizedAlpha`` (docs/theory.md, §8 Time integration), or ``GeneralizedAlphaIndex3`` for
 constrained systems), the step size the controller's (``step_size``: ``AdaptiveStepSize``,
 ``ConstantStepSize``), and each step's implicit solve follows ``base.Newton``. Hand-written rather
 than a diffrax solver because the step must solve for the acceleration with prescribed

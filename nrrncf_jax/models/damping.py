@@ -3,7 +3,7 @@
 K̂ is the tangent stiffness at the stress-free reference q̂ and M the mass matrix, so the
 damping ratio of an undamped mode of frequency ω is ``ζ(ω) = α/(2ω) + βω/2``. The force ``D q̇``
 acts on the velocity *relative to the reference frame* — in the RNCF (Eq. 41) that is q̇
-itself, so a rigid spin is never damped. In the reduced model (THEORY §4) it becomes
+itself, so a rigid spin is never damped. In the reduced model (docs/theory.md, §4 Reduction) it becomes
 ``D̄ = α Ī + β K̄`` with ``K̄ = Ψᵀ K̂ Ψ``: the Galerkin projection of the same D.
 """
 

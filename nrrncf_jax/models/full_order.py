@@ -8,8 +8,9 @@ reference frame, and the acceleration r̈₀ of its origin).
   θ(t) about a fixed axis e, ω = θ̇ e. The reference conditions (the root's position and
   cross-section vectors) are eliminated as fixed coordinates. Optional Rayleigh damping adds
   ``D q̇`` (``damping.RayleighDamping``).
-- ``InertialFrameModel`` (ANCF, THEORY §3): the same body with A = I; the root's clamped
-  vectors are driven by the motion, ``q_root(t) = A(t) q̂_root (+ r₀(t) for positions)``.
+- ``InertialFrameModel`` (ANCF: docs/theory.md, §3 Equations of motion of one body): the same body
+  with A = I; the root's clamped vectors are driven by the motion,
+  ``q_root(t) = A(t) q̂_root (+ r₀(t) for positions)``.
 
 The mass products ``M q̈`` use the assembled scalar M_αβ for bodies up to
 ``DENSE_MASS_MAX_VECTORS`` nodal vectors and element-wise products above (no n × n matrix).
@@ -151,7 +152,8 @@ class _FullOrderModel(AbstractModel):
 
     @abc.abstractmethod
     def displacements(self, t: Scalar, q: Float[Array, " n"]) -> Float[Array, "nv 3"]:
-        """Nodal displacements ``w = q − q̂`` in the rotating reference frame (THEORY §9)."""
+        """Nodal displacements ``w = q − q̂`` in the rotating reference frame (docs/theory.md, §9
+        Accuracy measures and checks)."""
 
     def damping_force(self, v: Float[Array, " n"]) -> Float[Array, " n"]:
         """D v with D = αM + βK̂, assembled from the element blocks (zero when undamped)."""

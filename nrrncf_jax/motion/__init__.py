@@ -1,7 +1,7 @@
-"""Prescribed motions of a body's reference frame (THEORY §3): ``prescribed`` holds the motion
-interface (``AbstractMotion``: rotation A(t), ω(t), ω̇(t) and the origin's acceleration) and its
-cases (the spin-up of Eq. 43, steady spin, a stationary frame, a hub translation, compositions);
-``profiles`` the trainable spin-up profile used for control.
+"""Prescribed motions of a body's reference frame (docs/theory.md, §3 Equations of motion of one
+body): ``prescribed`` holds the motion interface (``AbstractMotion``: rotation A(t), ω(t), ω̇(t) and
+the origin's acceleration) and its cases (the spin-up of Eq. 43, steady spin, a stationary frame, a
+hub translation, compositions); ``profiles`` the trainable spin-up profile used for control.
 
 A motion gives the frame's rotation A(t), its angular velocity ω(t) and acceleration ω̇(t) as
 3-vectors, and its origin's acceleration: the spin-up of Eq. 43 about any fixed axis (``SpinUp``),

@@ -1,6 +1,6 @@
-"""Prescribed motion of a body's reference frame (THEORY §3): the frame's rotation A(t), its
-angular velocity ω(t) and acceleration ω̇(t) (3-vectors resolved in the reference frame, so
-that Ȧ = A ω̃), and the acceleration of its origin.
+"""Prescribed motion of a body's reference frame (docs/theory.md, §3 Equations of motion of one
+body): the frame's rotation A(t), its angular velocity ω(t) and acceleration ω̇(t) (3-vectors
+resolved in the reference frame, so that Ȧ = A ω̃), and the acceleration of its origin.
 
 - ``AbstractMotion``: what a model asks of a prescribed frame motion. A new motion is one
   subclass implementing ``rotation``, ``angular_velocity`` and ``angular_acceleration``.

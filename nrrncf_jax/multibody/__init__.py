@@ -1,4 +1,5 @@
-"""Multibody systems: bodies joined by joints (index-3 DAE, THEORY §7).
+"""Multibody systems: bodies joined by joints (index-3 DAE; docs/theory.md, §7 Jointed bodies;
+docs/multibody-theory.md).
 
 - ``section_frame``: a node's orientation as joints see it, the orthonormal triad of its two
   section vectors (never a beam's slope r_x, through which a moment does not converge with the

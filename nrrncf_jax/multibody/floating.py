@@ -1,5 +1,6 @@
 """Free-floating reference frames with reduced deformation: NR-RNCF for jointed systems
-(THEORY §3, Eqs. 4-6; paper Sec. 4.4).
+(docs/theory.md, §3 Equations of motion of one body, Eqs. 4-6; docs/multibody-theory.md, §The RNCF
+frame; paper Sec. 4.4).
 
 Each body b has a reference frame, origin R_b and orientation from Euler parameters e_b, and its
 deformation in that frame reduced to a basis, w_b = Ψ_b p_b (vibration modes and modal

@@ -1,5 +1,5 @@
-"""Full-order floating-frame bodies: RNCF of a jointed system without reduction (THEORY §3;
-the paper's full RNCF reference in Sec. 4.4).
+"""Full-order floating-frame bodies: RNCF of a jointed system without reduction (docs/theory.md, §3
+Equations of motion of one body; the paper's full RNCF reference in Sec. 4.4).
 
 A ``FloatingBody`` whose deformation basis is the identity on every nodal coordinate that its
 reference conditions leave free (Ψ = I[:, free], so p is those coordinates of the nodal vectors

@@ -1,6 +1,7 @@
-"""An ANCF body in the inertial frame as a mechanism's body: its coordinates are its nodal
-vectors (z = x, J = I), its mass matrix M ⊗ I₃ constant, its forces the elements' own (THEORY §3
-with A = I, r = 0; ``system.MultibodySystem`` is a mechanism of these alone).
+"""An ANCF body in the inertial frame as a mechanism's body: its coordinates are its nodal vectors
+(z = x, J = I), its mass matrix M ⊗ I₃ constant, its forces the elements' own (docs/theory.md, §3
+Equations of motion of one body, with A = I, r = 0; ``system.MultibodySystem`` is a mechanism of
+these alone).
 In a ``mechanism.Mechanism`` it sits beside floating-frame, rigid and point-mass bodies. Its
 iteration block M + c_K K(q) is factored by the body's own linear solver (``linalg.linear_solver``,
 ``"auto"``, from its static connectivity): block-tridiagonal for a beam chain, where a dense LU

@@ -1,5 +1,6 @@
 """Joints of a multibody system: position-level constraints ``C(x) = 0`` on the bodies' nodal
-vectors (an index-3 DAE with Lagrange multipliers λ, THEORY §7).
+vectors (an index-3 DAE with Lagrange multipliers λ; docs/theory.md, §7 Jointed bodies;
+docs/multibody-theory.md, §Joints).
 
 A joint refers to nodal vectors of its bodies by ``(body index, nodal-vector index)``; ``None``
 as a body is the ground. Positions coincide as nodal vectors; orientations are compared through
@@ -12,9 +13,9 @@ a's (``Revolute``); ``weld.Weld``, ``prismatic.Prismatic``, ``universal.Universa
 boundary condition of a full-order model), and ``Spherical`` positions only.
 
 The multipliers are the joints' reactions: with the equations of motion written
-``M a + F(q) − Q + C_xᵀ λ = 0`` (THEORY §3), the force a joint applies to the nodal vectors of
-its first body is ``−C_xᵀ λ``; for a position equation ``r_a − r_b = 0`` that is −λ on r_a and
-+λ on r_b.
+``M a + F(q) − Q + C_xᵀ λ = 0`` (docs/theory.md, §3 Equations of motion of one body), the force a
+joint applies to the nodal vectors of its first body is ``−C_xᵀ λ``; for a position equation
+``r_a − r_b = 0`` that is −λ on r_a and +λ on r_b.
 """
 
 import abc

@@ -2,9 +2,10 @@
 (``AbstractBodyKind``), so that one system (``mechanism.Mechanism``) holds any mix of them.
 
 A body kind maps its coordinates z_b to the nodal vectors x_b = f_b(z_b) in the inertial frame,
-where joints, springs and sensors act, and supplies its part of the equations of motion (THEORY
-§3, §7): the residual J_bᵀ(M_b ẍ_b − Q_b) + ∂U_b/∂z_b, its block of the iteration matrix, its
-own constraints (the Euler parameters' |e|² = 1 of a floating frame) and its energies. The kinds:
+where joints, springs and sensors act, and supplies its part of the equations of motion
+(docs/theory.md, §3 Equations of motion of one body and §7 Jointed bodies): the residual
+J_bᵀ(M_b ẍ_b − Q_b) + ∂U_b/∂z_b, its block of the iteration matrix, its own constraints (the Euler
+parameters' |e|² = 1 of a floating frame) and its energies. The kinds:
 
 - ``floating.FloatingBody``: a frame (origin, Euler parameters) and the deformation in it on a
   basis: NR-RNCF (reduced), RNCF (``full_order_frame``, every free coordinate kept) and, with an

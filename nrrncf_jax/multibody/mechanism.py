@@ -1,6 +1,7 @@
 """A mechanism: bodies of any kind (``kinds``: NR-RNCF and RNCF bodies in floating frames, rigid
-bodies, ANCF bodies in the inertial frame, point masses) joined by joints and drivers under
-gravity, the index-3 DAE of ``models.constrained`` (THEORY §7):
+bodies, ANCF bodies in the inertial frame, point masses) joined by joints and drivers under gravity,
+the index-3 DAE of ``models.constrained`` (docs/theory.md, §7 Jointed bodies;
+docs/multibody-theory.md, §Index-3 constraints):
 
     Σ_b J_bᵀ(M_b ẍ_b − Q_b) + ∂U/∂z − Σ_e f_e ∂g_e/∂z + C_zᵀ λ = 0,    C(z, t) = 0,
 

@@ -1,5 +1,6 @@
-"""A multibody system of flexible bodies in the inertial frame (ANCF, THEORY §3 with A = I, r = 0)
-joined by joints (``multibody.joints``), under gravity: the index-3 DAE
+"""A multibody system of flexible bodies in the inertial frame (ANCF: docs/theory.md, §3 Equations
+of motion of one body, with A = I, r = 0) joined by joints (``multibody.joints``), under gravity:
+the index-3 DAE
 
     M a + F(x) − Q + C_x(x)ᵀ λ = 0,    C(x) = 0,
 

@@ -1,6 +1,6 @@
-"""What is done with a run's results: the accuracy measure χ_rel (``metrics``, THEORY §9), the
-paper's figures (``plotting``, matplotlib imported only when a figure is drawn) and ParaView
-files (``vtk``, through meshio).
+"""What is done with a run's results: the accuracy measure χ_rel (``metrics``; docs/theory.md, §9
+Accuracy measures and checks), the paper's figures (``plotting``, matplotlib imported only when a
+figure is drawn) and ParaView files (``vtk``, through meshio).
 
 ``chi_rel(w_ref, w)`` is Eq. 40 in per cent, over whatever displacements it is given (the
 benchmarks use all nodal displacements q − q̂, positions alone would hide the error behind the
@@ -10,7 +10,7 @@ membrane's rim and mode shapes (Figs. 11-14), the truss's tip and modes (Figs. 2
 pendulum's shapes and right ends (``plot_pendulum``, Figs. 17 and 18) with ``animate_pendulum``.
 ``vtk`` writes frames and plates (``.vtu``, the displacement as point data, and for a time series
 a ``series.pvd``). ``stress`` evaluates the Green-Lagrange strain and the second Piola-Kirchhoff
-stress as the elements define them (THEORY §2) at chosen points of an element, and their
+stress as the elements define them (docs/theory.md, §2 Elastic force) at chosen points of an element, and their
 resultants: a beam's axial force, shear forces, torque and bending moments along it
 (``beam_resultants``), a plate's membrane forces, bending moments and transverse shears per length
 (``plate_resultants``); ``vtk.stress_fields`` gives them as cell fields for the writers'

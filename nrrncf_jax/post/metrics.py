@@ -1,4 +1,4 @@
-"""Accuracy measures (THEORY §9)."""
+"""Accuracy measures (docs/theory.md, §9 Accuracy measures and checks)."""
 
 import jax.numpy as jnp
 

@@ -1,10 +1,10 @@
 """Strains, stresses and their resultants from a body's nodal vectors, as the elements define them.
 
 Every element of this library has the position field ``r = S_α(ξ) q_α`` and the Green-Lagrange
-strain of THEORY §2, ``E_ij = B^{ij}_{αβ} Q_αβ``, mapped at each point to the local orthonormal
-frame R of the reference (``elements.base.local_frame``; ``T = J⁻¹R``, ``J = ∂r̂/∂ξ``). With
-``g_α = Tᵀ ∂S_α/∂ξ`` the local position gradient is ``F = q_α g_αᵀ`` (3 × 3, F̂ = R for the
-reference) and
+strain ``E_ij = B^{ij}_{αβ} Q_αβ`` (docs/theory.md, §2 Elastic force), mapped at each point to the
+local orthonormal frame R of the reference (``elements.base.local_frame``; ``T = J⁻¹R``,
+``J = ∂r̂/∂ξ``). With ``g_α = Tᵀ ∂S_α/∂ξ`` the local position gradient is ``F = q_α g_αᵀ`` (3 × 3,
+F̂ = R for the reference) and
 
     E = ½(FᵀF − F̂ᵀF̂) = g_αᵢ g_βⱼ Q_αβ,
 

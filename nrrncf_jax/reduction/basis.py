@@ -1,5 +1,6 @@
-"""The NR-RNCF reduction basis (THEORY §5-6, paper Algorithm 1): vibration modes, their modal
-derivatives and any further columns, concatenated and deflated by SVD.
+"""The NR-RNCF reduction basis (docs/theory.md, §5 Vibration modes and modal derivatives and §6
+Selecting the basis; paper Algorithm 1): vibration modes, their modal derivatives and any further
+columns, concatenated and deflated by SVD.
 
 ``X = [Φ_vms, Θ_pairs, E_1, E_2, ...]`` (n_dof × s): the kept vibration modes φ_i (Eqs. 26-28),
 the static modal derivatives θ_ij = −K|eq⁻¹ (∂K/∂η_j) φ_i of the chosen pairs (Eqs. 33-36) and

@@ -1,4 +1,5 @@
-"""Extended Craig-Bampton reduction of a body with joints (THEORY §7, paper Eqs. 44-46).
+"""Extended Craig-Bampton reduction of a body with joints (docs/theory.md, §7 Jointed bodies;
+docs/multibody-theory.md, §Extended Craig-Bampton; paper Eqs. 44-46).
 
 The body's free coordinates split into boundary ones B (those its joints act on) and interior
 ones I. The deformation is
@@ -17,14 +18,14 @@ With the boundary coordinates as coordinates, a joint's equations act on reduced
 that are the joint node's own displacements; a static load on the boundary is reproduced
 exactly (Guyan), and the interior modes need not bend to meet the joint.
 
-The constraint modes' own modal derivatives (``boundary_mds``: θ_ab = −K_II⁻¹ (∂K/∂u_b Φ_a)_I
-for every pair of constraint modes, and of a constraint mode with each fixed-interface mode,
-solved with the boundary held as the interior's are) are the "static derivatives" of the
-extended basis of Wu & Tiso (2016), beyond THEORY §7's interior-only list. A body that bends
+The constraint modes' own modal derivatives (``boundary_mds``: θ_ab = −K_II⁻¹ (∂K/∂u_b Φ_a)_I for
+every pair of constraint modes, and of a constraint mode with each fixed-interface mode, solved with
+the boundary held as the interior's are) are the "static derivatives" of the extended basis of Wu &
+Tiso (2016), beyond the interior-only list of docs/theory.md, §7 Jointed bodies. A body that bends
 through its constraint modes (a rod moved at its joint) needs them: a transverse deflection
-stretches the centre line to second order, the constraint modes carry no axial shortening to
-go with it, and without their derivatives the basis locks, much as vibration modes without
-modal derivatives do (the slider-crank's rod).
+stretches the centre line to second order, the constraint modes carry no axial shortening to go with
+it, and without their derivatives the basis locks, much as vibration modes without modal derivatives
+do (the slider-crank's rod).
 """
 
 import equinox as eqx

@@ -1,4 +1,4 @@
-"""The reduced NR-RNCF equations of a body under prescribed frame motion (THEORY §4); for a
+"""The reduced NR-RNCF equations of a body under prescribed frame motion (docs/theory.md, §4 Reduction); for a
 spin θ(t) about a fixed axis
 
     Ī p̈ + (2θ̇ Ḡ + D̄) ṗ + θ̈(Ḡ p + ḡ) + θ̇²(C̄ p + c̄) + F(p) = Ψᵀ Q,   q = q° + Ψ p,
@@ -202,7 +202,7 @@ class ReducedRotatingModel(AbstractModel):
         return (self.q_eq.reshape(-1) + self.Psi @ p).reshape(-1, 3)
 
     def displacements(self, t, p):
-        """w = q − q̂ in the rotating frame (THEORY §9)."""
+        """w = q − q̂ in the rotating frame (docs/theory.md, §9 Accuracy measures and checks)."""
         return self.coordinates(p) - self.q_hat
 
 

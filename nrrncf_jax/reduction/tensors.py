@@ -1,4 +1,4 @@
-"""Constant coefficients of the reduced equations (THEORY §4, paper Appendix A).
+"""Constant coefficients of the reduced equations (docs/theory.md, §4 Reduction; paper Appendix A).
 
 Elastic: ``F_i(p) = f_i + K_ij p_j + L_ijk p_j p_k + N_ijkl p_j p_k p_l`` (Eq. 24, A-5), built by
 jit-compiled einsum kernels accumulated element by element with ``lax.scan`` (memory O(Km⁴)
@@ -130,7 +130,7 @@ def _fact(counts):
 
 class RotationInertia(eqx.Module):
     """The reduced inertia of a frame rotating with ω = Σ_k w_k b_k, for the directions b_k (the
-    columns of the motion's ``directions``; one for a fixed axis) (THEORY §4):
+    columns of the motion's ``directions``; one for a fixed axis) (docs/theory.md, §4 Reduction):
 
         Ī = Ψᵀ(M⊗I)Ψ,  Ḡ_k = Ψᵀ(M⊗b̃_k)Ψ,  C̄_kl = Ψᵀ(M⊗b̃_k b̃_l)Ψ,
         ḡ_k = Ψᵀ(M⊗b̃_k)q°,  c̄_kl = Ψᵀ(M⊗b̃_k b̃_l)q°,
@@ -229,7 +229,7 @@ def jax_tree_add(a, b):
 def rotation_inertia(body: Body, q_eq: Float[Array, "n 3"], Psi: Float[Array, "ndof km"],
                      directions: Float[Array, "3 d"]) -> RotationInertia:
     """Ī, Ḡ_k, C̄_kl, ḡ_k, c̄_kl for rotation about the unit ``directions`` b_k (3 × d; a fixed
-    axis e is ``e[:, None]``) (THEORY §4, ``RotationInertia``)."""
+    axis e is ``e[:, None]``) (docs/theory.md, §4 Reduction; ``RotationInertia``)."""
     km = Psi.shape[1]
     P = Psi.reshape(body.n_vectors, 3, km)
     if body.n_vectors <= DENSE_MASS_MAX_VECTORS:

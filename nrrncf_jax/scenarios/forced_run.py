@@ -2,8 +2,9 @@
 full reference run: what the truss (Sec. 4.5) and the rotating membrane (Sec. 4.3) share.
 
 The run records the displacements (in the reference frame) of every position vector at the output
-times, so that χ_rel (THEORY §9) covers the whole body, and of one observed point (the mean of a
-few position vectors: the truss's free-end centroid, the membrane's rim point).
+times, so that χ_rel (docs/theory.md, §9 Accuracy measures and checks) covers the whole body, and of
+one observed point (the mean of a few position vectors: the truss's free-end centroid, the
+membrane's rim point).
 """
 
 import dataclasses

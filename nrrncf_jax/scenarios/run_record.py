@@ -1,7 +1,7 @@
 """The record of one time-integration run that the scenarios share, and its comparison with a
 reference run.
 
-``compare`` fills in the global relative error of THEORY §9 (Eq. 40),
+``compare`` fills in the global relative error (Eq. 40; docs/theory.md, §9 Accuracy measures and checks),
 ``χ_rel = sqrt(Σ_t |w(t) − w̄(t)|²) / sqrt(Σ_t |w(t)|²) × 100 %`` of the run's displacement series
 ``w̄`` against the reference's ``w`` on the same output times (``post.metrics.chi_rel``), and the
 speed-up, the reference's run time over this run's. Each scenario's record (``PendulumRun``,

@@ -52,8 +52,9 @@ class Measurement:
 
 
 class TipDeflection(eqx.Module):
-    """One component of the tip displacement in the rotating frame (0 axial, 1 in-plane
-    transverse, 2 out of plane), from the displacements ``w = q − q̂`` (THEORY §9)."""
+    """One component of the tip displacement in the rotating frame (0 axial, 1 in-plane transverse,
+    2 out of plane), from the displacements ``w = q − q̂`` (docs/theory.md, §9 Accuracy measures and
+    checks)."""
 
     row: int = eqx.field(static=True)
     component: int = eqx.field(static=True)
