@@ -1,8 +1,8 @@
-"""Model order reduction (THEORY §4-7): vibration modes, modal derivatives, maximum modal
-interaction, SVD deflation, the extended Craig-Bampton basis of jointed bodies, the
-spinning-state enrichment and the reduced tensors (``reduction.pipeline.nr_rncf`` chains them;
-``reduction.basis.modal_basis`` assembles and deflates the basis of modes, modal derivatives and
-extra columns).
+"""Model order reduction (docs/theory.md, §4 Reduction to §7 Jointed bodies): vibration modes, modal
+derivatives, maximum modal interaction, SVD deflation, the extended Craig-Bampton basis of jointed
+bodies, the spinning-state enrichment and the reduced tensors (``reduction.pipeline.nr_rncf`` chains
+them; ``reduction.basis.modal_basis`` assembles and deflates the basis of modes, modal derivatives
+and extra columns).
 
 ``nr_rncf(full, ts)`` is the paper's Fig. 2: mass-normalised vibration modes (``modes``), static
 modal derivatives (``modal_derivatives``: the closed form of Eq. 35, checked against automatic
@@ -25,11 +25,14 @@ paper's basis alone.
 Round tubes' bending modes come in equal-frequency pairs, and the eigensolver returns any mix of
 the two planes: ``align_degenerate_modes`` turns each pair to the load, and ``excited_modes`` with
 ``plane_loads`` picks the modes a planar motion excites (``elements.beam.mirror_even`` gives them
-exactly). ``craig_bampton`` is the extended Craig-Bampton basis of a jointed body (paper Eqs.
-44-46: the joint's coordinates kept as boundary coordinates with their static constraint modes,
-fixed-interface modes and their modal derivatives), used by ``multibody.floating``; ``static_modes``
-the attachment modes of chosen coordinates, the same span kept as plain basis vectors. Mode indices
-are 0-based everywhere (``Reduction.selection.vms``, ``.pairs``), as in the command line's output.
+exactly). Close but distinct frequencies (a curved beam's out-of-plane and in-plane first modes)
+are resolved by the eigensolver only to round-off, which would let an unloaded mode's MMI weight
+depend on the CPU: ``purify_close_modes`` takes that round-off out. ``craig_bampton`` is the
+extended Craig-Bampton basis of a jointed body (paper Eqs. 44-46: the joint's coordinates kept as
+boundary coordinates with their static constraint modes, fixed-interface modes and their modal
+derivatives), used by ``multibody.floating``; ``static_modes`` the attachment modes of chosen
+coordinates, the same span kept as plain basis vectors. Mode indices are 0-based everywhere
+(``Reduction.selection.vms``, ``.pairs``), as in the command line's output.
 
 How good a reduced run is, without the full run: ``error_estimate`` (the static-correction
 estimate of χ_rel from the run alone), made on a run of one's own by ``run_error``: run the
@@ -66,6 +69,7 @@ from .selection import align_degenerate_modes as align_degenerate_modes
 from .selection import excited_modes as excited_modes
 from .selection import mmi_matrix as mmi_matrix
 from .selection import plane_loads as plane_loads
+from .selection import purify_close_modes as purify_close_modes
 from .selection import select as select
 from .spin_state import SpinCheck as SpinCheck
 from .spin_state import match_modes as match_modes

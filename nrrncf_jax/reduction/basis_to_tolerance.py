@@ -322,7 +322,7 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
                          trials=list(trials.values()), chosen=pick, order=order, estimate=est)
     return Reduction(model=model, omega=np.asarray(modes.omega), n_vms=len(pick.vms), n_mds=len(pick.pairs),
                      selection=Selection(W=jnp.asarray(W), vms=pick.vms, pairs=pick.pairs), offline_s=offline,
-                     search=search)
+                     search=search, phi=np.asarray(modes.phi))
 
 
 __all__ = ["TIE", "BasisSearch", "Trial", "candidate_name", "greedy_order", "nr_rncf_to_tolerance", "shortest_passing"]

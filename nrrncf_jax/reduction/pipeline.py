@@ -15,7 +15,7 @@ from ..motion import AbstractAxisMotion
 from .basis import modal_basis
 from .modes import vibration_modes
 from .reduced_model import ReducedRotatingModel, modal_loads, reduce_rotating_model
-from .selection import Selection, align_degenerate_modes, mmi_matrix, modal_response, select
+from .selection import Selection, align_degenerate_modes, mmi_matrix, modal_response, purify_close_modes, select
 from .spin_state import SpinCheck, match_modes, ritz_frequencies, spinning_modes
 
 
@@ -31,6 +31,7 @@ class Reduction:
     offline_s: dict  # wall time per offline stage (compilation included)
     spin: SpinCheck | None = None  # the spinning-state check (None: not made)
     search: object = None  # ``basis_to_tolerance.BasisSearch`` when chosen to a tolerance (None: not)
+    phi: np.ndarray | None = None  # the candidate modes the basis was built from (aligned and purified)
 
     @property
     def dofs(self) -> int:
@@ -143,13 +144,14 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
     times["tensors"] = time.perf_counter() - t0
     times["total"] = sum(times.values())
     return Reduction(model=model, omega=np.asarray(modes.omega), selection=sel, n_vms=len(sel.vms),
-                     n_mds=len(sel.pairs), offline_s=times, spin=check)
+                     n_mds=len(sel.pairs), offline_s=times, spin=check, phi=np.asarray(modes.phi))
 
 
 def modal_interaction(full: RotatingFrameModel, ts_mmi, n_modes: int = 24, modes=None):
     """The maximum-modal-interaction data of ``full``'s load case (Eq. 39): its ``n_modes``
     vibration modes at rest (``modes`` when the caller has them: at least ``n_modes`` of them),
-    each cluster of equal frequencies aligned to the loads, the MMI matrix ``W`` of the linear
+    each cluster of equal frequencies aligned to the loads and close pairs purified of the
+    eigensolver's round-off (``align_degenerate_modes``), the MMI matrix ``W`` of the linear
     simulation over ``ts_mmi``, and the manoeuvre's largest spin rate. Returns
     ``(modes, W, spin, offline_s)`` with the wall time of the ``'modes'`` and ``'mmi'`` stages."""
     times = {}
@@ -169,6 +171,9 @@ def modal_interaction(full: RotatingFrameModel, ts_mmi, n_modes: int = 24, modes
     ts_mmi = jnp.asarray(ts_mmi, dtype=float)
     _, vectors, _ = _mmi_loads(full, modes.phi, ts_mmi)
     phi = align_degenerate_modes(modes.phi, modes.omega, vectors)
+    if modes.lambda_max is not None:
+        history, _, _ = _mmi_loads(full, phi, ts_mmi)
+        phi = purify_close_modes(phi, modes.omega, np.asarray(history).T, modes.lambda_max)
     modes = eqx.tree_at(lambda m: m.phi, modes, phi)
     history, _, spin = _mmi_loads(full, phi, ts_mmi)
     eta = modal_response(ts_mmi, history, modes.omega, _modal_damping_ratio(full, modes.omega))

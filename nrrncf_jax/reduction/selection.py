@@ -10,6 +10,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import scipy.linalg
+import scipy.optimize
 
 from .._types import Array, Float
 
@@ -135,9 +136,9 @@ def align_degenerate_modes(phi: Float[Array, "ndof k"], omega, loads: Float[Arra
 
     Inside a degenerate eigenspace any orthonormal mix is an eigenvector, and an arbitrary mix
     of in-plane and out-of-plane bending hides which motion a planar load excites. With
-    ``loads`` the modal load vectors (columns, e.g. ḡ, c̄, Φᵀϱ), the left singular vectors of a
-    cluster's rows give the rotation: the first mode takes the most load, the last the least.
-    The rotated modes stay mass-orthonormal eigenvectors.
+    ``loads`` the modal load vectors (rows: one per mode, e.g. φᵀḡ, φᵀc̄, φᵀϱ), the left
+    singular vectors of a cluster's rows give the rotation: the first mode takes the most load,
+    the last the least. The rotated modes stay mass-orthonormal eigenvectors.
     """
     omega = np.asarray(omega)
     loads = np.asarray(loads)
@@ -151,6 +152,64 @@ def align_degenerate_modes(phi: Float[Array, "ndof k"], omega, loads: Float[Arra
             U, _, _ = np.linalg.svd(loads[i:j], full_matrices=True)
             phi[:, i:j] = phi[:, i:j] @ U
         i = j
+    return jnp.asarray(phi, dtype=float)
+
+
+PURIFY_REMOVES = 1e-3
+"""``purify_close_modes`` turns a mode only where the rotation leaves at most this fraction of
+its load: where the load is (all but) the eigensolver's mixing, not a physical load."""
+
+
+def purify_close_modes(phi: Float[Array, "ndof k"], omega, loads: Float[Array, "k m"], lambda_max,
+                       rtol: float = 1e-4):
+    """Take the eigensolver's round-off out of the modes: mix into each mode as much of the more
+    strongly loaded modes as the solver's accuracy leaves undetermined, so that it carries as
+    little of ``loads`` as it can.
+
+    A backward-stable eigensolver returns mode i only within an angle of about
+    ``θ_ij = ε λ_max / |ω_i² − ω_j²|`` of the exact one towards mode j (Davis-Kahan with a
+    backward error ε λ_max; ``lambda_max`` is ``VibrationModes.lambda_max``). For close
+    frequencies (a curved beam's out-of-plane and in-plane first modes, 1 % apart) that angle is
+    far above round-off, so a mode that the loads leave alone carries a load that depends on the
+    CPU's rounding, and with it an MMI amplitude that can straddle ``select``'s ``vm_tol`` from
+    run to run. Each mode i, from the least loaded up, takes the coefficients δ_j ∈ [−θ_ij, θ_ij]
+    on the more strongly loaded, non-degenerate modes j that minimise its load
+    ``|l_i + Σ_j δ_j l_j|`` (a bounded least-squares problem, ``scipy.optimize.lsq_linear``), and
+    the modes turn by the rotation ``exp(S)`` with ``S_ji = δ_j = −S_ij`` where that removes all
+    but ``PURIFY_REMOVES`` of the load. The rotation moves every mode by less than the solver's
+    own uncertainty, so they stay mass-orthonormal eigenvectors to the solver's accuracy; a load
+    that no such rotation removes is physical, and its mode is left alone (a loaded mode is not
+    nudged to its bounds). Pairs within ``rtol`` (degenerate: ``align_degenerate_modes``) are left out.
+    ``loads``: the modal loads, one row per mode (e.g. the MMI load history's transpose).
+    NumPy, on concrete modes.
+    """
+    eps = np.finfo(float).eps
+    omega = np.asarray(omega)
+    L = np.asarray(loads, dtype=float).copy()
+    phi = np.asarray(phi).copy()
+    if L.ndim != 2 or L.shape[0] != omega.shape[0] or phi.shape[1] != omega.shape[0]:
+        raise ValueError(f"loads must hold one row per mode ({omega.shape[0]} modes, phi of shape {phi.shape}), "
+                         f"got loads of shape {L.shape}")
+    w2 = omega**2
+    norms = np.linalg.norm(L, axis=1)
+    k = len(omega)
+    for i in np.argsort(norms, kind="stable"):
+        gap = np.abs(w2 - w2[i])
+        others = np.flatnonzero((norms > norms[i]) & (gap > 2.0 * rtol * np.maximum(w2, w2[i])))
+        theta = eps * float(lambda_max) / gap[others]
+        others, theta = others[theta >= eps], theta[theta >= eps]
+        if others.size == 0 or norms[i] == 0.0:
+            continue
+        fit = scipy.optimize.lsq_linear(L[others].T, -L[i], bounds=(-theta, theta), method="bvls")
+        if np.linalg.norm(L[i] + L[others].T @ fit.x) > PURIFY_REMOVES * norms[i]:
+            continue  # the load is not the solver's mixing: a physical load, the mode stays
+        delta = fit.x
+        S = np.zeros((k, k))
+        S[others, i] = delta
+        S[i, others] = -delta
+        R = scipy.linalg.expm(S)
+        phi = phi @ R
+        L = R.T @ L
     return jnp.asarray(phi, dtype=float)
 
 

@@ -125,8 +125,11 @@ class OfflineSpinupFamily(eqx.Module):
 
     Held at their nominal values: the selected VMs and MD pairs, the deflation map
     ``T0 = diag(1/‖x‖) V_r Σ_r⁻¹`` of Algorithm 1 (so Ψ = X T0 is U_r at the nominal point and
-    a smooth function of the parameters nearby), and each mode's sign (aligned with the nominal
-    mode through M, since ``eigh`` may flip it).
+    a smooth function of the parameters nearby), each mode's sign (aligned with the nominal
+    mode through M, since ``eigh`` may flip it), and the rotation ``R0`` (k × k, near the
+    identity) from the nominal eigenvectors to the reduction's candidate modes, which
+    ``nr_rncf`` aligned and purified of the eigensolver's round-off (``purify_close_modes``):
+    Φ(parameters) R0 is the reduction's Φ at the nominal point.
     """
 
     preset: object = eqx.field(static=True)  # scenarios.BeamPreset (frozen, hashable)
@@ -137,6 +140,7 @@ class OfflineSpinupFamily(eqx.Module):
     template: ReducedRotatingModel
     loads: Loads
     phi0: Float[Array, "ndof k"]
+    R0: Float[Array, "k k"]
     T0: Float[Array, "s km"]
     E0: Float[Array, ""]
     nu0: Float[Array, ""]
@@ -150,7 +154,7 @@ class OfflineSpinupFamily(eqx.Module):
         modes = vibration_modes(body, free, self.n_modes)
         M = jnp.kron(body.mass_matrix(), jnp.eye(3))
         sign = jax.lax.stop_gradient(jnp.sign(jnp.sum(self.phi0 * (M @ modes.phi), axis=0)))
-        return modal_basis(body, free, modes.phi * sign, self.pairs, vms=self.vms).columns @ self.T0
+        return modal_basis(body, free, (modes.phi * sign) @ self.R0, self.pairs, vms=self.vms).columns @ self.T0
 
     def __call__(self, params: dict) -> ReducedRotatingModel:
         check_params(params, OFFLINE_PARAMETERS)
@@ -199,10 +203,14 @@ def offline_family(full: RotatingFrameModel, reduction, preset, *, omega_ref=Non
                 stacklevel=2)
             return SpinupFamily(reduction.model, preset.E, omega_ref)
     phi = modes.phi[:, : len(w)]
-    basis = modal_basis(body, full.free_mask(), phi, sel.pairs, vms=sel.vms)
+    if reduction.phi is None:
+        R0 = jnp.eye(len(w))
+    else:  # Φ0ᵀ M Φ_red: Φ_red lies in the span of Φ0 (rotated within the candidates)
+        R0 = phi.T @ (jnp.kron(body.mass_matrix(), jnp.eye(3)) @ jnp.asarray(reduction.phi, dtype=float))
+    basis = modal_basis(body, full.free_mask(), phi @ R0, sel.pairs, vms=sel.vms)
     T0 = jnp.asarray(basis.deflation_map(reduction.model.n_dof), dtype=float)  # X T0 = the reduction's Ψ
     return OfflineSpinupFamily(
         preset=preset, elements=n_el, n_modes=len(w), vms=tuple(sel.vms), pairs=tuple(sel.pairs),
-        template=reduction.model, loads=full.loads, phi0=phi, T0=T0, E0=jnp.asarray(preset.E, dtype=float),
+        template=reduction.model, loads=full.loads, phi0=phi, R0=R0, T0=T0, E0=jnp.asarray(preset.E, dtype=float),
         nu0=jnp.asarray(preset.nu, dtype=float), omega_ref=jnp.asarray(omega_ref, dtype=float),
     )
