@@ -198,7 +198,41 @@ class Observer(eqx.Module):
     sensors: dict
 
     def __call__(self, t, z, v):
-        return {name: jnp.asarray(sensor(self.system, t, z, v)) for name, sensor in self.sensors.items()}
+        shared = _SharedEvaluations(self.system)
+        return {name: jnp.asarray(sensor(shared, t, z, v)) for name, sensor in self.sensors.items()}
+
+
+class _SharedEvaluations:
+    """The system as the sensors of one observation see it: the evaluations that several sensors
+    read (the nodal vectors and velocities, the joints' reactions, the force elements' states)
+    are computed once per state and shared; every other attribute is the system's own.
+
+    Traced sensor by sensor, each recomputed them: the same nodal vectors once per position
+    sensor and a linear solve for the reactions once per driver or joint sensor, all of it
+    lowered into the program that XLA compiles (deduplicated only after lowering). The memo is
+    keyed on the arguments' identities, which hold within one observation (the same traced
+    ``t``, ``z``, ``v``)."""
+
+    SHARED = ("nodal_vectors", "nodal_velocities", "reactions", "element_state")
+
+    def __init__(self, system):
+        self._system = system
+        self._memo = {}
+
+    def __getattr__(self, name):
+        attr = getattr(self._system, name)
+        if name not in self.SHARED:
+            return attr
+
+        def shared(*args, **kwargs):
+            if kwargs:
+                return attr(*args, **kwargs)
+            key = (name, *map(id, args))
+            if key not in self._memo:
+                self._memo[key] = (attr(*args), args)  # the args kept alive: their ids stay theirs
+            return self._memo[key][0]
+
+        return shared
 
 
 def observe(system, sensors: dict) -> Observer:
