@@ -459,6 +459,60 @@ def test_reduce_keeps_the_interfaces_static_modes_and_refuses_what_it_cannot_bui
         reduce(beam, [])
 
 
+def test_reduce_gives_modal_derivatives_to_the_named_loads_and_the_sections_their_own_modes():
+    """``interface_mds`` as load names: the derivatives of those loads' attachment modes alone,
+    a subspace of ``interface_mds=True``'s (all six names give its very basis), one column a
+    pair; ``interface_sections``: the attachment modes of the far section's stretch and shear,
+    loads that do no work on its rotation (δr = e × r), whose static deflection then lies in the
+    basis to round-off and otherwise does not. Bad values are refused."""
+    from nrrncf_jax.multibody.markers import BodyGeometry
+    from nrrncf_jax.multibody.reduce import INTERFACE_LOADS, moment_loads, reduce, section_loads
+
+    beam = beam_body(Material(1e9, 2700.0, 0.3), TubeSection(0.01), straight_reference(1.0, 2))
+    ends = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)]
+    kw = {"vms": 0, "mds": [], "interface_modes": True, "interface_rotations": True}
+    linear, every, named = (reduce(beam, ends, **kw, interface_mds=m) for m in (False, True, INTERFACE_LOADS))
+    out_of_plane = reduce(beam, ends, **kw, interface_mds=("fz", "mx", "my"))
+    assert linear.k == 6 and out_of_plane.k == 6 + 6 and every.k > out_of_plane.k
+    np.testing.assert_allclose(np.asarray(named.basis), np.asarray(every.basis), atol=1e-12)
+
+    def off_span(u, Psi):
+        Psi = np.asarray(Psi)
+        return np.linalg.norm(u - Psi @ np.linalg.lstsq(Psi, u, rcond=None)[0]) / np.linalg.norm(u)
+
+    assert max(off_span(c, every.basis) for c in np.asarray(out_of_plane.basis).T) < 1e-10
+    # the far section's own deformation: its loads are orthogonal to every rotation of the section
+    sections = reduce(beam, ends, **kw, interface_sections=True)
+    assert sections.k == 6 + 3
+    local = sections.body
+    geometry = BodyGeometry(np.asarray(local.q_hat), np.asarray(local.is_position), local.vectors_per_node,
+                            local.section_slots)
+    section = geometry.section(0, geometry.node(Marker(0, ends[1])))  # the far end's r_y, r_z
+    F = section_loads(local, section)
+    np.testing.assert_allclose(F.T @ moment_loads(local, section), 0.0, atol=1e-15)
+    q = np.asarray(local.q_hat)
+    turned = np.zeros((local.n_dof, 3))
+    for k, e in enumerate(np.eye(3)):
+        for v in section:
+            turned[3 * v:3 * v + 3, k] = np.cross(e, q[v])
+    np.testing.assert_allclose(F.T @ turned, 0.0, atol=1e-15)
+    free = np.asarray(sections.free)
+    K = np.asarray(local.stiffness_matrix(local.q_hat))[np.ix_(free, free)]
+    u = np.zeros((local.n_dof, 3))
+    u[free] = np.linalg.solve(K, F[free])
+    assert max(off_span(c, sections.basis) for c in u.T) < 1e-10
+    assert min(off_span(c, linear.basis) for c in u.T) > 1e-3
+    for kwargs, match in [({"interface_mds": ("fq",)}, "interface_mds must be"),
+                          ({"interface_mds": "fz"}, "interface_mds must be"),
+                          ({"interface_mds": ()}, "interface_mds must be"),
+                          ({"interface_mds": ("my",), "interface_rotations": False}, "no interface mode here"),
+                          ({"interface_sections": True, "interface_modes": False}, "needs interface_modes"),
+                          ({"vms": 0, "interface_modes": False}, "vms=0"),
+                          ({"vms": -1}, "non-negative")]:
+        with pytest.raises(ValueError, match=match):
+            reduce(beam, ends, **(kw | kwargs))
+
+
 @pytest.mark.slow
 def test_modal_derivatives_chosen_by_the_mechanisms_own_motion():
     """``reduce(..., mds="mmi")`` then ``select_modal_derivatives``: two soft beams hinged end to
@@ -581,3 +635,23 @@ def test_a_setup_runs_with_the_users_solver_controller_and_newton(reduced_crank)
     with pytest.raises(ValueError, match="newton must be a Newton, got float"):
         run_setup(setup, newton=1e-3)
     assert run_setup(setup, t_end=2e-3, n_out=5, newton=Newton(1e-6)).newton_iters >= base.newton_iters
+
+
+def test_an_observation_evaluates_what_its_sensors_share_once(monkeypatch):
+    """``observe`` hands its sensors one evaluation of the nodal vectors per state (however many
+    sensors read them), and each sensor's value is the one it gives on the system itself."""
+    from nrrncf_jax.multibody.sensors import ChordDeflection, observe
+
+    beam = beam_body(Material(1e9, 2700.0, 0.3), TubeSection(0.01), straight_reference(1.0, 2))
+    mech = Mechanism([beam])
+    a, b, m = (Marker(0, (s, 0.0, 0.0)) for s in (0.0, 1.0, 0.5))
+    sensors = {"a": Position(a), "b_y": Position(b, 1), "m": ChordDeflection(a, b, m)}
+    z = jnp.asarray(np.asarray(beam.q_hat).reshape(-1) + 1e-3 * np.sin(np.arange(beam.n_dof)))
+    expected = {name: s.resolve(mech)(mech, 0.0, z, 0.0 * z) for name, s in sensors.items()}
+    calls = []
+    original = Mechanism.nodal_vectors
+    monkeypatch.setattr(Mechanism, "nodal_vectors", lambda self, z: calls.append(1) or original(self, z))
+    out = observe(mech, sensors)(0.0, z, 0.0 * z)
+    assert len(calls) == 1
+    for name in sensors:
+        np.testing.assert_array_equal(out[name], expected[name])
