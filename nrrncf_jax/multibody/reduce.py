@@ -1,5 +1,5 @@
 """One call from a placed flexible body to its mechanism body: ``reduce(body, interfaces, ...)``
-returns the ``FloatingBody`` of NR-RNCF (THEORY §5-6, paper Algorithm 1), or the full-order RNCF
+returns the ``FloatingBody`` of NR-RNCF (docs/theory.md, §5 and §6; paper Algorithm 1), or the full-order RNCF
 body, choosing the reference conditions from where the body is joined.
 
 The recipe it runs, the one the paper's examples run by hand:
@@ -15,7 +15,7 @@ The recipe it runs, the one the paper's examples run by hand:
    its spin about the chord fixed: six conditions, the rigid motions). The pinned modes are those
    of a connecting rod's classic analyses: the frame follows the chord, so the joints place it
    and the modes carry only the bending between the pins, where cantilever modes must meet the
-   second pin with a sum of high modes (``benchmarks/results/mechanisms.md``); ``"bearing"``, for
+   second pin with a sum of high modes; ``"bearing"``, for
    a shaft clamped at its first interface and held in a bearing at its second: the frame along
    the chord, the first interface's position and section vectors held (as ``"clamped"``), the
    second's two transverse components and its section's two bending rotations (its section
@@ -32,7 +32,9 @@ The recipe it runs, the one the paper's examples run by hand:
    positions its boundary coordinates (``reduction.craig_bampton``); with ``interface_modes``
    the free basis holds those positions' static modes too (``reduction.static_modes``); with
    ``interface_rotations`` the interfaces' section vectors too (their moments' attachment modes);
-   ``basis="full"``: every
+   with ``interface_sections`` the attachment modes of their sections' own stretch and shear;
+   with ``interface_mds`` the modal derivatives of all those force and moment modes, or of the
+   named loads' alone (``INTERFACE_LOADS``); ``basis="full"``: every
    free coordinate kept, the elements' own force (the full-order RNCF reference,
    ``full_order_frame``);
 5. the reduced cubic elastic force's tensors (``reduction.elastic_tensors``, Eq. 24).
@@ -54,9 +56,16 @@ def _point(p):
     return p.point if isinstance(p, Marker) else tuple(float(x) for x in np.asarray(p, dtype=float).reshape(3))
 
 
+INTERFACE_LOADS = ("fx", "fy", "fz", "mx", "my", "mz")
+"""The interface modes' loads by name, in the body's frame (x its first unit gradient vector, a
+beam's tangent; y, z its section vectors): ``"fx"``, ``"fy"``, ``"fz"`` the force's components on
+the other interfaces' positions, ``"mx"``, ``"my"``, ``"mz"`` the moment's about those axes on
+their sections (``interface_rotations``); ``reduce``'s ``interface_mds`` chooses among them."""
+
+
 def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free", plane_normal=None,
            interface_modes: bool = False, deflation_tol: float = 1e-6, interface_rotations: bool = False,
-           interface_mds: bool = False, conditions: str = "clamped") -> FloatingBody:
+           interface_mds=False, conditions: str = "clamped", interface_sections: bool = False) -> FloatingBody:
     """``body`` (placed in space: its ``q_hat`` the stress-free, initial state) as a floating-frame
     body of a mechanism, its deformation reduced (see the module docstring). ``interfaces``: the
     points (or ``Marker``s) where it is joined, the first one holding its frame.
@@ -73,15 +82,39 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     vibration modes reach): with ``interface_modes`` the attachment modes of unit moments on the
     other interfaces' sections (``moment_loads``: on the section vectors r_y, r_z, where a hinge's
     or a clamp's reaction moments act, ``section_frame``), with Craig-Bampton the section vectors'
-    coordinates among the boundary coordinates. ``interface_mds`` (with ``interface_modes``): the
+    coordinates among the boundary coordinates. ``interface_mds`` (with ``interface_modes``): ``True``, the
     modal derivatives of the interface modes with each other and with the vibration modes, for a
-    body whose joints' loads deform it beyond the linear range of its attachment modes."""
+    body whose joints' loads deform it beyond the linear range of its attachment modes; or a
+    sequence of load names (``INTERFACE_LOADS``, e.g. ``("fz", "mx", "my")``), the derivatives of
+    those loads' modes with each other and with the vibration modes only, the other loads' modes
+    kept without derivatives: for a body that only some of its joints' loads deform beyond the
+    linear range (a bar pushed out of its mechanism's plane). Each derivative adds a column, and
+    the reduced cubic force's cost grows as the fourth power of the columns.
+    ``interface_sections`` (with ``interface_modes``): also the attachment modes of loads that
+    stretch the other interfaces' section vectors along themselves and shear them toward each
+    other (``section_loads``: the section's own deformation, which the moments leave out),
+    without derivatives. No joint loads a section so, but the force and moment modes and their
+    derivatives turn the joint's section vectors in fixed shapes that also stretch and shear
+    them, where the full body's section there stays undistorted: these modes let it relax. The
+    distortion hardly moves the body, but it shifts the body's axial strain, and an axial force
+    read from the strains shows it (``post.stress.SectionResultant``: in a stiff bar a small
+    strain times a large EA).
+    ``vms`` may be 0 with ``interface_modes``: a body loaded at its joints alone that moves
+    slowly against its vibrations (a quasi-static mechanism) carries its deformation in the
+    attachment modes."""
     if not isinstance(body, Body):
         raise ValueError(f"reduce takes a flexible bodies.Body, got {type(body).__name__}")
     if basis not in ("free", "craig-bampton", "full"):
         raise ValueError(f"basis must be 'free', 'craig-bampton' or 'full', got {basis!r}")
     if conditions not in ("clamped", "pinned", "bearing"):
         raise ValueError(f"conditions must be 'clamped', 'pinned' or 'bearing', got {conditions!r}")
+    if isinstance(vms, bool) or not isinstance(vms, (int, np.integer)) or vms < 0:
+        raise ValueError(f"vms must be a non-negative integer, got {vms!r}")
+    md_loads = _interface_md_loads(interface_mds)
+    every_md = isinstance(interface_mds, (bool, np.bool_)) and bool(interface_mds)  # all the body's interface modes
+    if interface_sections and not interface_modes:
+        raise ValueError("interface_sections needs interface_modes (the sections' attachment modes go with the "
+                         "interfaces' force modes, basis='free')")
     points = [_point(p) for p in interfaces]
     if not points:
         raise ValueError("reduce needs at least one interface point (the first one holds the body's frame)")
@@ -156,25 +189,55 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
         raise ValueError("interface_modes needs a second interface (the point whose static modes are added)")
     if interface_mds and not interface_modes:
         raise ValueError("interface_mds needs interface_modes (the modes whose derivatives it adds)")
-    phi = np.asarray(vibration_modes(local, free, vms).phi)
+    if vms == 0 and not interface_modes:
+        raise ValueError("vms=0 leaves the body without a deformation basis: give it vibration modes or "
+                         "interface_modes")
+    phi = np.asarray(vibration_modes(local, free, vms).phi) if vms else np.zeros((local.n_dof, 0))
     chosen = "MDs to be chosen by modal interaction" if mds == "mmi" else f"{len(pairs)} MDs"
     note = f"{described}; {vms} VMs + {chosen}"
     if interface_modes:
         note += ("; the other interfaces' force" + (" and moment" if interface_rotations else "")
-                 + " attachment modes" + (" and their MDs" if interface_mds else ""))
+                 + " attachment modes" + (", their sections' stretch and shear modes" if interface_sections else "")
+                 + ("" if not md_loads else " and their MDs" if every_md
+                    else f" and the MDs of {', '.join(md_loads)}"))
     if not interface_modes:
         return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, awaiting_mds=mds == "mmi", note=note)
     loads = [np.eye(local.n_dof)[:, positions]]
+    names = ["f" + "xyz"[c] for v in nodes[1:] for c in range(3) if free[3 * v + c]]  # as `positions`
     if interface_rotations:
         loads += [moment_loads(local, geometry.section(0, v)) for v in nodes[1:]]
+        names += ["mx", "my", "mz"] * (len(nodes) - 1)
     attached = attachment_modes(local, free, np.concatenate(loads, axis=1))
-    if not interface_mds:
-        return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, [attached], note=note)
-    # the interface modes' derivatives: every pair with at least one interface mode, beside `pairs`
+    stretched = [attachment_modes(local, free, np.concatenate([section_loads(local, geometry.section(0, v))
+                                                               for v in nodes[1:]], axis=1))] \
+        if interface_sections else []
+    if not md_loads:
+        return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, [attached] + stretched, note=note)
+    absent = [n for n in md_loads if n not in names]
+    if absent and not every_md:
+        raise ValueError(f"interface_mds names loads {absent} that have no interface mode here (its interface "
+                         f"modes' loads: {sorted(set(names))}; moments need interface_rotations, and a held "
+                         "component has none)")
+    # the chosen interface modes' derivatives, with each other and with the VMs, beside `pairs`
     both = np.concatenate([phi, attached / np.abs(attached).max(axis=0)], axis=1)
-    k = both.shape[1]
-    pairs = list(pairs) + [(i, j) for i in range(k) for j in range(max(i, vms), k)]
-    return modal_body(local, free, both, pairs, R0, A0, deflation_tol, note=note)
+    chosen = [vms + k for k, n in enumerate(names) if n in md_loads]
+    pairs = list(pairs) + [(i, j) for i in list(range(vms)) + chosen for j in chosen if j >= i]
+    return modal_body(local, free, both, pairs, R0, A0, deflation_tol, stretched, note=note)
+
+
+def _interface_md_loads(interface_mds) -> tuple[str, ...]:
+    """``reduce``'s ``interface_mds`` as the names of the loads whose modes get derivatives
+    (``INTERFACE_LOADS``; all of them for ``True``, none for ``False``)."""
+    if isinstance(interface_mds, (bool, np.bool_)):
+        return INTERFACE_LOADS if interface_mds else ()
+    try:
+        md_loads = None if isinstance(interface_mds, str) else tuple(interface_mds)
+    except TypeError:
+        md_loads = None
+    if not md_loads or any(n not in INTERFACE_LOADS for n in md_loads):
+        raise ValueError(f"interface_mds must be True, False or a non-empty sequence of the load names "
+                         f"{INTERFACE_LOADS}, got {interface_mds!r}")
+    return tuple(dict.fromkeys(md_loads))
 
 
 def _chord_frame(chord, A, conditions: str) -> np.ndarray:
@@ -204,6 +267,22 @@ def moment_loads(body: Body, section) -> np.ndarray:
     return F
 
 
+def section_loads(body: Body, section) -> np.ndarray:
+    """The generalized forces that deform the section of the node whose section vectors are
+    ``section`` (two body indices a, b; unit and normal in the reference) in its own plane: a
+    unit force on r_a along r_a (its stretch), on r_b along r_b, and on each toward the other
+    (their shear), n_dof × 3. With ``moment_loads``' three they span every load on the two
+    vectors; they do no work on the section's rotation."""
+    q = np.asarray(body.q_hat)
+    a, b = section
+    F = np.zeros((body.n_dof, 3))
+    F[3 * a:3 * a + 3, 0] = q[a]
+    F[3 * b:3 * b + 3, 1] = q[b]
+    F[3 * a:3 * a + 3, 2] = q[b]
+    F[3 * b:3 * b + 3, 2] = q[a]
+    return F
+
+
 def modal_body(local: Body, free, phi, pairs, R0, A0, deflation_tol: float = 1e-6, extra=(),
                awaiting_mds: bool = False, note: str = "") -> FloatingBody:
     """The NR-RNCF body of ``local`` (in its frame, held on ``free``'s complement) from its
@@ -216,4 +295,4 @@ def modal_body(local: Body, free, phi, pairs, R0, A0, deflation_tol: float = 1e-
                         awaiting_mds=awaiting_mds, note=note)
 
 
-__all__ = ["modal_body", "moment_loads", "reduce"]
+__all__ = ["INTERFACE_LOADS", "modal_body", "moment_loads", "reduce", "section_loads"]
