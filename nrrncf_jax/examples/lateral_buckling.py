@@ -40,11 +40,16 @@ undamped, vibrates sideways about its plane by about ±2.4 cm and ±0.1 rad.
 ``link_elements``, ``crank_elements``); ``"nr-rncf"``: each bar in a floating frame at its first
 interface (the beam at R, the link at C, the crank at G), ``vms`` cantilever modes, the
 attachment modes of the force and moment at its other joint and the modal derivatives of them
-all (``multibody.reduce`` with ``interface_rotations`` and ``interface_mds``, as
-``examples.fourbar``). That default follows the full model until the beam leaves its plane (the
-same onset and load) but falls well short of the buckled amplitude: the buckled shape, sideways
-bending with twist that grows along the beam, is not a combination of the tip's attachment modes
-and their derivatives.
+all (``multibody.reduce`` with ``interface_rotations`` and ``interface_mds``). That default
+follows the full model until the beam leaves its plane (the same onset and load) but falls well
+short of the buckled amplitude. The reduction itself is exact (every coordinate kept,
+``reduce(..., basis="full")``, it reproduces the full model); the basis is what is short. The
+buckled beam twists its sections along its length, and a basis of fixed shapes turns a section
+vector by a polynomial in the amplitudes, which also stretches it (to fourth order in the twist
+with the modal derivatives): the section, far stiffer in stretch than the beam in torsion,
+resists, and the reduced beam is too stiff in large twist. The sections' own stretch and shear
+modes at the tip (``interface_sections``) relieve it only in part: the twist is spread along the
+beam.
 
 The tip itself hardly moves sideways (millimetres): the link, hinged to the crank about y, holds it;
 the beam buckles between its clamp and the link, so the mid-span sensors show it best.
@@ -107,7 +112,7 @@ def mechanism(formulation: str = "ancf", elements: int = 4, link_elements: int =
     """The lateral-buckling benchmark (module docstring): ``elements`` C1 elements in the beam
     (even: a node at mid-span), ``link_elements`` in the link (even: a node at its middle, where
     ``link_N`` reads), ``crank_elements`` in the crank; ``imperfection`` C's offset from the tip
-    along y [m]. rtol = 1e-4 and ρ∞ = 0.5 as for ``examples.fourbar``: the bars' axial and the
+    along y [m]. rtol = 1e-4 and ρ∞ = 0.5 (as the four-bar's full model): the bars' axial and the
     link's and crank's bending vibrations (kHz) are damped rather than resolved. ``vms``,
     ``interface_rotations``, ``interface_mds``: the reduced bars' basis (``multibody.reduce``)."""
     if formulation not in ("ancf", "nr-rncf"):
