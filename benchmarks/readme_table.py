@@ -356,9 +356,8 @@ def table(results: Path = RESULTS) -> str:
         "(`table3_converged.md`): the error a user gets, and in brackets its basis part (the reduced model at the "
         "reference's tolerances against it); the rest is time integration. \"—\": not measured; the membrane's "
         "and truss's converged full runs would take hours, and the pendulum's reference is its ANCF run at the "
-        "same tolerance. ‡: the converged run's basis has other DOFs than this row's: on the curved in-plane beams "
-        "the MMI selection keeps or drops the out-of-plane first mode, whose amplitude in an in-plane spin-up is "
-        "round-off at its threshold (`vm_tol`), from run to run.",
+        "same tolerance. ‡ (where shown): the converged run's basis has other DOFs than this row's (the two "
+        "scripts choose each basis anew).",
         "- *: spinning-state vectors (a spinning mode and modal derivatives of spinning modes, beyond the paper; "
         "`nr_rncf(..., spin_state=False)` leaves them out, as in the rows \"no spinning-state vectors\"). "
         f"Full DOFs are the free coordinates (the membrane has {extra['membrane_total_dofs']} in all, as the paper "
