@@ -33,8 +33,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 CASES = [  # (label, parameters of examples/lateral_buckling.py, rtol); the reference is REF
     ("ANCF", {"elements": 2}, 1e-4), ("ANCF", {"elements": 4}, 1e-4), ("ANCF", {"elements": 8}, 1e-4),
     ("ANCF", {"elements": 4}, 1e-5),
-    ("NR-RNCF, 1 VM + force and moment attachment modes + all their MDs (the default)",
-     {"formulation": "nr-rncf", "elements": 4}, 1e-4),
+    ("NR-RNCF, 3 VMs + force and moment attachment modes + all their MDs + every section's own modes "
+     "(the default)", {"formulation": "nr-rncf", "elements": 4}, 1e-4),
+    ("NR-RNCF, 1 VM + force and moment attachment modes + all their MDs",
+     {"formulation": "nr-rncf", "elements": 4, "vms": 1, "interface_sections": False}, 1e-4),
 ]
 REF = 2
 TIMES = (0.1, 0.15, 0.2, 0.3, 0.5, 0.8)

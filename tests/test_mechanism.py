@@ -502,7 +502,12 @@ def test_reduce_gives_modal_derivatives_to_the_named_loads_and_the_sections_thei
     u[free] = np.linalg.solve(K, F[free])
     assert max(off_span(c, sections.basis) for c in u.T) < 1e-10
     assert min(off_span(c, linear.basis) for c in u.T) > 1e-3
-    for kwargs, match in [({"interface_mds": ("fq",)}, "interface_mds must be"),
+    # "all": every free section's own modes, the mid node's three beside the far end's
+    everywhere = reduce(beam, ends, **kw, interface_sections="all")
+    assert everywhere.k == 6 + 3 + 3
+    assert max(off_span(c, everywhere.basis) for c in np.asarray(sections.basis).T) < 1e-10
+    for kwargs, match in [({"interface_sections": "some"}, "interface_sections must be"),
+                          ({"interface_mds": ("fq",)}, "interface_mds must be"),
                           ({"interface_mds": "fz"}, "interface_mds must be"),
                           ({"interface_mds": ()}, "interface_mds must be"),
                           ({"interface_mds": ("my",), "interface_rotations": False}, "no interface mode here"),

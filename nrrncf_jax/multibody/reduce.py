@@ -32,7 +32,8 @@ The recipe it runs, the one the paper's examples run by hand:
    positions its boundary coordinates (``reduction.craig_bampton``); with ``interface_modes``
    the free basis holds those positions' static modes too (``reduction.static_modes``); with
    ``interface_rotations`` the interfaces' section vectors too (their moments' attachment modes);
-   with ``interface_sections`` the attachment modes of their sections' own stretch and shear;
+   with ``interface_sections`` the attachment modes of their sections' own stretch and shear
+   (``"all"``: every free section's);
    with ``interface_mds`` the modal derivatives of all those force and moment modes, or of the
    named loads' alone (``INTERFACE_LOADS``); ``basis="full"``: every
    free coordinate kept, the elements' own force (the full-order RNCF reference,
@@ -65,7 +66,7 @@ their sections (``interface_rotations``); ``reduce``'s ``interface_mds`` chooses
 
 def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free", plane_normal=None,
            interface_modes: bool = False, deflation_tol: float = 1e-6, interface_rotations: bool = False,
-           interface_mds=False, conditions: str = "clamped", interface_sections: bool = False) -> FloatingBody:
+           interface_mds=False, conditions: str = "clamped", interface_sections: bool | str = False) -> FloatingBody:
     """``body`` (placed in space: its ``q_hat`` the stress-free, initial state) as a floating-frame
     body of a mechanism, its deformation reduced (see the module docstring). ``interfaces``: the
     points (or ``Marker``s) where it is joined, the first one holding its frame.
@@ -98,7 +99,10 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     them, where the full body's section there stays undistorted: these modes let it relax. The
     distortion hardly moves the body, but it shifts the body's axial strain, and an axial force
     read from the strains shows it (``post.stress.SectionResultant``: in a stiff bar a small
-    strain times a large EA).
+    strain times a large EA). ``interface_sections="all"``: the same modes at every node whose
+    section is free, for a body whose sections all turn far (a strip twisted by lateral
+    buckling): a fixed-shape basis turns a section by a polynomial in its amplitudes, which also
+    stretches it, and a section far stiffer in stretch than the body in torsion then locks it.
     ``vms`` may be 0 with ``interface_modes``: a body loaded at its joints alone that moves
     slowly against its vibrations (a quasi-static mechanism) carries its deformation in the
     attachment modes."""
@@ -112,6 +116,8 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
         raise ValueError(f"vms must be a non-negative integer, got {vms!r}")
     md_loads = _interface_md_loads(interface_mds)
     every_md = isinstance(interface_mds, (bool, np.bool_)) and bool(interface_mds)  # all the body's interface modes
+    if interface_sections not in (True, False, "all"):
+        raise ValueError(f"interface_sections must be True, False or 'all', got {interface_sections!r}")
     if interface_sections and not interface_modes:
         raise ValueError("interface_sections needs interface_modes (the sections' attachment modes go with the "
                          "interfaces' force modes, basis='free')")
@@ -208,8 +214,14 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
         loads += [moment_loads(local, geometry.section(0, v)) for v in nodes[1:]]
         names += ["mx", "my", "mz"] * (len(nodes) - 1)
     attached = attachment_modes(local, free, np.concatenate(loads, axis=1))
+    if interface_sections == "all":  # every node whose section is free, not only the interfaces'
+        held = ~free.reshape(-1, 3).any(axis=1)
+        section_nodes = [int(v) for v in np.flatnonzero(geometry.is_position)
+                         if not held[list(geometry.section(0, int(v)))].any()]
+    else:
+        section_nodes = nodes[1:]
     stretched = [attachment_modes(local, free, np.concatenate([section_loads(local, geometry.section(0, v))
-                                                               for v in nodes[1:]], axis=1))] \
+                                                               for v in section_nodes], axis=1))] \
         if interface_sections else []
     if not md_loads:
         return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, [attached] + stretched, note=note)
