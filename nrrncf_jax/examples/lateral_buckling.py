@@ -134,8 +134,7 @@ def mechanism(formulation: str = "ancf", elements: int = 4, link_elements: int =
         ends = [(p["R"], p["T"]), (p["C"], p["B"]), (p["G"], p["B"])]
         bars = [reduce(bar, list(e), vms=int(vms), mds="all", interface_modes=True,
                        interface_rotations=bool(interface_rotations), interface_mds=bool(interface_mds),
-                       interface_sections=interface_sections if interface_sections == "all"
-                       else bool(interface_sections))
+                       interface_sections=interface_sections)
                 for bar, e in zip(bars, ends)]
     joints = [clamp(None, Marker(BEAM, p["R"])),
               ball(Marker(BEAM, p["T"]), Marker(LINK, p["C"]), eccentric=True),
