@@ -85,9 +85,8 @@ def mechanism(formulation: str = "ancf", elements: int = 4, tilt_deg: float = 5.
     bars = [_bar(A, B, 0.016, elements), _bar(B, C, 0.016, elements), _bar(D, C, 0.008, elements)]
     if formulation == "nr-rncf":
         ends = [(A, B), (B, C), (D, C)]
-        mds = interface_mds if isinstance(interface_mds, (bool, np.bool_)) else tuple(interface_mds)
         bars = [reduce(bar, list(e), vms=int(vms), mds="all", interface_modes=True,
-                       interface_rotations=bool(interface_rotations), interface_mds=mds,
+                       interface_rotations=bool(interface_rotations), interface_mds=interface_mds,
                        interface_sections=bool(interface_sections))
                 for bar, e in zip(bars, ends)]
     tilt = np.radians(float(tilt_deg))
