@@ -131,6 +131,38 @@ def test_forced_run_records_the_point_and_every_position():
         run_forced(RotatingFrameModel(body, Stationary()), "ancf", np.linspace(0.0, 0.5, 11), [tip])
 
 
+def test_a_converged_reference_splits_the_error_into_its_parts():
+    """``run_forced(..., reference=True)`` (the truss's and the membrane's ``--reference``) on the
+    paper's beam (2 elements) under a harmonic tip force, NR-RNCF with 2 VMs and 3 MDs at the loose
+    rtol 1e-2 (both parts of the error are then a few per cent or more): the reference is the full model at a tenth and a hundredth of the tolerances, and
+    the run's total error against it splits into its time-integration part (the run against its
+    repetition at the reference's tolerance) and its basis part (the repetition against the
+    reference). The parts bound the total by the triangle inequality (up to the relative norms'
+    different denominators, which differ by the parts themselves); the reference's own error is
+    below a tenth of the total it measures; a reference given as a run is compared as it is."""
+    from nrrncf_jax.scenarios.forced_run import run_forced
+
+    body = paper_body(2)
+    tip = body.n_vectors - body.vectors_per_node
+    loads = Loads(point_vectors=[tip], point_forces=[[0.0, 5.0, 0.5]], point_history=Harmonic(2.0))
+    full = RotatingFrameModel(body, Stationary(), loads=loads)
+    ts = np.linspace(0.0, 0.5, 26)
+    kw = dict(vms=2, mds=3, n_modes=6, rtol=1e-2, atol=1e-5, estimate=False)
+    run = run_forced(full, "nr-rncf", ts, [tip], reference=True, **kw)
+    e = run.comparison()
+    assert e["reference_converged"] and run.reference is not None and run.reference.formulation == "rncf"
+    assert e["reference_rtol"] == pytest.approx(1e-4)
+    total, part_i, part_b = e["chi_rel_percent"], e["integration_error_percent"], e["basis_error_percent"]
+    slack = 1.0 + 1e-2 * max(part_i, part_b)  # the relative norms' denominators differ by the parts (in %)
+    assert total <= (part_i + part_b) * slack and total >= abs(part_i - part_b) / slack, e
+    assert part_i > 1.0 and part_b > 1.0 and e["reference_error_percent"] < 0.1 * total, e
+    again = run_forced(full, "nr-rncf", ts, [tip], reference=run.reference, **kw).comparison()
+    assert not again["reference_converged"] and "basis_error_percent" not in again
+    assert again["chi_rel_percent"] == pytest.approx(total, rel=1e-12)
+    with pytest.raises(ValueError, match="full model"):
+        run_forced(full, "rncf", ts, [tip], reference=True)
+
+
 @pytest.mark.slow
 @pytest.mark.xdist_group("truss_small")
 def test_truss_dynamics_command(capsys, tmp_path):

@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha
-from ..integrate.simulate import simulate_timed
+from ..integrate.simulate import simulate, simulate_timed
 from ..models import RotatingFrameModel
 from ..reduction.run_error import estimate_own_run, run_step_ts
 from .run_record import RunRecord
@@ -80,8 +80,7 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
                spin_state="auto", modes=None, rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-6,
                progress: bool = False, max_steps: int = 500_000, estimate: bool = True, estimate_samples: int = 16,
                tol: float | None = None, estimate_integration: bool = False, estimate_method: str = "static",
-               cls=ForcedRun,
-               **fields) -> ForcedRun:
+               reference: "bool | ForcedRun" = False, cls=ForcedRun, **fields) -> ForcedRun:
     """Run ``full`` (``'rncf'``) or its NR-RNCF reduction (``'nr-rncf'``: ``nr_rncf`` with ``vms``,
     ``mds`` among ``n_modes`` candidates, MMI over ``ts``, no cap on the size; ``modes``: see
     ``nr_rncf``) to the output times
@@ -97,11 +96,17 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     on a large body, but the one that flags a basis whose error grows over the run as drift).
     ``tol``: the basis chosen to a target χ_rel in per cent
     instead (``nr_rncf(..., tol=...)``, the run itself the training manoeuvre; ``vms`` and ``mds``
-    are then not used, and ``spin_state`` governs the spinning-state check of each basis tried)."""
+    are then not used, and ``spin_state`` governs the spinning-state check of each basis tried).
+    ``reference`` (an NR-RNCF run): ``True`` compares it with the full model converged
+    (``RunRecord.compare_converged``: the full run at a tenth and a hundredth of the tolerances,
+    the reduced model again at the tighter, and the error split into its time-integration and
+    basis parts); a full ``ForcedRun`` of the same body and output times is compared as it is."""
     from ..reduction.pipeline import nr_rncf
 
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
+    if formulation == "rncf" and reference is not False and reference is not None:
+        raise ValueError("reference compares an NR-RNCF run with the full model; formulation 'rncf' is the full model")
     _validate.boolean("estimate_integration", estimate_integration)
     stops = run_step_ts(ts, estimate_samples, estimate_method, estimate_integration)  # checks them before anything runs
     pos = np.flatnonzero(np.asarray(full.body.is_position))
@@ -123,15 +128,18 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
         # carried through every step); its displacements are rebuilt afterwards.
         return (q, v) if red is not None else model.displacements(t, q)[pos]
 
+    def positions(sol):
+        if red is None:
+            return np.asarray(jax.device_get(sol.ys))
+        return np.asarray(jax.vmap(lambda p: model.displacements(0.0, p)[pos])(sol.ys[0]))
+
     own = red is not None and red.search is None and estimate  # the estimate reads the run's own step ends
     sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
                                            jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps,
                                            step_ts=stops if own else None)
+    w = positions(sol)
     if red is not None:
         P, V = (np.asarray(y) for y in jax.device_get(sol.ys))
-        w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p)[pos])(jnp.asarray(P)))
-    else:
-        w = np.asarray(jax.device_get(sol.ys))
     where = {int(p): i for i, p in enumerate(pos)}
     run = cls(formulation=formulation, dofs=int(np.sum(np.asarray(full.free_mask()))) if red is None else red.dofs,
               ts=np.asarray(ts), point=w[:, [where[int(p)] for p in np.atleast_1d(point_vectors)]].mean(axis=1),
@@ -148,7 +156,20 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
             run.estimate = estimate_own_run(full, model, ts, P, V, samples=estimate_samples, method=estimate_method,
                                             integration=estimate_integration, rho_inf=rho_inf, rtol=rtol,
                                             atol=atol, max_steps=max_steps, norm_rows=rows)
-    return run
+    if reference is False or reference is None:
+        return run
+    if reference is not True:
+        return run.compare(reference)
+
+    def full_at(k):
+        return run_forced(full, "rncf", ts, point_vectors, rho_inf=rho_inf, rtol=rtol / k, atol=atol / k,
+                          progress=progress, max_steps=max_steps, cls=cls, **fields)
+
+    def repeat_at(k):
+        return positions(simulate(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol / k, atol / k),
+                                  jnp.asarray(ts), observe=observe, max_steps=max_steps))
+
+    return run.compare_converged(full_at, repeat_at, rtol=rtol)
 
 
 __all__ = ["FORMULATIONS", "ForcedRun", "run_forced"]

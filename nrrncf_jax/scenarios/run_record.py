@@ -11,6 +11,7 @@ speed-up, the reference's run time over this run's. Each scenario's record (``Pe
 
 import abc
 import dataclasses
+from collections.abc import Callable
 from typing import ClassVar
 
 import numpy as np
@@ -42,6 +43,8 @@ class RunRecord(abc.ABC):
     speedup: float | None = None  # reference_run_s / run_s
     estimate: object = None  # an NR-RNCF run's a-posteriori ``ErrorEstimate`` (None: not made)
     step_control: str = "plain"  # the adaptive controller (integrate.STEP_CONTROLS)
+    reference: "RunRecord | None" = dataclasses.field(default=None, repr=False)  # the run compared against
+    error_split: dict | None = None  # against a converged reference: the error's parts (``compare_converged``)
 
     REFERENCE: ClassVar[str] = "a run of the same model and output times"
     """What ``compare`` accepts as the reference, for its error message."""
@@ -63,6 +66,36 @@ class RunRecord(abc.ABC):
         self.reference_dofs, self.reference_run_s = reference.dofs, reference.run_s
         self.chi_rel_percent = float(chi_rel(w_ref, w))
         self.speedup = reference.run_s / self.run_s
+        self.reference = reference
+        return self
+
+    def compare_converged(self, full_at: Callable[[float], "RunRecord"],
+                          repeat_at: Callable[[float], np.ndarray] | None = None, *,
+                          rtol: float) -> "RunRecord":
+        """Compare against a converged full run, and split the error into its parts.
+
+        ``full_at(k)`` runs the full model at the run's tolerances divided by ``k``; it runs at
+        ``k = REFERENCE_TIGHTENING`` and at its square. The tighter run is the reference, and the
+        distance of the two bounds the looser one's own error (``reference_error_percent``: with a
+        convergent integrator the tighter run is the closer, so the error of the reference is
+        well below it). χ_rel is then this run's *total* error, time integration and basis
+        together. ``repeat_at(k)`` (a reduced run) repeats this run's model at the tighter
+        tolerances and returns its ``displacement_series``: this run against it is the run's own
+        time-integration error (``integration_error_percent``), it against the reference the
+        basis error (``basis_error_percent``). The speed-up is against the looser full run, the
+        one a user would run for a comparable accuracy. ``rtol``: the run's own, for the record
+        (``reference_rtol`` is the reference's). Returns ``self``."""
+        loose, ref = full_at(REFERENCE_TIGHTENING), full_at(REFERENCE_TIGHTENING**2)
+        self.compare(ref)
+        self.reference_run_s, self.speedup = loose.run_s, loose.run_s / self.run_s
+        w_ref, w = ref.displacement_series(), self.displacement_series()
+        split = {"reference_rtol": rtol / REFERENCE_TIGHTENING**2,
+                 "reference_error_percent": float(chi_rel(w_ref, loose.displacement_series()))}
+        if repeat_at is not None:
+            w_t = np.asarray(repeat_at(REFERENCE_TIGHTENING**2))
+            split |= {"integration_error_percent": float(chi_rel(w_t, w)),
+                      "basis_error_percent": float(chi_rel(w_ref, w_t))}
+        self.error_split = split
         return self
 
     def statistics(self, newton_key: str = "newton_iters") -> dict:
@@ -76,14 +109,16 @@ class RunRecord(abc.ABC):
 
     def comparison(self) -> dict:
         """After ``compare``: ``reference_dofs, reference_run_s`` (to the millisecond),
-        ``chi_rel_percent, speedup`` for ``--json``, and ``reference_converged: false``: the
-        reference ran at the run's own tolerances, so χ_rel is the difference of two runs, each
-        with its own time-integration error, not the run's error against a converged solution
-        (``nrrncf spinup`` and ``nrrncf run --reference full`` converge theirs); before it, nothing."""
+        ``chi_rel_percent, speedup`` for ``--json``, and ``reference_converged``: after
+        ``compare_converged`` true, with the error's parts (``error_split``); after a plain
+        ``compare`` false: the reference ran as it was given, so χ_rel is the distance of two runs,
+        each with its own time-integration error, not necessarily the run's error against a
+        converged solution. Before either, nothing."""
         if self.chi_rel_percent is None:
             return {}
         return {"reference_dofs": self.reference_dofs, "reference_run_s": round(self.reference_run_s, 3),
-                "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup, "reference_converged": False}
+                "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup,
+                "reference_converged": self.error_split is not None, **(self.error_split or {})}
 
     def estimate_summary(self) -> dict:
         """The error estimate's fields (empty without one): the estimated total χ_rel (the basis
@@ -111,9 +146,10 @@ class RunRecord(abc.ABC):
 
 
 REFERENCE_TIGHTENING = 10.0
-"""A converged reference (``nrrncf spinup --reference rncf``, ``nrrncf run --reference full``): the
-full model runs at the run's tolerances over this and over its square; the tighter run is the
-reference, their distance bounds the looser one's own error."""
+"""A converged reference (``RunRecord.compare_converged``: the ``--reference`` of ``nrrncf spinup``,
+``membrane``, ``truss`` and ``nrrncf run``): the full model runs at the run's tolerances over this
+and over its square; the tighter run is the reference, their distance bounds the looser one's own
+error."""
 
 
 __all__ = ["REFERENCE_TIGHTENING", "RunRecord"]

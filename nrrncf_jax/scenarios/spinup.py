@@ -14,7 +14,6 @@ from ..integrate import GeneralizedAlpha, adaptive_step_size
 from ..integrate.simulate import simulate, simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
-from ..post.metrics import chi_rel
 from ..reduction.pipeline import nr_rncf
 from ..reduction.run_error import TIGHTEN, estimate_own_run, observe_state, run_step_ts
 from ..studies.sweep import SweepGrid
@@ -73,11 +72,9 @@ class SpinupResult(RunRecord):
     vms: tuple[int, ...] | None = None
     mds: tuple[tuple[int, int], ...] | None = None
     offline_s: dict | None = None  # per offline stage, with 'total'
-    reference: "SpinupResult | None" = None  # the full RNCF run compared against
     spin: object = None  # the ``SpinCheck`` of the spinning-state enrichment (None: not checked)
     reduction: object = dataclasses.field(default=None, repr=False)  # the ``Reduction`` (W, omega, model)
     basis_search: object = None  # the ``reduction.basis_to_tolerance.BasisSearch`` (None: no tol given)
-    error_split: dict | None = None  # with a converged reference: the error's parts (``run_nr_rncf_spinup``)
     step_tolerances: tuple | None = None  # (rtol, atol) chosen to a tolerance (``run_nr_rncf_spinup(tol=...)``)
 
     REFERENCE: ClassVar[str] = ("a full RNCF SpinupResult of the same beam mesh and output times, run with "
@@ -90,13 +87,6 @@ class SpinupResult(RunRecord):
     def displacement_series(self) -> np.ndarray | None:
         """All nodal displacements q − q̂ in the rotating frame (None unless kept)."""
         return self.displacements
-
-    def compare(self, reference: "SpinupResult") -> "SpinupResult":
-        """``RunRecord.compare``, keeping the ``reference`` run itself too (its record goes into
-        ``summary()`` and ``table()``)."""
-        super().compare(reference)
-        self.reference = reference
-        return self
 
     def summary(self) -> dict:
         s = {
@@ -368,27 +358,19 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         return res
     if reference is not True:
         return res.compare(reference)
-    # A converged reference (module docstring of ``cli.run``'s, the same rule): the full model at a
-    # tenth and a hundredth of the run's tolerances; the tighter one is the reference, their distance
-    # bounds the looser one's own error; the model again at the tighter tolerance splits the run's
-    # error into its time-integration and basis parts. The speed-up is against the looser full run.
+    # A converged reference (``RunRecord.compare_converged``): the full model at a tenth and a
+    # hundredth of the run's tolerances, and the reduced model again at the tighter one.
     def full_at(k):
         return run_spinup("rncf", beam, omega_s, T_s=T_s, t_end=t_end, elements=body.n_elements, rho_inf=rho_inf,
                           rtol=rtol / k, atol=atol / k, dt_out=dt_out, save_displacements=True, progress=progress,
                           max_steps=max_steps, step_control=step_control)
 
-    loose, ref = full_at(REFERENCE_TIGHTENING), full_at(REFERENCE_TIGHTENING**2)
-    tight = REFERENCE_TIGHTENING**2
-    sol_t = simulate(model, GeneralizedAlpha(rho_inf), adaptive_step_size(rtol / tight, atol / tight, step_control),
-                     jnp.asarray(ts), observe=observe_state, max_steps=max_steps)
-    w_t = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(sol_t.ys[0]))
-    res.compare(ref)
-    res.reference_run_s, res.speedup = loose.run_s, loose.run_s / res.run_s
-    w_ref, w_loose = ref.displacement_series(), loose.displacement_series()
-    res.error_split = {"reference_rtol": rtol / tight, "reference_error_percent": float(chi_rel(w_ref, w_loose)),
-                       "integration_error_percent": float(chi_rel(w_t, w)),
-                       "basis_error_percent": float(chi_rel(w_ref, w_t))}
-    return res
+    def repeat_at(k):
+        sol = simulate(model, GeneralizedAlpha(rho_inf), adaptive_step_size(rtol / k, atol / k, step_control),
+                       jnp.asarray(ts), observe=observe_state, max_steps=max_steps)
+        return np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(sol.ys[0]))
+
+    return res.compare_converged(full_at, repeat_at, rtol=rtol)
 
 
 STEP_TOLERANCE_ROUNDS = 4

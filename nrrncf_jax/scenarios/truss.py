@@ -269,8 +269,9 @@ def run_truss(formulation: str = "nr-rncf", spec: TrussSpec = TrussSpec(), F0: f
     the length at ``t_end``), run with the full RNCF model (``'rncf'``, sparse solver) or NR-RNCF
     (``'nr-rncf'``: ``vms`` VMs and ``mds`` MDs chosen by MMI among ``n_modes`` candidates over the
     output times; with ``tol``, the basis chosen to a target χ_rel in per cent instead,
-    ``run_forced``). With ``reference`` (True, or a full ``TrussRun`` on the same output times)
-    χ_rel and the speed-up are filled in. ``estimate_method``: the NR-RNCF run's error estimate,
+    ``run_forced``). With ``reference`` χ_rel and the speed-up are filled in: ``True`` against the
+    full model converged, the error split into its parts (``run_forced``); or against a full
+    ``TrussRun`` on the same output times, as it is. ``estimate_method``: the NR-RNCF run's error estimate,
     ``"static"`` or ``"dynamic"``, and ``estimate_samples`` the static one's sampled outputs
     (``run_forced``)."""
 
@@ -284,12 +285,9 @@ def run_truss(formulation: str = "nr-rncf", spec: TrussSpec = TrussSpec(), F0: f
         frequency = f_auto if frequency is None else frequency
     run = run_forced(truss_model(truss, F0, frequency), formulation, ts, truss.tip_positions, vms=vms, mds=mds,
                      n_modes=n_modes, rho_inf=rho_inf, rtol=rtol, atol=atol, progress=progress, max_steps=max_steps,
-                     tol=tol, estimate_method=estimate_method, estimate_samples=estimate_samples, cls=TrussRun)
-    if reference is False or reference is None:
-        return run
-    ref = run_truss("rncf", spec, F0, frequency, t_end=t_end, dt_out=dt_out, rho_inf=rho_inf, rtol=rtol, atol=atol,
-                    progress=progress, max_steps=max_steps) if reference is True else reference
-    return run.compare(ref)
+                     tol=tol, estimate_method=estimate_method, estimate_samples=estimate_samples, reference=reference,
+                     cls=TrussRun)
+    return run
 
 
 __all__ = ["FORMULATIONS", "EquivalentBeam", "Truss", "TrussRun", "TrussSpec", "build_truss", "equivalent_beam",
