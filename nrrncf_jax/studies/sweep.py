@@ -51,14 +51,19 @@ from .._progress import note
 from .._validate import parse_range as parse_range  # the CLI's grid syntax, checked without JAX
 from ..integrate import AbstractStepSizeController, AdaptiveStepSize, ConstantStepSize, GeneralizedAlpha
 from ..integrate.results import SimulationError, result_message
-from ..integrate.simulate import SMALL_KERNEL_OPTIONS, kernel_options, simulate, simulate_batch, simulate_timed
+from ..integrate.simulate import (
+    SMALL_KERNEL_OPTIONS,
+    batch_lanes,
+    kernel_options,
+    simulate,
+    simulate_batch,
+    simulate_timed,
+)
 from ..models.observe import beam_tip, tip_observer
 from ..motion import SpinUp
 from ..reduction.reduced_model import ReducedRotatingModel
 
 _AXIS = "cases"
-_CPU_SHARDED_LANES = 16
-_CPU_LANES = 32
 BALANCES = ("blocks", "interleave")
 
 
@@ -453,8 +458,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     devices (default: every device JAX sees); with more than one the batch is split by
     ``shard_map`` and ``balance`` (see ``schedule``). ``lanes``: cases each device's batched loop
     advances together (``simulate_batch``'s ``width``); the device's other cases wait in a queue
-    and take the lane of a case that ends (default: all of a device's cases at once on GPUs; on
-    CPUs at most 32, and at most 16 on each of several CPU host devices).
+    and take the lane of a case that ends (default ``integrate.batch_lanes``: all of a device's
+    cases at once on an accelerator, at most ``integrate.CPU_BATCH_LANES`` on a CPU).
     ``dt``: a fixed step size instead of the adaptive step (every case then takes the same steps).
 
     Results do not depend on the device count beyond round-off: XLA may sum a batched
@@ -495,15 +500,11 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
         _validate.positive("dt (fixed step size)", dt)
     n_dev = len(devs)
     per_dev = -(-grid.cases // n_dev)
-    if lanes is None:
-        # On a CPU a wider batch gains little per case (its cost is many small batched kernels);
-        # the lane counts are the fastest of those timed.
-        if devs[0].platform == "cpu":
-            c = min(per_dev, _CPU_SHARDED_LANES if n_dev > 1 else _CPU_LANES)
-        else:
-            c = per_dev
-    else:
-        c = min(_validate.positive_int("lanes", lanes), per_dev)
+    # One lane policy for every batched loop (``integrate.batch_lanes``): all of a device's cases
+    # at once on an accelerator, a few on a CPU, where a batched step costs each lane about what
+    # it costs alone and what wider batches add is padding.
+    c = batch_lanes(per_dev, None if lanes is None else _validate.positive_int("lanes", lanes),
+                    platform=devs[0].platform)
     cfg = _Config(rtol=float(rtol), atol=float(atol), dt0=1e-3 * float(ts[-1]) if dt is None else float(dt),
                   rho_inf=float(rho_inf), max_steps=max_steps, adaptive=dt is None, tip=tip,
                   scale_E=bool(np.any(grid.E_scale != 1.0)), lanes=c)
