@@ -184,19 +184,26 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "nr-rncf", "--vms", "3", "--mds", "none", "--joint-modes",
                              "--reference", "ancf", "--json"]) == 0
-    assert [kw.get("formulation", "ancf") for _, kw in calls] == ["ancf", "nr-rncf"]
-    assert calls[1][1]["n_vms"] == 3 and calls[1][1]["pairs"] == [] and calls[1][1]["joint_modes"] is True
-    assert calls[1][1]["estimate"] is True and calls[1][1]["estimate_method"] == "static"  # by default
+    # the run, the full model converged (at a tenth and a hundredth of the tighter of its default
+    # rtol and the run's), and the reduced chain again at a hundredth of its rtol
+    assert [kw.get("formulation", "ancf") for _, kw in calls] == ["nr-rncf", "ancf", "ancf", "nr-rncf"]
+    np.testing.assert_allclose([kw["rtol"] for _, kw in calls], [1e-5, 1e-6, 1e-7, 1e-7], rtol=1e-12)
+    assert calls[0][1]["n_vms"] == 3 and calls[0][1]["pairs"] == [] and calls[0][1]["joint_modes"] is True
+    assert calls[0][1]["estimate"] is True and calls[0][1]["estimate_method"] == "static"  # by default
+    assert calls[3][1]["estimate"] is False and calls[3][1]["n_vms"] == 3
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert d["chi_rel_percent"] == pytest.approx(50.0, rel=RTOL_ROUNDOFF) and d["speedup"] == pytest.approx(2.0)
-    assert d["reference_dofs"] == pendulum_run.dofs
-    # the reference at its own tolerance, its atol scaled alike
+    assert d["reference_dofs"] == pendulum_run.dofs and d["reference_converged"]
+    assert d["reference_error_percent"] == 0.0 and d["integration_error_percent"] == 0.0  # made-up runs
+    assert d["basis_error_percent"] == pytest.approx(50.0, rel=RTOL_ROUNDOFF)
+    # the converged reference at its own tolerance (and ten times it), its atol scaled alike
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "nr-rncf", "--craig-bampton", "--reference", "ancf",
                              "--reference-rtol", "1e-6", "--json"]) == 0
-    assert calls[1][1]["craig_bampton"] is True and calls[1][1]["joint_modes"] is False
-    np.testing.assert_allclose([(kw["rtol"], kw["atol"]) for _, kw in calls], [(1e-6, 1e-7), (1e-5, 1e-6)],
-                               rtol=1e-12)
+    assert calls[0][1]["craig_bampton"] is True and calls[0][1]["joint_modes"] is False
+    np.testing.assert_allclose([(kw["rtol"], kw["atol"]) for _, kw in calls[:3]],
+                               [(1e-5, 1e-6), (1e-5, 1e-6), (1e-6, 1e-7)], rtol=1e-12)
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["reference_rtol"] == pytest.approx(1e-6)
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "nr-rncf", "--estimate-method", "dynamic", "--json"]) == 0
     assert calls[0][1]["estimate"] is True and calls[0][1]["estimate_method"] == "dynamic"
@@ -216,7 +223,7 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     assert [kw.get("formulation", "ancf") for _, kw in calls] == ["rncf"]
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "nr-rncf", "--reference", "rncf", "--json"]) == 0
-    assert [kw.get("formulation", "ancf") for _, kw in calls] == ["rncf", "nr-rncf"]
+    assert [kw.get("formulation", "ancf") for _, kw in calls] == ["nr-rncf", "rncf", "rncf", "nr-rncf"]
     capsys.readouterr()
     assert main(["pendulum", "--formulation", "rncf", "--vms", "3"]) == 2
     assert "go with --formulation nr-rncf" in capsys.readouterr().err
@@ -245,7 +252,8 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
                              "--reference", "ancf", "--json"]) == 0
     (spec, tol, kw), = searches
     assert tol == 0.5 and kw["n_vms"] == 4 and kw["t_train"] == 0.3 and kw["t_end"] == 0.4
-    assert chains[0][0] == "the chosen system" and [c[1].get("formulation", "ancf") for c in calls] == ["ancf"]
+    assert chains[0][0] == "the chosen system" and [c[1].get("formulation", "ancf") for c in calls] == ["ancf"] * 2
+    assert len(chains) == 2 and chains[1][0] == "the chosen system" and chains[1][2]["estimate"] is False
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert d["tol_met"] and d["basis_chosen"] == ["φ0", "joint modes"] and d["basis_trials"][0]["dofs"] == 30
     assert "chi_rel_percent" in d

@@ -17,9 +17,12 @@ first ``--vms`` cantilever modes and their modal derivatives (``multibody.floati
 ``--tol P`` chooses the beams' basis instead, the smallest prefix of the ranked candidates whose
 training run over 0-``--train-t`` has a dynamic error estimate of at most P / 2
 (``scenarios.pendulum.pendulum_to_tolerance``), and reports every basis tried;
-``--reference ancf|rncf`` runs that full model too and reports χ_rel and the speed-up
-(``--reference-rtol``: the full model at its own tolerance; by default the full model's default
-rtol, or the run's where that is tighter). An ``nr-rncf`` run carries its error
+``--reference ancf|rncf`` runs that full model too, converged, and reports χ_rel and the
+speed-up: the full model at ``--reference-rtol`` (by default a hundredth of its own default rtol,
+or of the run's where that is tighter) is the reference, the full model at ten times that bounds
+its own error (``reference_error_percent``) and gives the speed-up, and the reduced chain again at
+a hundredth of its rtol splits χ_rel, the run's total error, into ``integration_error_percent``
+and ``basis_error_percent``. An ``nr-rncf`` run carries its error
 estimate from the run alone (``chi_rel_estimate_percent``, ``multibody.error_estimate``; with
 ``--reference`` its ``effectivity``) unless ``--no-estimate``. ``--estimate-method static``
 (the default) sees each beam's deformation error, not the drift of the chain's swing that error
@@ -52,23 +55,17 @@ def _run(args) -> int:
     import numpy as np
 
     from ..scenarios.pendulum import SHAPE_TIMES, PendulumSpec, run_pendulum
+    from ..scenarios.run_record import REFERENCE_TIGHTENING
 
     spec = PendulumSpec(elements=args.elements)
     _common.say(args, f"three-beam pendulum, {spec.elements} elements a beam, {args.formulation}, "
                       f"0-{args.t_end:g} s ...")
     kw = dict(t_end=args.t_end, dt_out=args.dt_out, rho_inf=args.rho_inf, rtol=args.rtol, atol=args.atol,
               progress=not (args.json or args.no_progress), step_control=args.step_control)
-    ref = None
     full = args.formulation in ("ancf", "rncf")
     if full:
-        ref = run_pendulum(spec, **kw, error_on=args.error_on,
+        run = run_pendulum(spec, **kw, error_on=args.error_on,
                            **({} if args.formulation == "ancf" else {"formulation": "rncf"}))
-    elif args.reference is not None:
-        rtol = min(args.rtol, DEFAULTS[args.reference][0]) if args.reference_rtol is None else args.reference_rtol
-        ref = run_pendulum(spec, **(kw | dict(rtol=rtol, atol=args.atol * rtol / args.rtol)),
-                           **({} if args.reference == "ancf" else {"formulation": "rncf"}))
-    if full:
-        run = ref
     elif args.tol is not None:
         from ..scenarios.pendulum import pendulum_to_tolerance, run_chain
 
@@ -76,26 +73,44 @@ def _run(args) -> int:
         search = pendulum_to_tolerance(spec, args.tol, n_vms=args.vms, t_train=args.train_t, t_end=args.t_end,
                                        rho_inf=args.rho_inf, rtol=args.rtol, atol=args.atol)
         _common.say(args, search.describe())
-        run = run_chain(search.system, args.t_end, args.dt_out, args.rho_inf, args.rtol, args.atol,
-                        kw["progress"], estimate=not args.no_estimate, estimate_method=args.estimate_method,
-                        step_control=args.step_control, error_on=args.error_on,
-                        **_common.estimate_samples(args, True))
+
+        def chain_at(k, estimate):
+            return run_chain(search.system, args.t_end, args.dt_out, args.rho_inf, args.rtol / k, args.atol / k,
+                             kw["progress"], estimate=estimate, estimate_method=args.estimate_method,
+                             step_control=args.step_control, error_on=args.error_on,
+                             **(_common.estimate_samples(args, True) if estimate else {}))
+
+        run = chain_at(1.0, not args.no_estimate)
         run.search = search
-        if ref is not None:
-            run.compare(ref)
     else:
-        run = run_pendulum(spec, formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
-                           joint_modes=args.joint_modes, craig_bampton=args.craig_bampton,
-                           estimate=not args.no_estimate, estimate_method=args.estimate_method,
-                           error_on=args.error_on, **_common.estimate_samples(args, True), **kw)
-        if ref is not None:
-            run.compare(ref)
+        basis = dict(formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
+                     joint_modes=args.joint_modes, craig_bampton=args.craig_bampton, error_on=args.error_on)
+
+        def chain_at(k, estimate):
+            return run_pendulum(spec, **basis, estimate=estimate, estimate_method=args.estimate_method,
+                                **(_common.estimate_samples(args, True) if estimate else {}),
+                                **(kw | dict(rtol=args.rtol / k, atol=args.atol / k)))
+
+        run = chain_at(1.0, not args.no_estimate)
+    if args.reference is not None:
+        # Against the full model converged (``RunRecord.compare_converged``): it runs at ten and at
+        # one times the reference's tolerance, the reduced chain again at a hundredth of its own.
+        tight = (min(args.rtol, DEFAULTS[args.reference][0]) / REFERENCE_TIGHTENING**2
+                 if args.reference_rtol is None else args.reference_rtol)
+        base = tight * REFERENCE_TIGHTENING**2
+
+        def full_at(k):
+            rtol = base / k
+            return run_pendulum(spec, **(kw | dict(rtol=rtol, atol=args.atol * rtol / args.rtol)),
+                                **({} if args.reference == "ancf" else {"formulation": "rncf"}))
+
+        run.compare_converged(full_at, lambda k: chain_at(k, False).displacement_series(), rtol=base)
     if args.out:
         np.savetxt(args.out, run.table(), delimiter=",", header=run.table_header(), comments="", fmt="%.9g")
     if args.plot:
         from ..post.plotting import plot_pendulum
 
-        plot_pendulum(args.plot, [run] + ([ref] if ref is not None and ref is not run else []), times=SHAPE_TIMES)
+        plot_pendulum(args.plot, [run] + ([run.reference] if run.reference is not None else []), times=SHAPE_TIMES)
     if args.animate:
         from ..post.plotting import animate_pendulum
 
@@ -192,9 +207,9 @@ def register(sub) -> None:
         "output: tracks the drift while its linearisation holds, reports where it stopped holding "
         "as estimate_valid_until_s; costs a few full-model steps an output)"))
     t.add_argument("--reference-rtol", type=float, default=None,
-                   help="the reference run's relative tolerance (default: the full model's default, 1e-4, or --rtol "
-                        "where tighter; its atol scaled alike): the full model is the reference and needs a tighter "
-                        "one than the reduced model's")
+                   help="the converged reference's relative tolerance (default: a hundredth of the full model's "
+                        "default, 1e-4, or of --rtol where tighter; its atol scaled alike); the full model runs at it "
+                        "and at ten times it, whose distance bounds the reference's own error")
     t.add_argument("--t-end", type=float, default=2.0, help="end time [s]")
     t.add_argument("--dt-out", type=float, default=0.001, help="output interval [s]")
     t.add_argument("--rtol", type=float, default=None,
