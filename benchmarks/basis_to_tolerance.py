@@ -112,7 +112,8 @@ def main():
         "",
         f"Produced by `benchmarks/basis_to_tolerance.py`. Machine: {machine()}.",
         "",
-        "`nr_rncf(..., tol=P)` (`reduction.basis_to_tolerance`): the candidates (the active vibration modes and the "
+        "`nr_rncf_to_tolerance(full, ts, P)` (`reduction.basis_to_tolerance`): the candidates (the active "
+        "vibration modes and the "
         "modal derivatives of their pairs) ranked by modal interaction, and the shortest prefix whose run's "
         "a-posteriori error estimate is at most P / 2 (the default safety factor), found by growth (×1.5) then "
         f"bisection, up to {args.max_dofs} columns, then pruned: each candidate of that prefix, from the lowest "

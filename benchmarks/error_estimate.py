@@ -35,6 +35,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
+from nrrncf_jax.reduction import Basis  # noqa: E402
 from nrrncf_jax.reduction.error_estimate import estimate_error  # noqa: E402
 from nrrncf_jax.reduction.run_error import estimate_run_error, estimate_times  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model, run_nr_rncf_spinup, run_spinup  # noqa: E402
@@ -124,8 +125,9 @@ def main():
                                max_steps=10**6)
         full = build_spinup_model("rncf", beam, om, 15.0, ref.elements)
         default = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements, reference=ref, estimate=False)
-        vm_only = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements, vms=default.dofs, mds=0,
-                                     spin_state=False, reference=ref, estimate=False)
+        vm_only = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements,
+                                     basis=Basis(vms=default.dofs, mds=0, spin_state=False), reference=ref,
+                                     estimate=False)
         for label, res in (("default", default), ("VMs only", vm_only)):
             model = res.reduction.model
             P, V, run_s, steps = _pv(res, RTOL)  # no stops: its outputs are interpolated between steps

@@ -359,7 +359,7 @@ def table(results: Path = RESULTS) -> str:
         "same tolerance. ‡ (where shown): the converged run's basis has other DOFs than this row's (the two "
         "scripts choose each basis anew).",
         "- *: spinning-state vectors (a spinning mode and modal derivatives of spinning modes, beyond the paper; "
-        "`nr_rncf(..., spin_state=False)` leaves them out, as in the rows \"no spinning-state vectors\"). "
+        "`nr_rncf(full, ts, Basis(spin_state=False))` leaves them out, as in the rows \"no spinning-state vectors\"). "
         f"Full DOFs are the free coordinates (the membrane has {extra['membrane_total_dofs']} in all, as the paper "
         "counts); the truss is a substitute geometry (`scenarios.truss`), since the paper's Table 10 is lost; the "
         "pendulum's bases hold each beam's lowest in-plane modes.",

@@ -25,6 +25,7 @@ from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax import chi_rel  # noqa: E402
 from nrrncf_jax.post.plotting import plot_mmi, plot_tip  # noqa: E402
+from nrrncf_jax.reduction import Basis  # noqa: E402
 from nrrncf_jax.scenarios import run_spinup  # noqa: E402
 from nrrncf_jax.scenarios.spinup import default_elements, run_nr_rncf_spinup  # noqa: E402
 
@@ -86,16 +87,17 @@ def _case(beam, omega, n_el, args, fig_dir, with_ancf, with_vm_only, max_dofs=25
         _log(f"{case}: ANCF ...")
         ancf = run_spinup("ancf", beam, omega, save_displacements=True, **common)
     _log(f"{case}: NR-RNCF (automatic selection from {args.modes} modes) ...")
-    nr = run_nr_rncf_spinup(beam, omega, n_modes=args.modes, max_dofs=max_dofs, reference=rncf, **common)
+    nr = run_nr_rncf_spinup(beam, omega, basis=Basis(n_modes=args.modes, max_dofs=max_dofs), reference=rncf, **common)
     paper = None
     if nr.spin is not None and nr.spin.enriched:
         _log(f"{case}: NR-RNCF with the paper's basis alone (no spinning-state enrichment) ...")
-        paper = run_nr_rncf_spinup(beam, omega, n_modes=args.modes, max_dofs=max_dofs, spin_state=False,
+        paper = run_nr_rncf_spinup(beam, omega, basis=Basis(n_modes=args.modes, max_dofs=max_dofs, spin_state=False),
                                    reference=rncf, **common)
     vm = None
     if with_vm_only:
         _log(f"{case}: VM-only basis of {nr.dofs} modes ...")
-        vm = run_nr_rncf_spinup(beam, omega, n_modes=args.modes, vms=nr.dofs, mds=0, reference=rncf, **common)
+        vm = run_nr_rncf_spinup(beam, omega, basis=Basis(n_modes=args.modes, vms=nr.dofs, mds=0), reference=rncf,
+                                **common)
 
     rows = [_row(case, "RNCF", rncf, rncf, ancf, None)]
     if ancf is not None:

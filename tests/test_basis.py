@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from conftest import paper_body
 
-from nrrncf_jax import RotatingFrameModel, SpinUp, nr_rncf
+from nrrncf_jax import Basis, RotatingFrameModel, SpinState, SpinUp, nr_rncf
 from nrrncf_jax.reduction import (
     ModalBasis,
     align_degenerate_modes,
@@ -90,7 +90,7 @@ def test_modal_basis_columns_and_deflation(curved):
 def test_nr_rncf_basis_is_the_direct_construction(curved):
     """``nr_rncf``'s Ψ (no enrichment) = deflate([Φ_vms, Θ_pairs]) of its selection."""
     full, _ = curved
-    red = nr_rncf(full, jnp.asarray(TS), n_modes=6, vms=2, mds=2, max_dofs=None, spin_state=False)
+    red = nr_rncf(full, jnp.asarray(TS), Basis(n_modes=6, vms=2, mds=2, max_dofs=None, spin_state=False))
     phi = _rest_modes(full, 6)
     sel = red.selection
     theta = modal_derivatives(full.body, full.free_mask(), phi, sel.pairs).theta
@@ -105,8 +105,8 @@ def test_spin_enriched_basis_is_the_direct_construction(curved):
     modes' padded to that count), for the same round-off."""
     full, _ = curved
     kw = dict(n_modes=6, vms=2, mds="auto", max_dofs=6)
-    red = nr_rncf(full, jnp.asarray(TS), spin_state=True, spin_mds=2, **kw)
-    uncut = nr_rncf(full, jnp.asarray(TS), spin_state=False, **kw).selection.pairs
+    red = nr_rncf(full, jnp.asarray(TS), Basis(spin_state=SpinState(check=True, mds=2), **kw))
+    uncut = nr_rncf(full, jnp.asarray(TS), Basis(spin_state=False, **kw)).selection.pairs
     check, sel = red.spin, red.selection
     assert check.enriched and len(check.pairs) == 2 and sel.pairs == uncut[: 6 - 2 - 1 - 2]  # the rest MDs were cut
     body, free = full.body, full.free_mask()
@@ -128,7 +128,7 @@ def test_offline_family_map_reproduces_the_reduction_basis(curved):
     from nrrncf_jax.studies.families import offline_family
 
     full, _ = curved
-    red = nr_rncf(full, jnp.asarray(TS), n_modes=6, vms=2, mds=2, max_dofs=None, spin_state=False)
+    red = nr_rncf(full, jnp.asarray(TS), Basis(n_modes=6, vms=2, mds=2, max_dofs=None, spin_state=False))
     fam = offline_family(full, red, beam_preset("curved-upwind"))
     body, free = full.body, full.free_mask()
     sel = red.selection

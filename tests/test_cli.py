@@ -14,7 +14,7 @@ import pytest
 import nrrncf_jax.cli as cli
 from nrrncf_jax.cli import build_parser, main
 from nrrncf_jax.cli._common import BEAM_NAMES, ESTIMATE_METHODS
-from nrrncf_jax.reduction import SpinCheck
+from nrrncf_jax.reduction import Basis, SpinCheck
 from nrrncf_jax.reduction.pipeline import Reduction, nr_rncf
 from nrrncf_jax.scenarios import BEAMS
 from nrrncf_jax.scenarios.spinup import build_spinup_model, output_times
@@ -169,7 +169,7 @@ def test_modes_mmi_json(tmp_path, capsys):
     assert png.stat().st_size > 5_000
     # The same selection as the Python API's, index for index (one convention: 0-based).
     full = build_spinup_model("rncf", "paper", 4.0, 15.0, 2)
-    sel = nr_rncf(full, jnp.asarray(output_times(3.0, 0.01)), n_modes=8).selection
+    sel = nr_rncf(full, jnp.asarray(output_times(3.0, 0.01)), Basis(n_modes=8)).selection
     assert mmi["selected_vms"] == list(sel.vms)
     assert mmi["selected_mds"] == [list(p) for p in sel.pairs]
     assert mmi["basis"].startswith(f"{mmi['dofs']} DOFs ({len(sel.vms)} VMs + {len(sel.pairs)} MDs")

@@ -8,7 +8,18 @@ import numpy as np
 import pytest
 from conftest import EPS, paper_body
 
-from nrrncf_jax import AdaptiveStepSize, GeneralizedAlpha, RotatingFrameModel, SpinUp, chi_rel, nr_rncf, simulate
+from nrrncf_jax import (
+    AdaptiveStepSize,
+    Basis,
+    GeneralizedAlpha,
+    RotatingFrameModel,
+    SpinUp,
+    ToTolerance,
+    chi_rel,
+    nr_rncf,
+    nr_rncf_to_tolerance,
+    simulate,
+)
 from nrrncf_jax.reduction.basis_to_tolerance import greedy_order
 from nrrncf_jax.reduction.error_estimate import RELIABLE_PERCENT, estimate_error, sample_indices
 from nrrncf_jax.reduction.reduced_model import reduce_rotating_model
@@ -66,8 +77,8 @@ def test_estimate_is_round_off_when_the_basis_spans_every_coordinate(spin, exact
 @pytest.mark.xdist_group("error_estimate")
 def test_estimate_tracks_the_measured_error_and_grows_without_mds(spin):
     full, w_ref = spin
-    red = nr_rncf(full, jnp.asarray(TS), n_modes=12)
-    vm_only = nr_rncf(full, jnp.asarray(TS), n_modes=12, vms=red.dofs, mds=0, spin_state=False)
+    red = nr_rncf(full, jnp.asarray(TS), Basis(n_modes=12))
+    vm_only = nr_rncf(full, jnp.asarray(TS), Basis(n_modes=12, vms=red.dofs, mds=0, spin_state=False))
     tip = full.body.n_vectors - full.body.vectors_per_node  # the tip node's position vector
     out = {}
     for name, r in (("mds", red), ("vms", vm_only)):
@@ -88,8 +99,8 @@ def test_error_equation_tracks_the_measured_error_and_knows_where_it_fails(spin)
     the whole run and within the effectivity band; on the VMs-only basis (χ_rel ≈ 86 %) the
     linearisation is not small, and the estimate says it stopped being valid before the end."""
     full, w_ref = spin
-    red = nr_rncf(full, jnp.asarray(TS), n_modes=12)
-    vm_only = nr_rncf(full, jnp.asarray(TS), n_modes=12, vms=red.dofs, mds=0, spin_state=False)
+    red = nr_rncf(full, jnp.asarray(TS), Basis(n_modes=12))
+    vm_only = nr_rncf(full, jnp.asarray(TS), Basis(n_modes=12, vms=red.dofs, mds=0, spin_state=False))
     P, V, w = _reduced_run(red.model)
     est = estimate_error(full, red.model, TS, P, V, method="dynamic")
     measured = float(chi_rel(w_ref, w))
@@ -111,7 +122,7 @@ def test_run_error_splits_basis_and_integration(spin):
     its measured χ_rel against the full run is at most the two parts' sum (the triangle
     inequality), with 10 % for the full run's own integration error and the samples' norm."""
     full, w_ref = spin
-    red = nr_rncf(full, jnp.asarray(TS), n_modes=12).model
+    red = nr_rncf(full, jnp.asarray(TS), Basis(n_modes=12)).model
     loose = simulate(red, GA, AdaptiveStepSize(1e-3, 1e-5), jnp.asarray(TS), observe=lambda t, p, v: p)
     P = np.asarray(loose.ys)
     est = estimate_run_error(full, red, TS, P, rtol=1e-3, atol=1e-5)
@@ -139,7 +150,7 @@ def test_run_error_from_the_runs_own_step_ends(spin):
     from nrrncf_jax.reduction.run_error import estimate_times
 
     full, _ = spin
-    red = nr_rncf(full, jnp.asarray(TS), n_modes=12).model
+    red = nr_rncf(full, jnp.asarray(TS), Basis(n_modes=12)).model
     stops = estimate_times(TS, 16)
     np.testing.assert_array_equal(stops, TS[sample_indices(TS.size, 16)])
     np.testing.assert_array_equal(estimate_times(TS, 16, "dynamic"), TS)
@@ -181,11 +192,13 @@ def test_sample_indices_and_bad_input(spin):
         estimate_error(full, red, TS[:2], np.zeros((2, 3)), np.zeros((2, 3)), method="adjoint")
     for bad in (0.0, -1.0, float("nan")):
         with pytest.raises(ValueError, match="tol"):
-            nr_rncf(full, TS, tol=bad)
+            nr_rncf_to_tolerance(full, TS, bad)
     with pytest.raises(ValueError, match="safety"):
-        nr_rncf(full, TS, tol=1.0, training=dict(safety=0.0))
+        ToTolerance(tol=1.0, safety=0.0)
     with pytest.raises(ValueError, match="prune must be True or False"):
-        nr_rncf(full, TS, tol=1.0, training=dict(prune=1))
+        ToTolerance(tol=1.0, prune=1)
+    with pytest.raises(ValueError, match="reduction.Basis"):
+        nr_rncf_to_tolerance(full, TS, 1.0, dict(n_modes=4))
 
 
 def test_greedy_order_ranks_by_interaction_and_breaks_ties_by_index():
@@ -243,14 +256,14 @@ def test_pruning_drops_what_the_prefix_does_not_need():
 @pytest.mark.slow
 @pytest.mark.xdist_group("error_estimate")
 def test_basis_to_a_tolerance_meets_it_measured(spin):
-    """``nr_rncf(..., tol=0.5)``: the basis grows along the MMI order until the estimate of its
+    """``nr_rncf_to_tolerance(..., 0.5)``: the basis grows along the MMI order until the estimate of its
     training run is at most 0.25 % (the default safety factor 2); every shorter prefix tried was
     above that, pruning kept no more DOFs than the passing prefix, and the χ_rel measured against
     the full run is below the tolerance."""
     full, w_ref = spin
     # The search from 5 columns (a 2-column start is the command line test's): 5, 8, then 6 and 7.
-    red = nr_rncf(full, jnp.asarray(TS), n_modes=12, max_dofs=8, tol=0.5,
-                  training=dict(rtol=1e-5, atol=1e-7, start=5))
+    red = nr_rncf_to_tolerance(full, jnp.asarray(TS), ToTolerance(tol=0.5, start=5), Basis(n_modes=12, max_dofs=8),
+                               controller=AdaptiveStepSize(1e-5, 1e-7))
     s = red.search
     assert s.met and s.safety == 2.0 and s.chosen.chi_rel_estimate_percent <= 0.25
     assert red.dofs == s.chosen.dofs and red.selection.vms == s.chosen.vms

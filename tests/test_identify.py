@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import FD_STEP, RTOL_ROUNDOFF, paper_body
 
-from nrrncf_jax import RotatingFrameModel, SpinUp, nr_rncf
+from nrrncf_jax import Basis, RotatingFrameModel, SpinUp, nr_rncf
 from nrrncf_jax.cli import main
 from nrrncf_jax.integrate import ConstantStepSize, GeneralizedAlpha, Newton
 from nrrncf_jax.integrate.simulate import simulate
@@ -27,7 +27,7 @@ FIXED = dict(adaptive=False, dt=0.02, newton_tol=1e-5)
 
 def _reduction(beam: str, n_el: int, omega_s=6.0, T_s=1.47):
     full = RotatingFrameModel(paper_body(n_el, beam), SpinUp(omega_s, T_s))
-    return full, nr_rncf(full, jnp.asarray(TS), n_modes=6, vms=2, mds=2, max_dofs=None, spin_state=False)
+    return full, nr_rncf(full, jnp.asarray(TS), Basis(n_modes=6, vms=2, mds=2, max_dofs=None, spin_state=False))
 
 
 # The tests of ``straight`` share an xdist group, so that one worker builds it (and compiles its runs) once.

@@ -24,7 +24,7 @@ from nrrncf_jax import (
     simulate,
     vibration_modes,
 )
-from nrrncf_jax.reduction import ritz_frequencies, spinning_equilibrium, spinning_modes
+from nrrncf_jax.reduction import Basis, SpinState, ritz_frequencies, spinning_equilibrium, spinning_modes
 from nrrncf_jax.reduction.modal_derivatives import dK_deta_times, dK_deta_times_autodiff
 from nrrncf_jax.reduction.selection import mmi_matrix, select
 
@@ -217,7 +217,7 @@ def _displacements(red, ps):
 @pytest.fixture(scope="module")
 def red4(spin4_model):
     full, ts = spin4_model
-    return nr_rncf(full, ts, n_modes=16)
+    return nr_rncf(full, ts, Basis(n_modes=16))
 
 
 @pytest.mark.slow
@@ -233,7 +233,7 @@ def test_nr_rncf_reproduces_full_rncf_spinup_omega_4(spin4, red4):
     err = float(chi_rel(w_ref, _displacements(red.model, sol.ys)))
     assert err <= 1.5, err
     # The same number of vibration modes alone (no modal derivatives) is far worse.
-    vm_only = nr_rncf(full, ts, n_modes=16, vms=red.dofs, mds=0)
+    vm_only = nr_rncf(full, ts, Basis(n_modes=16, vms=red.dofs, mds=0))
     assert vm_only.dofs == red.dofs and vm_only.n_mds == 0
     sol_vm = simulate(vm_only.model, GA, AdaptiveStepSize(), ts, observe=_p)
     err_vm = float(chi_rel(w_ref, _displacements(vm_only.model, sol_vm.ys)))
@@ -251,13 +251,20 @@ def test_spinning_state_enrichment_helps_at_omega_4(spin4, red4):
     assert chk.enriched and chk.rel_err > 2e-3 and chk.mode == 0 and chk.vms == (0,)
     assert chk.omega_ritz >= chk.omega_spin  # a Rayleigh-Ritz estimate bounds from above
     assert red4.n_spin == len(chk.vms) + len(chk.pairs)
-    paper = nr_rncf(full, ts, n_modes=16, spin_state=False)
+    paper = nr_rncf(full, ts, Basis(n_modes=16, spin_state=False))
     assert paper.spin is None
     errs = [float(chi_rel(w_ref, _displacements(r.model, simulate(r.model, GA, AdaptiveStepSize(), ts, observe=_p).ys)))
             for r in (red4, paper)]
     assert errs[0] < 0.75 * errs[1], errs  # 0.34 % against 0.52 % (measured; the integrator floor is near)
     with pytest.raises(ValueError, match="spin_state"):
-        nr_rncf(full, ts, spin_state="always")
+        Basis(spin_state="always")
+    for bad, says in ((lambda: Basis(n_modes=0), "n_modes"), (lambda: Basis(max_dofs=0), "max_dofs"),
+                      (lambda: Basis(band=-1.0), "band"), (lambda: SpinState(vms=-1), "SpinState.vms"),
+                      (lambda: SpinState(tol=0.0), "SpinState.tol")):
+        with pytest.raises(ValueError, match=says):
+            bad()
+    with pytest.raises(ValueError, match="reduction.Basis"):
+        nr_rncf(full, ts, 16)
 
 
 def test_spinning_modes_match_the_rotating_cantilever():

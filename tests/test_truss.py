@@ -134,12 +134,13 @@ def test_forced_run_records_the_point_and_every_position():
 def test_a_converged_reference_splits_the_error_into_its_parts():
     """``run_forced(..., reference=True)`` (the truss's and the membrane's ``--reference``) on the
     paper's beam (2 elements) under a harmonic tip force, NR-RNCF with 2 VMs and 3 MDs at the loose
-    rtol 1e-2 (both parts of the error are then a few per cent or more): the reference is the full model at a tenth and a hundredth of the tolerances, and
-    the run's total error against it splits into its time-integration part (the run against its
-    repetition at the reference's tolerance) and its basis part (the repetition against the
-    reference). The parts bound the total by the triangle inequality (up to the relative norms'
-    different denominators, which differ by the parts themselves); the reference's own error is
-    below a tenth of the total it measures; a reference given as a run is compared as it is."""
+    rtol 1e-2 (both parts of the error are then a few per cent or more): the reference is the full
+    model at a tenth and a hundredth of the tolerances, and the run's total error against it splits
+    into its time-integration part (the run against its repetition at the reference's tolerance)
+    and its basis part (the repetition against the reference). The parts bound the total by the
+    triangle inequality (up to the relative norms' different denominators, which differ by the
+    parts themselves); the reference's own error is below a tenth of the total it measures; a
+    reference given as a run is compared as it is."""
     from nrrncf_jax.scenarios.forced_run import run_forced
 
     body = paper_body(2)

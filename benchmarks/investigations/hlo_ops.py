@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 from nrrncf_jax.examples.slider_crank import mechanism  # noqa: E402
 from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlpha, GeneralizedAlphaIndex3, Newton, simulate  # noqa: E402
 from nrrncf_jax.multibody.sensors import observe as observe_sensors  # noqa: E402
-from nrrncf_jax.reduction import nr_rncf  # noqa: E402
+from nrrncf_jax.reduction import Basis, nr_rncf  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model  # noqa: E402
 
@@ -104,8 +104,8 @@ def step_operations(hlo: str) -> dict:
 
 def _cases():
     ts = np.linspace(0.0, 30.0, 3001)
-    red = nr_rncf(build_spinup_model("rncf", "paper", 10.0, 15.0, None), jnp.asarray(ts), n_modes=24,
-                  max_dofs=25).model
+    red = nr_rncf(build_spinup_model("rncf", "paper", 10.0, 15.0, None), jnp.asarray(ts),
+                  Basis(n_modes=24, max_dofs=25)).model
     yield "spin-up ω=10, NR-RNCF", red.n_dof, red, GeneralizedAlpha(0.9), ts, lambda t, p, v: p, None, Newton()
     pend = build_reduced_pendulum(PendulumSpec(elements=10))[0]
     yield ("pendulum, NR-RNCF", pend.n_dof, pend, GeneralizedAlphaIndex3(0.9), np.linspace(0.0, 2.0, 2001),

@@ -36,7 +36,7 @@ from nrrncf_jax.integrate import (  # noqa: E402
     simulate,
 )
 from nrrncf_jax.multibody.sensors import observe as observe_sensors  # noqa: E402
-from nrrncf_jax.reduction import nr_rncf  # noqa: E402
+from nrrncf_jax.reduction import Basis, nr_rncf  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model  # noqa: E402
 
@@ -53,8 +53,8 @@ def _cases():
     out.append(("spin-up ω=4, full RNCF", int(np.sum(np.asarray(full.free_mask()))), full, GeneralizedAlpha(0.9), ts,
                 lambda t, q, v: full.displacements(t, q)[tip], None, 1e-4, 1e-6, 0.02, 1e-3))
     ts = np.linspace(0.0, 30.0, 3001)
-    red = nr_rncf(build_spinup_model("rncf", "paper", 10.0, 15.0, None), jnp.asarray(ts), n_modes=24,
-                  max_dofs=25).model
+    red = nr_rncf(build_spinup_model("rncf", "paper", 10.0, 15.0, None), jnp.asarray(ts),
+                  Basis(n_modes=24, max_dofs=25)).model
     out.append(("spin-up ω=10, NR-RNCF", red.n_dof, red, GeneralizedAlpha(0.9), ts, lambda t, p, v: p, None,
                 1e-4, 1e-6, 0.01, 1e-3))
     pend = build_reduced_pendulum(PendulumSpec(elements=10))[0]

@@ -16,12 +16,12 @@ def _mmi(args) -> dict:
     import numpy as np
 
     from ..post.plotting import mmi_quarter
-    from ..reduction.pipeline import nr_rncf
+    from ..reduction import Basis, nr_rncf
     from ..scenarios.spinup import build_spinup_model, output_times
 
     ts = output_times(args.t_end, args.dt_out)
     full = build_spinup_model("rncf", args.beam, args.omega, args.ts, args.elements)
-    red = nr_rncf(full, jnp.asarray(ts), n_modes=args.count)
+    red = nr_rncf(full, jnp.asarray(ts), Basis(n_modes=args.count))
     sel = red.selection
     if args.plot:
         from ..post.plotting import plot_mmi

@@ -53,10 +53,12 @@ def _spinup(args) -> int:
     common = dict(T_s=args.ts, t_end=args.t_end, elements=args.elements, rho_inf=args.rho_inf, rtol=args.rtol,
                   dt_out=args.dt_out, progress=not args.no_progress, step_control=args.step_control)
     if reduced:
-        res = run_nr_rncf_spinup(args.beam, args.omega, vms=args.vms, mds=args.mds, n_modes=args.modes,
-                                 max_dofs=args.max_dofs, tol=args.tol,
-                                 spin_state={"auto": "auto", "on": True, "off": False}[args.spin_state],
-                                 reference=args.reference == "rncf", estimate_method=args.estimate_method,
+        from ..reduction import Basis
+
+        basis = Basis(n_modes=args.modes, vms=args.vms, mds=args.mds, max_dofs=args.max_dofs,
+                      spin_state={"auto": "auto", "on": True, "off": False}[args.spin_state])
+        res = run_nr_rncf_spinup(args.beam, args.omega, basis=basis, tol=args.tol, reference=args.reference == "rncf",
+                                 estimate_method=args.estimate_method,
                                  estimate_integration=args.estimate_integration,
                                  **_common.estimate_samples(args, True), **common)
     else:

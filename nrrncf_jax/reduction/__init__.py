@@ -4,7 +4,8 @@ bodies, the spinning-state enrichment and the reduced tensors (``reduction.pipel
 them; ``reduction.basis.modal_basis`` assembles and deflates the basis of modes, modal derivatives
 and extra columns).
 
-``nr_rncf(full, ts)`` is the paper's Fig. 2: mass-normalised vibration modes (``modes``), static
+``nr_rncf(full, ts, Basis(...))`` is the paper's Fig. 2 (``basis_choice.Basis``: which columns it
+keeps): mass-normalised vibration modes (``modes``), static
 modal derivatives (``modal_derivatives``: the closed form of Eq. 35, checked against automatic
 differentiation), the modes and pairs chosen by maximum modal interaction (``selection``, Eq. 39)
 from a linear simulation of the same manoeuvre, SVD deflation (``deflation``, Algorithm 1), and
@@ -17,10 +18,10 @@ differentiates (e.g. with respect to Young's modulus with the basis held fixed,
 
 Beyond the paper, the spinning-state enrichment (``spin_state``, on by default as a check): at the
 manoeuvre's top spin rate the spinning equilibrium and its modes are computed; when the rest
-basis's Rayleigh-Ritz estimate misses the dominant spinning frequency by more than ``spin_tol``,
-the first spinning mode and modal derivatives of spinning-mode pairs join the basis within the same
-DOF budget. ``nr_rncf(..., spin_state=False)`` (``nrrncf spinup --spin-state off``) gives the
-paper's basis alone.
+basis's Rayleigh-Ritz estimate misses the dominant spinning frequency by more than
+``SpinState.tol``, the first spinning mode and modal derivatives of spinning-mode pairs join the
+basis within the same DOF budget. ``nr_rncf(full, ts, Basis(spin_state=False))`` (``nrrncf spinup
+--spin-state off``) gives the paper's basis alone.
 
 Round tubes' bending modes come in equal-frequency pairs, and the eigensolver returns any mix of
 the two planes: ``align_degenerate_modes`` turns each pair to the load, and ``excited_modes`` with
@@ -38,13 +39,16 @@ How good a reduced run is, without the full run: ``error_estimate`` (the static-
 estimate of χ_rel from the run alone), made on a run of one's own by ``run_error``: run the
 reduced model with ``step_ts=estimate_times(ts)`` (its steps then end on the samples), then
 ``estimate_run_error(full, reduced, ts, P, V)`` with its coordinates and velocities at ``ts``;
-and ``basis_to_tolerance`` (``nr_rncf(..., tol=P)``: the
+and ``basis_to_tolerance`` (``nr_rncf_to_tolerance(full, ts, P)``: the
 basis grown along the MMI ranking until that estimate over a training run is at most P per cent);
 for jointed systems of reduced bodies, ``multibody.error_estimate``."""
 
 from .basis import ModalBasis as ModalBasis
 from .basis import modal_basis as modal_basis
+from .basis_choice import Basis as Basis
+from .basis_choice import SpinState as SpinState
 from .basis_to_tolerance import BasisSearch as BasisSearch
+from .basis_to_tolerance import ToTolerance as ToTolerance
 from .basis_to_tolerance import greedy_order as greedy_order
 from .basis_to_tolerance import nr_rncf_to_tolerance as nr_rncf_to_tolerance
 from .craig_bampton import CraigBampton as CraigBampton

@@ -49,6 +49,7 @@ import functools
 import math
 import time
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
@@ -56,6 +57,7 @@ from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..models.full_order import RotatingFrameModel
 from .basis import modal_basis
+from .basis_choice import Basis
 from .error_estimate import ErrorEstimate, estimate_error
 from .modal_derivatives import modal_derivatives
 from .pipeline import Reduction, _reduce, _spin_enrichment, modal_interaction, spin_checked
@@ -225,37 +227,67 @@ def candidate_name(candidate) -> str:
     return f"φ{candidate}" if isinstance(candidate, (int, np.integer)) else str(candidate)
 
 
-def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: int = 24,
-                         vm_tol: float = 1e-6, max_dofs: int | None = None, samples: int = 16,
-                         md_method: str = "closed_form", deflation_tol: float = 1e-6, rho_inf: float = 0.9,
-                         rtol: float = 1e-4, atol: float = 1e-6, max_steps: int = 500_000,
-                         start: int = 2, safety: float = 2.0, error_rows=None, norm_rows=None, output=(),
-                         modes=None, tighten: float = TIGHTEN, spin_state: bool | str = "auto", spin_vms: int = 1,
-                         spin_mds: int = 4, spin_tol: float = 2e-3, prune: bool = True) -> Reduction:
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ToTolerance:
+    """A basis chosen to a target error (module docstring): ``tol``, the target χ_rel in per cent;
+    a basis passes when the estimate of its training run is at most ``tol / safety``; ``samples``:
+    the estimate's sampled outputs; ``start``: the first prefix length tried; ``prune``: drop what
+    the passing prefix does not need; ``tighten``: the training runs go at the run's tolerances
+    divided by this (``reduction.run_error``)."""
+
+    tol: float
+    safety: float = 2.0
+    samples: int = 16
+    start: int = 2
+    prune: bool = True
+    tighten: float = TIGHTEN
+
+    def __post_init__(self):
+        _validate.positive("tol (a target χ_rel in per cent)", self.tol)
+        _validate.positive("safety", self.safety)
+        _validate.boolean("prune", self.prune)
+        _validate.positive_int("samples", self.samples)
+        _validate.positive_int("start", self.start)
+        _validate.positive("tighten", self.tighten)
+
+
+def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, target: "float | ToTolerance", basis: Basis | None = None, *,
+                         solver: GeneralizedAlpha | None = None, controller: AdaptiveStepSize | None = None,
+                         max_steps: int = 500_000, error_rows=None, norm_rows=None, output=(),
+                         modes=None) -> Reduction:
     """The NR-RNCF reduced model of ``full`` with the smallest greedy basis whose training run
     over the output times ``ts`` has an error estimate of at most ``tol / safety`` per cent χ_rel
-    (module docstring). ``max_dofs`` caps the columns tried (default: every candidate); ``start``
-    is the first prefix length tried; ``samples`` the estimate's sample count; ``rho_inf``, ``rtol``,
-    ``atol`` and ``max_steps`` the integrator settings of the run the basis is for, whose
-    training runs go at ``rtol / tighten``, ``atol / tighten`` (``reduction.run_error``).
-    ``n_modes``, ``vm_tol``, ``md_method``, ``deflation_tol``, ``modes`` and the spinning-state
-    enrichment's ``spin_state``, ``spin_vms``, ``spin_mds``, ``spin_tol`` are ``nr_rncf``'s
-    (``nr_rncf(..., tol=...)`` calls this): each basis tried is checked, and enriched, as
-    ``nr_rncf`` checks its own. ``prune``: drop what the passing prefix does not need (module
-    docstring). Returns the ``Reduction``
-    of the chosen basis, with ``search`` (a ``BasisSearch``) holding every trial; ``search.met``
-    is False (and the largest basis tried is kept) when no basis reaches the tolerance."""
+    (module docstring). ``target``: a ``ToTolerance``, or its ``tol`` alone.
+
+    ``basis`` (a ``Basis``; default ``Basis(max_dofs=None)``): its ``n_modes``, ``vm_tol``,
+    ``md_method``, ``deflation_tol`` and ``spin_state`` as ``nr_rncf`` uses them (each basis
+    tried is checked, and enriched, as ``nr_rncf`` checks its own), its ``max_dofs`` the most
+    columns tried (None: every candidate); its ``vms``, ``mds``, ``band``, ``md_tol`` and
+    ``max_mds`` are not used, the search chooses instead. ``solver``, ``controller`` and
+    ``max_steps``: the integrator of the run the basis is for (default ``GeneralizedAlpha(0.9)``,
+    ``AdaptiveStepSize(1e-4, 1e-6)``), whose training runs go at the controller's tolerances
+    divided by ``target.tighten``. ``error_rows``: see ``reduce_rotating_model``; ``norm_rows``,
+    ``output``: the estimate's (``estimate_error``); ``modes``: see ``nr_rncf``. Returns the
+    ``Reduction`` of the chosen basis, with ``search`` (a ``BasisSearch``) holding every trial;
+    ``search.met`` is False (and the largest basis tried is kept) when no basis reaches the
+    tolerance."""
     if not isinstance(full, RotatingFrameModel):
         raise ValueError("nr_rncf_to_tolerance reduces a RotatingFrameModel (RNCF); got " + type(full).__name__)
-    _validate.positive("tol (a target χ_rel in per cent)", tol)
-    _validate.positive("safety", safety)
-    _validate.boolean("prune", prune)
-    if max_dofs is not None and int(max_dofs) < 1:
-        raise ValueError(f"max_dofs must be at least 1, got {max_dofs}")
+    target = target if isinstance(target, ToTolerance) else ToTolerance(tol=target)
+    basis = Basis(max_dofs=None) if basis is None else basis
+    if not isinstance(basis, Basis):
+        raise ValueError(f"basis must be a reduction.Basis, got {type(basis).__name__}")
+    solver = GeneralizedAlpha(0.9) if solver is None else solver
+    controller = AdaptiveStepSize(1e-4, 1e-6) if controller is None else controller
+    # The training runs' controller: the run's, at tightened tolerances.
+    training = eqx.tree_at(lambda c: (c.rtol, c.atol), controller,
+                           (controller.rtol / target.tighten, controller.atol / target.tighten))
+    tol, safety, spin_state = target.tol, target.safety, basis.spin_state
+    n_modes, max_dofs, md_method, deflation_tol = basis.n_modes, basis.max_dofs, basis.md_method, basis.deflation_tol
     ts = np.asarray(ts, dtype=float)
     body, free = full.body, full.free_mask()
     modes, W, spin, offline = modal_interaction(full, ts, n_modes, modes)
-    candidates = select(W, "auto", 0, vm_tol=vm_tol).vms
+    candidates = select(W, "auto", 0, vm_tol=basis.vm_tol).vms
     order = greedy_order(W, candidates)
     length = len(order) if max_dofs is None else min(len(order), int(max_dofs))
 
@@ -270,11 +302,11 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
 
     def enriched(basis, vms, pairs, cols):
         """The basis with the spinning-state columns where ``nr_rncf``'s check fails."""
-        if not spin_checked(full, spin_state, spin, bool(pairs)):
+        if not spin_checked(full, spin_state.check, spin, bool(pairs)):
             return basis, False
         sel = Selection(W=jnp.asarray(W), vms=vms, pairs=pairs)
-        _, extra, _ = _spin_enrichment(full, modes, sel, basis.Psi, spin, n_modes, spin_state is True, spin_vms,
-                                       spin_mds, spin_tol, None, None, md_method, spinning=spinning())
+        _, extra, _ = _spin_enrichment(full, modes, sel, basis.Psi, spin, n_modes, spin_state, None, None, md_method,
+                                       spinning=spinning())
         if extra is None:
             return basis, False
         return modal_basis(body, free, phi, pairs, vms=vms, extra=[extra], theta=theta[:, cols],
@@ -295,8 +327,7 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         if error_rows is not None:
             model = model.with_error_rows(error_rows)
         # At the ends of steps, not at interpolated outputs (reduction.run_error says why).
-        idx, P, V, _, _, steps = sampled_states(model, ts, samples, GeneralizedAlpha(rho_inf),
-                                                AdaptiveStepSize(rtol / tighten, atol / tighten), max_steps)
+        idx, P, V, _, _, steps = sampled_states(model, ts, target.samples, solver, training, max_steps)
         est = estimate_error(full, model, ts[idx], P, V, samples=idx.size, output=output, norm_rows=norm_rows)
         runs[key] = (model, est)
         trials[key] = Trial(columns=len(items), dofs=model.n_dof, vms=vms, pairs=pairs,
@@ -308,10 +339,10 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
         return evaluate(order[:n]).chi_rel_estimate_percent <= tol / safety
 
     t0 = time.perf_counter()
-    passed = shortest_passing(trial, length, start)
+    passed = shortest_passing(trial, length, target.start)
     offline["greedy"] = time.perf_counter() - t0
     chosen = passed if passed is not None else length
-    if prune and passed is not None:
+    if target.prune and passed is not None:
         t0 = time.perf_counter()
         chosen = _pruned(evaluate, order[:passed], trials[passed], tol / safety)
         offline["prune"] = time.perf_counter() - t0
@@ -325,4 +356,5 @@ def nr_rncf_to_tolerance(full: RotatingFrameModel, ts, tol: float, *, n_modes: i
                      search=search, phi=np.asarray(modes.phi))
 
 
-__all__ = ["TIE", "BasisSearch", "Trial", "candidate_name", "greedy_order", "nr_rncf_to_tolerance", "shortest_passing"]
+__all__ = ["TIE", "BasisSearch", "ToTolerance", "Trial", "candidate_name", "greedy_order", "nr_rncf_to_tolerance",
+           "shortest_passing"]

@@ -13,6 +13,7 @@ import numpy as np
 from ..models.full_order import RotatingFrameModel
 from ..motion import AbstractAxisMotion
 from .basis import modal_basis
+from .basis_choice import Basis, SpinState
 from .modes import vibration_modes
 from .reduced_model import ReducedRotatingModel, modal_loads, reduce_rotating_model
 from .selection import Selection, align_degenerate_modes, mmi_matrix, modal_response, purify_close_modes, select
@@ -64,57 +65,34 @@ def _modal_damping_ratio(full, omega):
     return float(full.damping.alpha) / (2.0 * omega) + float(full.damping.beta) * omega / 2.0
 
 
-def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", mds="auto",
-            band: float = 6.0, vm_tol: float = 1e-6, md_tol: float = 0.01, max_mds: int | None = None,
-            max_dofs: int | None = 25, md_method: str = "closed_form", deflation_tol: float = 1e-6,
-            force: str = "auto", spin_state: bool | str = "auto", spin_vms: int = 1, spin_mds: int = 4,
-            spin_tol: float = 2e-3, error_rows=None, modes=None, tol: float | None = None,
-            training: dict | None = None) -> Reduction:
-    """Build the NR-RNCF reduced model of ``full`` for its load case.
+def nr_rncf(full: RotatingFrameModel, ts_mmi, basis: Basis = Basis(), *, force: str = "auto", error_rows=None,
+            modes=None) -> Reduction:
+    """Build the NR-RNCF reduced model of ``full`` for its load case (paper Fig. 2), with the
+    columns that ``basis`` (a ``Basis``) describes.
 
-    ``n_modes`` candidate vibration modes enter the linear MMI simulation over ``ts_mmi``;
-    ``vms``/``mds`` choose among them (see ``selection.select``); with ``vms='auto'`` the modes
-    kept lie below ``band`` times the largest spin rate θ̇ of the manoeuvre, or are strongly
-    loaded; with ``mds='auto'`` the MDs of largest weight are added while VMs + MDs ≤
-    ``max_dofs``.
+    Its ``n_modes`` candidate vibration modes enter the linear MMI simulation over ``ts_mmi``; its
+    ``vms``/``mds`` choose among them (``selection.select``): with ``vms='auto'`` the modes kept lie
+    below ``band`` times the largest spin rate θ̇ of the manoeuvre, or are strongly loaded; with
+    ``mds='auto'`` the MDs of largest weight are added while VMs + MDs ≤ ``max_dofs``. Its
+    ``spin_state`` (a ``SpinState``) checks the basis against the spinning state and enriches it
+    where the check fails (``reduction.spin_state``; ``spin`` of the result holds the check).
 
-    Spinning-state enrichment (beyond the paper; ``reduction.spin_state``): at the largest spin
-    rate of the manoeuvre the spinning equilibrium and its modes are computed, and the rest
-    basis's Rayleigh-Ritz estimate of the frequency of the spinning mode that continues the
-    dominant VM (largest W_ii) is compared with the exact one. With ``spin_state='auto'`` the
-    basis is enriched when that estimate is off by more than ``spin_tol`` (relative), and only
-    for bases with modal derivatives; ``True`` always enriches, ``False`` never checks. The
-    enrichment is ``spin_vms`` spinning modes and the ``spin_mds`` modal derivatives (at rest)
-    of spinning-mode pairs, both ranked by the MMI weight of the rest modes they continue; the
-    rest MDs give way so that the total stays within ``max_dofs``. Returns a ``Reduction``
-    (``spin`` holds the check). ``error_rows``: see ``reduce_rotating_model``. ``modes``: the
-    full model's vibration modes at rest (``vibration_modes`` on its free coordinates, at least
-    ``n_modes`` of them), when the caller has computed them already; their time is then not in
-    ``offline_s``.
-
-    ``tol``: a target χ_rel in per cent. The basis is then grown along the MMI ranking until the
-    a-posteriori error estimate of a training run over ``ts_mmi`` is at most ``tol / safety``
-    (``basis_to_tolerance.nr_rncf_to_tolerance``, safety 2 by default; with ``training`` its further keyword
-    arguments: the run's ``rho_inf``, ``rtol``, ``atol``, ``samples``, ...); ``max_dofs`` caps
-    the basis tried, ``vms``, ``mds``, ``max_mds``, ``md_tol`` and ``band`` are not used, the
-    spinning-state enrichment is checked for every basis tried, and ``search`` of the result
-    records every basis tried.
+    Returns a ``Reduction``. ``force``: the reduced elastic force's form (``reduce_rotating_model``).
+    ``error_rows``: see ``reduce_rotating_model``. ``modes``: the full model's vibration modes at
+    rest (``vibration_modes`` on its free coordinates, at least ``n_modes`` of them), when the
+    caller has computed them already; their time is then not in ``offline_s``. A basis chosen to a
+    target error instead is ``nr_rncf_to_tolerance``'s.
     """
-    if spin_state not in ("auto", True, False):
-        raise ValueError(f"spin_state must be 'auto', True or False, got {spin_state!r}")
-    if tol is not None:
-        from .basis_to_tolerance import nr_rncf_to_tolerance  # it builds on this module
-
-        return nr_rncf_to_tolerance(full, ts_mmi, tol, n_modes=n_modes, vm_tol=vm_tol, max_dofs=max_dofs,
-                                    md_method=md_method, deflation_tol=deflation_tol, modes=modes,
-                                    error_rows=error_rows, spin_state=spin_state, spin_vms=spin_vms,
-                                    spin_mds=spin_mds, spin_tol=spin_tol, **(training or {}))
+    if not isinstance(basis, Basis):
+        raise ValueError(f"basis must be a reduction.Basis, got {type(basis).__name__}")
     if not isinstance(full, RotatingFrameModel):
         raise ValueError("nr_rncf reduces a RotatingFrameModel (RNCF); got " + type(full).__name__)
+    b, spin_state = basis, basis.spin_state
+    n_modes, max_dofs, md_method, deflation_tol = b.n_modes, b.max_dofs, b.md_method, b.deflation_tol
     body, free = full.body, full.free_mask()
     modes, W, spin, times = modal_interaction(full, ts_mmi, n_modes, modes)
-    choose = functools.partial(select, W, vms, mds, vm_tol=vm_tol, md_tol=md_tol, max_mds=max_mds,
-                               omega=modes.omega, omega_band=band * spin if band else None)
+    choose = functools.partial(select, W, b.vms, b.mds, vm_tol=b.vm_tol, md_tol=b.md_tol, max_mds=b.max_mds,
+                               omega=modes.omega, omega_band=b.band * spin if b.band else None)
     t0 = time.perf_counter()
     sel = choose(max_dofs=max_dofs)
     times["mmi"] += time.perf_counter() - t0
@@ -125,10 +103,10 @@ def nr_rncf(full: RotatingFrameModel, ts_mmi, *, n_modes: int = 24, vms="auto", 
     times["modal_derivatives"] = time.perf_counter() - t0
 
     check = None
-    if spin_checked(full, spin_state, spin, bool(sel.pairs)):
+    if spin_checked(full, spin_state.check, spin, bool(sel.pairs)):
         t0 = time.perf_counter()
-        sel, extra, check = _spin_enrichment(full, modes, sel, rest.Psi, spin, n_modes, spin_state is True,
-                                             spin_vms, spin_mds, spin_tol, choose, max_dofs, md_method)
+        sel, extra, check = _spin_enrichment(full, modes, sel, rest.Psi, spin, n_modes, spin_state, choose,
+                                             max_dofs, md_method)
         if extra is not None:
             # The rest MDs kept are the first ones of the rest basis (the same ranking, cut shorter).
             basis = modal_basis(body, free, modes.phi, sel.pairs, vms=sel.vms, extra=[extra],
@@ -183,7 +161,7 @@ def modal_interaction(full: RotatingFrameModel, ts_mmi, n_modes: int = 24, modes
 
 
 def spin_checked(full, spin_state, spin: float, has_mds: bool) -> bool:
-    """Whether a basis gets the spinning-state check (``nr_rncf``'s ``spin_state``): always with
+    """Whether a basis gets the spinning-state check (``SpinState.check``, ``spin_state``): always with
     ``True``; with ``"auto"`` for a basis with MDs under a steady spin about a fixed axis that
     spins (a structure excited by loads in a stationary frame has no spinning state).
     ``ValueError`` for ``True`` under a manoeuvre that does not spin."""
@@ -193,12 +171,12 @@ def spin_checked(full, spin_state, spin: float, has_mds: bool) -> bool:
                                   and isinstance(full.motion, AbstractAxisMotion))
 
 
-def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n_mds, tol, choose, max_dofs,
-                     md_method, spinning=None):
-    """The spinning-state check and, if it fails (or ``always``), the enrichment: returns the
-    (possibly trimmed) rest selection, the spinning-state columns (``n_vms`` spinning modes and
-    the modal derivatives of ``n_mds`` pairs of them, ``modal_basis``; None when not enriched)
-    and the ``SpinCheck``. ``spinning``: ``spinning_modes(full, spin, n_modes)`` when the
+def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, options: SpinState, choose, max_dofs, md_method,
+                     spinning=None):
+    """The spinning-state check and, if it fails (or ``options.check is True``), the enrichment:
+    returns the (possibly trimmed) rest selection, the spinning-state columns (``options.vms``
+    spinning modes and the modal derivatives of ``options.mds`` pairs of them, ``modal_basis``;
+    None when not enriched) and the ``SpinCheck``. ``spinning``: ``spinning_modes(full, spin, n_modes)`` when the
     caller has it (a basis search checks many bases against one spinning state)."""
     body, free = full.body, full.free_mask()
     q_star, smodes = spinning_modes(full, spin, n_modes) if spinning is None else spinning
@@ -210,12 +188,12 @@ def _spin_enrichment(full, modes, sel, Psi_rest, spin, n_modes, always, n_vms, n
     exact = float(np.asarray(smodes.omega)[dominant])
     ritz = ritz_frequencies(full, q_star, spin, Psi_rest)
     estimate = float(ritz[np.argmin(np.abs(ritz - exact))])
-    enrich = always or abs(estimate / exact - 1.0) > tol
+    enrich = options.check is True or abs(estimate / exact - 1.0) > options.tol
     if not enrich:
         return sel, None, SpinCheck(spin, dominant, exact, estimate, False)
-    svms = list(dict.fromkeys(int(match[i]) for i in by_weight))[:n_vms]
+    svms = list(dict.fromkeys(int(match[i]) for i in by_weight))[:options.vms]
     ranked = sorted(((i, j) for a, i in enumerate(sel.vms) for j in sel.vms[a:]), key=lambda ij: -W[ij])
-    spairs = list(dict.fromkeys(tuple(sorted((int(match[i]), int(match[j])))) for i, j in ranked))[:n_mds]
+    spairs = list(dict.fromkeys(tuple(sorted((int(match[i]), int(match[j])))) for i, j in ranked))[:options.mds]
     n_rest_pairs = len(sel.pairs)
     if max_dofs is not None:
         trimmed = choose(max_dofs=max(len(sel.vms), max_dofs - len(svms) - len(spairs)))

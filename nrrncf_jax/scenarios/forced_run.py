@@ -95,13 +95,13 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     repetition of the run ending a step on each: a sparse factorisation an output, far costlier
     on a large body, but the one that flags a basis whose error grows over the run as drift).
     ``tol``: the basis chosen to a target χ_rel in per cent
-    instead (``nr_rncf(..., tol=...)``, the run itself the training manoeuvre; ``vms`` and ``mds``
+    instead (``nr_rncf_to_tolerance``, the run itself the training manoeuvre; ``vms`` and ``mds``
     are then not used, and ``spin_state`` governs the spinning-state check of each basis tried).
     ``reference`` (an NR-RNCF run): ``True`` compares it with the full model converged
     (``RunRecord.compare_converged``: the full run at a tenth and a hundredth of the tolerances,
     the reduced model again at the tighter, and the error split into its time-integration and
     basis parts); a full ``ForcedRun`` of the same body and output times is compared as it is."""
-    from ..reduction.pipeline import nr_rncf
+    from ..reduction import Basis, ToTolerance, nr_rncf, nr_rncf_to_tolerance
 
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
@@ -117,10 +117,11 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
         # The step error on the position vectors' coordinates (what χ_rel measures): mapping it to
         # all of a large body's coordinates every step costs more than the reduced step itself.
         rows = (3 * pos[:, None] + np.arange(3)).reshape(-1)
-        red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=None, error_rows=rows,
-                      spin_state=spin_state, modes=modes, tol=tol,
-                      training=dict(samples=estimate_samples, rho_inf=rho_inf, rtol=rtol, atol=atol,
-                                    max_steps=max_steps, norm_rows=rows))
+        basis = Basis(n_modes=n_modes, vms=vms, mds=mds, max_dofs=None, spin_state=spin_state)
+        red = (nr_rncf(full, jnp.asarray(ts), basis, error_rows=rows, modes=modes) if tol is None else
+               nr_rncf_to_tolerance(full, jnp.asarray(ts), ToTolerance(tol=tol, samples=estimate_samples), basis,
+                                    solver=GeneralizedAlpha(rho_inf), controller=AdaptiveStepSize(rtol, atol),
+                                    max_steps=max_steps, error_rows=rows, norm_rows=rows, modes=modes))
         model = red.model
 
     def observe(t, q, v):

@@ -25,6 +25,7 @@ from ..models.damping import RayleighDamping
 from ..models.full_order import RotatingFrameModel
 from ..models.observe import tip_observer
 from ..motion import SpinUp
+from ..reduction.basis_choice import Basis
 from ..reduction.pipeline import nr_rncf
 from ..studies.families import SpinupFamily
 from ..studies.identification import IdentificationResult, Measurement, Observation, identify, tip_deflection
@@ -109,7 +110,7 @@ def identification_demo(*, elements: int = 6, omega_s: float = 10.0, T_s: float 
     note(progress, f"reduced model at the starting guess E = {E0:.4g} Pa: modes, MMI, modal derivatives, tensors ...")
     t0 = time.perf_counter()
     red = nr_rncf(RotatingFrameModel(preset.with_(E=E0).body(elements), SpinUp(omega_s, T_s)), jnp.asarray(ts),
-                  n_modes=4 * vms, vms=vms, max_dofs=None)
+                  Basis(n_modes=4 * vms, vms=vms, max_dofs=None))
     family = SpinupFamily.from_reduction(red, E0)
     offline_s = time.perf_counter() - t0
 

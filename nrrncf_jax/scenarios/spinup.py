@@ -10,10 +10,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..integrate import GeneralizedAlpha, adaptive_step_size
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha, adaptive_step_size
 from ..integrate.simulate import simulate, simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
+from ..reduction.basis_choice import Basis
+from ..reduction.basis_to_tolerance import ToTolerance, nr_rncf_to_tolerance
 from ..reduction.pipeline import nr_rncf
 from ..reduction.run_error import TIGHTEN, estimate_own_run, observe_state, run_step_ts
 from ..studies.sweep import SweepGrid
@@ -250,9 +252,8 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
 
 
 def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T_s: float = 15.0,
-                       t_end: float = 30.0, elements: int | None = None, vms: int | str = "auto",
-                       mds: int | str | list = "auto", n_modes: int = 24, max_dofs: int | None = 25,
-                       spin_state: bool | str = "auto", rho_inf: float = 0.9, rtol: float = 1e-4,
+                       t_end: float = 30.0, elements: int | None = None, basis: Basis | None = None,
+                       rho_inf: float = 0.9, rtol: float = 1e-4,
                        atol: float = 1e-6, dt_out: float = 0.01, reference: "bool | SpinupResult" = False,
                        progress: bool = False, max_steps: int = 500_000, estimate: bool = True,
                        estimate_samples: int = 16, tol: float | None = None,
@@ -260,10 +261,9 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
                        step_control: str = "plain") -> SpinupResult:
     """The spin-up of Eq. 43 with the NR-RNCF reduced model (paper Section 4.1).
 
-    The basis is built by ``nr_rncf`` from ``n_modes`` candidate vibration modes, with the MMI
-    simulation over the output times; ``vms``/``mds`` choose among them (``'auto'``, a count, or
-    for ``mds`` a list of 0-based mode pairs); automatic MDs stop at ``max_dofs`` VMs + MDs;
-    ``spin_state`` is ``nr_rncf``'s spinning-state enrichment (``'auto'``, ``True``, ``False``).
+    The basis is built by ``nr_rncf`` as ``basis`` (a ``reduction.Basis``; default ``Basis()``:
+    24 candidate modes, VMs and MDs chosen by MMI up to 25 DOFs, the spinning-state check on) says,
+    with the MMI simulation over the output times.
     Returns a ``SpinupResult`` with ``formulation='nr-rncf'``, the reduced DOFs, the basis and the offline time. With
     ``reference=True`` the full RNCF model runs too, converged: at a tenth and a hundredth of the
     run's tolerances (``REFERENCE_TIGHTENING``), the tighter run the reference and their distance
@@ -286,9 +286,9 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     repetition at tightened tolerances (``TIGHTEN``), which costs more than the run.
 
     ``tol``: a target χ_rel in per cent. The basis is then the smallest prefix of the MMI ranking
-    whose run has an estimate at or below ``tol`` / 2 (``reduction.basis_to_tolerance``, the run itself
-    the training manoeuvre, ``max_dofs`` the largest basis tried); ``vms`` and ``mds`` are not
-    used, and ``spin_state`` governs the spinning-state check of each basis tried.
+    whose run has an estimate at or below ``tol`` / 2 (``reduction.nr_rncf_to_tolerance``, the run
+    itself the training manoeuvre, the basis's ``max_dofs`` the largest basis tried; its ``vms``
+    and ``mds`` are not used, its ``spin_state`` governs the check of each basis tried).
     ``basis_search`` holds every basis tried. The step tolerances are chosen to it as well: starting
     from ``rtol`` and ``atol``, both shrink until the run's own time-integration error, estimated
     against its repetition at a tenth of them, is at most ``tol`` / 2 (``STEP_TOLERANCE_ROUNDS``
@@ -306,9 +306,11 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
     body = full.body
     tip_rows = 3 * (body.n_vectors - body.vectors_per_node) + np.arange(3)  # the tip node's position
-    red = nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs, spin_state=spin_state,
-                  tol=tol, training=dict(samples=estimate_samples, rho_inf=rho_inf, rtol=rtol, atol=atol,
-                                         max_steps=max_steps, output=tip_rows))
+    basis = Basis() if basis is None else basis
+    red = (nr_rncf(full, jnp.asarray(ts), basis) if tol is None else
+           nr_rncf_to_tolerance(full, jnp.asarray(ts), ToTolerance(tol=tol, samples=estimate_samples), basis,
+                                solver=GeneralizedAlpha(rho_inf), controller=AdaptiveStepSize(rtol, atol),
+                                max_steps=max_steps, output=tip_rows))
     model = red.model
     own = estimate and red.search is None
     sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), controller,
@@ -387,4 +389,4 @@ def sweep_reduction(beam, grid: SweepGrid, *, t_end: float, elements: int | None
         raise ValueError(f"grid must be a SweepGrid (see sweep_grid), got {type(grid).__name__}")
     ts = output_times(t_end, dt_out)
     full = build_spinup_model("rncf", beam, float(grid.omega_s.max()), float(grid.T_s.min()), elements)
-    return nr_rncf(full, jnp.asarray(ts), n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs)
+    return nr_rncf(full, jnp.asarray(ts), Basis(n_modes=n_modes, vms=vms, mds=mds, max_dofs=max_dofs))
