@@ -80,6 +80,30 @@ def test_a_force_actuator_along_a_slider_accelerates_it():
     np.testing.assert_allclose(y["x"], F * TS**2 / (2 * m), atol=2e-4 * F * TS[-1] ** 2 / (2 * m))
 
 
+def test_an_actuator_s_float_parameter_is_an_argument_not_a_constant():
+    """A float in an actuator's ``params`` reaches a compiled function as an array: a new value
+    reuses the compiled program (one trace for two values) and gives its own force; an integer
+    leaf stays an integer."""
+    import equinox as eqx
+
+    traces = []
+
+    @eqx.filter_jit
+    def force(mech):
+        traces.append(1)
+        return mech.forces[0].force(0.0, 0.0, 0.0)
+
+    def law(t, s, s_dot, p):
+        return p[0] * p[1]
+
+    def built(F):
+        return Mechanism([RigidBody(2.0, [0.1, 0.1, 0.1])], [slider(None, O, (1.0, 0.0, 0.0))],
+                         forces=[actuator(None, O, law, params=(F, 2), axis=(1.0, 0.0, 0.0))])
+
+    assert [float(force(built(F))) for F in (0.8, 1.3)] == [1.6, 2.6] and len(traces) == 1
+    assert isinstance(built(0.8).forces[0].params[1], int)
+
+
 def test_force_elements_refuse_bad_input():
     body = RigidBody(1.0, [0.1, 0.1, 0.1])
     with pytest.raises(ValueError, match="k must be finite and >= 0"):

@@ -40,6 +40,7 @@ import dataclasses
 from collections.abc import Callable
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -115,7 +116,9 @@ class Actuator(AbstractForceElement):
     """f = law(t, g, ġ, params): a torque at a hinge (``HingeAngle``) or a force along a slider
     (``Travel``) or between points (``Distance``) given by any differentiable ``law``, e.g. a
     motor's torque profile or a feedback law; ``params`` (a pytree of arrays) is its argument,
-    so that gradients reach it. ``inputs`` ({name: sensor}, kinematic sensors on markers):
+    so that gradients reach it. Its Python floats become arrays: a compiled run then takes a
+    new value as an argument, never as a constant that compiles the run anew (the integers and
+    other leaves of ``params`` stay as given). ``inputs`` ({name: sensor}, kinematic sensors on markers):
     f = law(t, g, ġ, params, {name: the sensor's value at the state}), state feedback from
     anywhere in the mechanism (a flexible link's tip deflection and its rate)."""
 
@@ -125,6 +128,7 @@ class Actuator(AbstractForceElement):
 
     def __init__(self, measure: AbstractMeasure, law, params=(), inputs=None):
         _check_law(law, inputs)
+        params = jax.tree_util.tree_map(lambda x: jnp.asarray(x, dtype=float) if isinstance(x, float) else x, params)
         self.measure, self.law, self.params, self.inputs = measure, law, params, inputs
 
     def resolved(self, system) -> "Actuator":
