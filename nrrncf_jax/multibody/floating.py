@@ -175,6 +175,16 @@ class FloatingBody(AbstractBodyKind):
             B = np.abs(np.asarray(basis))
             if B.size and B[~free].max(initial=0.0) > 1e-9 * B.max():
                 raise ValueError("the basis moves coordinates that free holds")
+            if getattr(tensors, "full_order", False):
+                held = body.rigid_modes()[~free]
+                s = np.linalg.svd(held, compute_uv=False) if held.size else np.zeros(0)
+                left = 6 - int(np.sum(s > 1e-8 * s.max())) if s.size and s.max() > 0 else 6
+                if left:
+                    raise ValueError(
+                        f"a full-order floating body must hold its frame: its free coordinates leave {left} rigid "
+                        "motion(s) free, which the frame's coordinates carry already (its mass matrix would be "
+                        "singular). A mean-axis body (reduce(conditions='mean-axis')) has no such full-order "
+                        "counterpart: its conditions are linear constraints, not held coordinates")
             free = jnp.asarray(free)
         if modes is not None:
             modes = jnp.asarray(modes)

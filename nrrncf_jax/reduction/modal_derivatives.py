@@ -56,6 +56,17 @@ def dK_deta_times_autodiff(body: Body, q_eq, phi_j, phi_i):
     return jax.jvp(K_times_phi_i, (q_eq,), (phi_j,))[1]
 
 
+def mode_pairs(pairs, k: int) -> tuple[tuple[int, int], ...]:
+    """``pairs`` of mode indices as sorted (i, j), i ≤ j (default: all k(k+1)/2 of ``k`` modes);
+    ``ValueError`` for an index outside the k modes."""
+    if pairs is None:
+        pairs = [(i, j) for i in range(k) for j in range(i, k)]
+    pairs = tuple((min(int(i), int(j)), max(int(i), int(j))) for i, j in pairs)
+    if any(j >= k or i < 0 for i, j in pairs):
+        raise ValueError(f"mode index out of range in pairs (have {k} modes): {pairs}")
+    return pairs
+
+
 def modal_derivatives(
     body: Body,
     free: Bool[Array, " ndof"],
@@ -79,12 +90,7 @@ def modal_derivatives(
     if method not in ("closed_form", "autodiff"):
         raise ValueError(f"method must be 'closed_form' or 'autodiff', got {method!r}")
     q_eq = body.q_hat if q_eq is None else q_eq
-    k = phi.shape[1]
-    if pairs is None:
-        pairs = [(i, j) for i in range(k) for j in range(i, k)]
-    pairs = tuple((min(int(i), int(j)), max(int(i), int(j))) for i, j in pairs)
-    if any(j >= k or i < 0 for i, j in pairs):
-        raise ValueError(f"mode index out of range in pairs (have {k} modes): {pairs}")
+    pairs = mode_pairs(pairs, phi.shape[1])
     # NumPy index arrays: jnp.array of a list outside a jit compiles a conversion kernel.
     idx = np.flatnonzero(np.asarray(free))
     padded = pairs + pairs[-1:] * max(0, (pad_to or 0) - len(pairs))
