@@ -117,16 +117,17 @@ def add_estimate_options(parser, method_help: str) -> None:
 
 
 def add_tol_and_reference_options(parser, scope: str) -> None:
-    """``--tol P`` (the basis chosen to a target χ_rel) and ``--reference rncf`` (the full model at
-    the run's own tolerance) of the large bodies' commands, whose converged references would cost
-    hours; ``scope``: when they apply (the help's first words)."""
+    """``--tol P`` (the basis chosen to a target χ_rel) and ``--reference rncf`` (the full model
+    converged, ``RunRecord.compare_converged``) of the large bodies' commands; ``scope``: when they
+    apply (the help's first words)."""
     parser.add_argument("--tol", type=float, default=None, metavar="P",
                         help=f"{scope}: choose the basis to a target chi_rel of P per cent (the smallest prefix of the "
                              "MMI ranking whose run's error estimate is <= P/2; --vms and --mds are then not used)")
     parser.add_argument("--reference", choices=("rncf",), default=None,
-                        help=f"{scope}: also run the full RNCF model and report chi_rel and the speed-up (the "
-                             "reference at the run's own tolerance: chi_rel is the difference of two runs' errors, "
-                             "reference_converged false)")
+                        help=f"{scope}: also run the full RNCF model converged and report chi_rel and the speed-up: "
+                             "the full model at a tenth and a hundredth of the run's tolerances (their distance is "
+                             "the reference's own error), the reduced model again at the tighter, so chi_rel splits "
+                             "into its time-integration and basis parts")
 
 
 def estimate_samples(args, reduced: bool) -> dict:

@@ -197,8 +197,9 @@ def register(sub) -> None:
                         "chain only until its soft beams buckle in compression)")
     t.add_argument("--reference", choices=("ancf", "rncf"), default=None,
                    help="nr-rncf: also run this full model and report chi_rel, the speed-up and the error "
-                        "estimate's effectivity (the reference at the run's own tolerance: chi_rel is the difference "
-                        "of two runs' errors, reference_converged false)")
+                        "estimate's effectivity, against the full model converged (run at --reference-rtol and ten "
+                        "times it; the reduced chain again at a hundredth of its rtol): chi_rel splits into its "
+                        "time-integration and basis parts, and the reference's own error is printed beside it")
     t.add_argument("--no-estimate", action="store_true",
                    help="nr-rncf: skip the error estimate from the run alone (chi_rel_estimate_percent)")
     _common.add_estimate_options(t, method_help=(
