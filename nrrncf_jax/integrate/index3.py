@@ -146,13 +146,13 @@ class GeneralizedAlphaIndex3(AbstractGeneralizedAlpha):
         (module docstring; C_t, the drivers' rate, is zero without drivers), and the
         factorisation it solved with when that is ``reuse``'s bodies with C_q(q1) (else None)."""
         if reuse is not None and reuse.bodies is not None:
-            B = model.constraint_jacobian(q1, t1)
+            B, C_t = model.constraint_jacobian_and_rate(q1, t1)
             fac = kept = reuse.with_constraints(B)
         else:
             fac, kept = model.factor_augmented(t1, q1, v1, lam1, c_C, c_K), None
             B = getattr(fac, "B", None)
-            B = model.constraint_jacobian(q1, t1) if B is None else B
-        violation = B @ v1 + model.constraint_rate(q1, t1) if model.rheonomic else B @ v1
+            B, C_t = model.constraint_jacobian_and_rate(q1, t1) if B is None else (B, model.constraint_rate(q1, t1))
+        violation = B @ v1 + C_t if model.rheonomic else B @ v1
         return fac.solve_constraint_rows(violation)[:v1.shape[0]], kept
 
 

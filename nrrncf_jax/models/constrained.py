@@ -167,6 +167,11 @@ class AbstractConstrainedModel(AbstractModel):
             return jnp.zeros(self.n_constraints, x.dtype)
         return jax.jvp(lambda s: self.constraints(x, s), (jnp.asarray(t, x.dtype),), (jnp.ones((), x.dtype),))[1]
 
+    def constraint_jacobian_and_rate(self, x, t: Scalar) -> tuple[Float[Array, "m n"], Float[Array, " m"]]:
+        """``(C_x, C_t)``: the velocity equations' matrix and rate together (a system may compute
+        both from one derivative: ``multibody.Mechanism``)."""
+        return self.constraint_jacobian(x, t), self.constraint_rate(x, t)
+
     def constraint_acceleration(self, x, v, t: Scalar = 0.0) -> Float[Array, " m"]:
         """The part of C̈ = C_x a + (C_x v)_x v + 2 C_xt v + C_tt that does not hold a: the second
         derivative of C along the path (x + s v, t + s) (the t terms only with drivers)."""
@@ -182,6 +187,12 @@ class AbstractConstrainedModel(AbstractModel):
 
         return jax.jvp(path_rate, (x, jnp.asarray(t, x.dtype)), (v, one))[1]
 
+    def constraint_jacobian_and_acceleration(self, x, v, t: Scalar = 0.0) -> tuple[Float[Array, "m n"],
+                                                                                     Float[Array, " m"]]:
+        """``(C_x, constraint_acceleration)``: what the consistent accelerations read of the
+        constraints (a system may compute both from one evaluation: ``multibody.Mechanism``)."""
+        return self.constraint_jacobian(x, t), self.constraint_acceleration(x, v, t)
+
     def consistent_accelerations(self, t: Scalar, x, v) -> tuple[Float[Array, " n"], Float[Array, " m"]]:
         """``(a, λ)`` that satisfy the equations of motion and C̈ = 0 at (x, v):
 
@@ -189,10 +200,10 @@ class AbstractConstrainedModel(AbstractModel):
             [C_x  0  ] [λ] = [−(C_x v)_x v   ]
 
         one dense solve (a system's own factorisation is for the iteration matrix)."""
-        B = self.constraint_jacobian(x, t)
+        B, gamma = self.constraint_jacobian_and_acceleration(x, v, t)
         n, m = self.n_dof, B.shape[0]
         A = jnp.block([[self.mass_matrix(x), B.T], [B, jnp.zeros((m, m), x.dtype)]])
-        rhs = jnp.concatenate([-self.residual(t, x, v, jnp.zeros_like(x)), -self.constraint_acceleration(x, v, t)])
+        rhs = jnp.concatenate([-self.residual(t, x, v, jnp.zeros_like(x)), -gamma])
         z = DenseLU.factor(A).solve(rhs)
         return z[:n], z[n:]
 

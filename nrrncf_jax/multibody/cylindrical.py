@@ -15,6 +15,7 @@ from typing import ClassVar
 import jax.numpy as jnp
 
 from .joints import AbstractAxisJoint, _vector
+from .section_frame import dot
 
 N_EQUATIONS = 4
 
@@ -33,7 +34,7 @@ class Cylindrical(AbstractAxisJoint):
         r_b = _vector(xs, self.body_b, self.position_b)
         r_a = self.point if self.body_a is None else _vector(xs, self.body_a, self.position_a)
         n, d = self.normals(xs), self.axis(xs)
-        return jnp.concatenate([n @ (r_b - r_a), n @ d[0]]), n, d
+        return jnp.concatenate([dot(n, r_b - r_a), dot(n, d[0])]), n, d
 
     def __call__(self, xs, t=0.0):
         return self._on_axis(xs)[0]

@@ -33,6 +33,7 @@ import jax.numpy as jnp
 from .._types import Array, Float
 from .joints import AbstractJoint
 from .measures import HingeAngle, Travel
+from .section_frame import dot
 
 
 def _motion_value(motion, t):
@@ -73,7 +74,7 @@ class AngleDriver(AbstractJoint):
     def __call__(self, xs, t=0.0):
         u_a, w_a, u_b = self.hinge.directions(xs)
         phi = self.angle(t)
-        return (u_b @ (jnp.cos(phi) * w_a - jnp.sin(phi) * u_a))[None]
+        return dot(u_b, jnp.cos(phi) * w_a - jnp.sin(phi) * u_a)[None]
 
 
 class DistanceDriver(AbstractJoint):

@@ -26,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._types import Array, Float
-from .section_frame import Directions
+from .section_frame import Directions, dot
 
 GROUND = None
 """The ground as a joint's body: fixed points and directions in space."""
@@ -160,7 +160,7 @@ class Revolute(AbstractAxisJoint):
     def __call__(self, xs, t=0.0):
         r_b = _vector(xs, self.body_b, self.position_b)
         gap = r_b - self.point if self.body_a is None else _vector(xs, self.body_a, self.position_a) - r_b
-        return jnp.concatenate([gap, self.normals(xs) @ self.axis(xs)[0]])
+        return jnp.concatenate([gap, dot(self.normals(xs), self.axis(xs)[0])])
 
 
 class Fixed(AbstractJoint):

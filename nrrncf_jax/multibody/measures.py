@@ -19,7 +19,7 @@ import jax.numpy as jnp
 
 from .._types import Array, Float
 from .joints import _vector
-from .section_frame import Directions
+from .section_frame import Directions, dot
 
 
 class AbstractMeasure(eqx.Module):
@@ -63,7 +63,7 @@ class Distance(AbstractMeasure):
         r_a = self.point if self.body_a is None else _vector(xs, self.body_a, self.vector_a)
         d = _vector(xs, self.body_b, self.vector_b) - r_a
         # sqrt with a safe zero: a spring of zero length has no direction (its force is then zero)
-        sq = d @ d
+        sq = dot(d, d)
         return jnp.where(sq > 0, jnp.sqrt(jnp.where(sq > 0, sq, 1.0)), 0.0)
 
 
@@ -93,7 +93,7 @@ class HingeAngle(AbstractMeasure):
 
     def __call__(self, xs):
         u_a, w_a, u_b = self.directions(xs)
-        return jnp.arctan2(u_b @ w_a, u_b @ u_a)
+        return jnp.arctan2(dot(u_b, w_a), dot(u_b, u_a))
 
 
 class Travel(AbstractMeasure):
@@ -125,7 +125,7 @@ class Travel(AbstractMeasure):
 
     def __call__(self, xs):
         r_a = self.point if self.body_a is None else _vector(xs, self.body_a, self.vector_a)
-        return (_vector(xs, self.body_b, self.vector_b) - r_a) @ self.axis(xs)[0]
+        return dot(_vector(xs, self.body_b, self.vector_b) - r_a, self.axis(xs)[0])
 
 
 __all__ = ["AbstractMeasure", "Distance", "HingeAngle", "Travel"]

@@ -115,6 +115,45 @@ def _stack_axes(stack, body):
     return jax.tree_util.tree_map(lambda s, b: None if jnp.shape(s) == jnp.shape(b) else 0, stack, body)
 
 
+def _pick(x, rows: tuple[int, ...]):
+    """``x[rows]`` for static, increasing ``rows``: each run of consecutive rows one slice, the
+    slices concatenated. A gather (``x[np.asarray(rows)]``) is an operation of its own to XLA,
+    where slices fuse with what reads them."""
+    if not rows:
+        return x[:0]
+    runs, start = [], 0
+    for k in range(1, len(rows) + 1):
+        if k == len(rows) or rows[k] != rows[k - 1] + 1:
+            runs.append(x[rows[start]:rows[k - 1] + 1])
+            start = k
+    return runs[0] if len(runs) == 1 else jnp.concatenate(runs)
+
+
+def _place(f, rows: tuple[int, ...], n: int):
+    """The (n, ...) array with ``f``'s rows at the static, increasing ``rows`` and zeros elsewhere
+    (``zeros.at[rows].add(f)``): the rows and the zero blocks between them concatenated. XLA turns
+    a scatter into a loop, a kernel of its own, per body and per evaluation of the joints'
+    reactions."""
+    pieces, prev = [], 0
+    for k, v in enumerate(rows):
+        if v > prev:
+            pieces.append(jnp.zeros((v - prev,) + f.shape[1:], f.dtype))
+        pieces.append(f[k:k + 1])
+        prev = v + 1
+    if prev < n:
+        pieces.append(jnp.zeros((n - prev,) + f.shape[1:], f.dtype))
+    return pieces[0] if len(pieces) == 1 else jnp.concatenate(pieces)
+
+
+def _through(dC, Js) -> Float[Array, "m n"]:
+    """The joints' C_z from their derivatives on the rows they read (``dC``, (m, rows, 3) a body)
+    and those rows of each body's J ((rows, 3, n_b)), ∂C/∂x J, body by body side by side. As
+    element-wise products and sums: these are a few hundred products, and XLA fuses them with
+    their neighbours, where each ``dot_general`` would be a kernel of its own, compiled on its
+    own."""
+    return jnp.concatenate([jnp.sum(d[:, :, :, None] * J[None], axis=(1, 2)) for d, J in zip(dC, Js)], axis=1)
+
+
 class Mechanism(AbstractConstrainedModel):
     """``bodies`` (any of ``as_body_kind``'s), ``joints`` (joints on nodal vectors, or on markers:
     ``hinge``, ``ball``, ``clamp``, ``slider``), ``gravity`` (an acceleration, 3-vector) and
@@ -338,8 +377,13 @@ class Mechanism(AbstractConstrainedModel):
         nodal vectors as ``newton_space`` measures it, so that a tolerance means what it means for
         the full system."""
         if self.error_sensors:
+            from .sensors import Observer  # sensors read the system: imported late
+
+            observer = Observer(self, dict(self.error_sensors))  # the sensors share the nodal vectors
+
             def outputs(zz):
-                return jnp.concatenate([jnp.ravel(s(self, 0.0, zz, None)) for _, s in self.error_sensors])
+                ys = observer(0.0, zz, None)
+                return jnp.concatenate([jnp.ravel(ys[name]) for name, _ in self.error_sensors])
 
             y, dy = jax.jvp(outputs, (z,), (e,))
             return y, dy, jnp.ones(y.shape[0], bool)
@@ -360,8 +404,82 @@ class Mechanism(AbstractConstrainedModel):
         return [b.own_equations(zb) for b, zb in zip(self.bodies, self.split(z))]
 
     def constraints(self, z: Float[Array, " n"], t: Scalar = 0.0) -> Float[Array, " m"]:
-        xs = self.nodal_vectors(z)
-        return jnp.concatenate([self.joint_equations(xs, t)] + self._own_equations(z))
+        """The joints' equations on the rows they read (``_joints_on_rows``: the section frames
+        in one batch), then the bodies' own."""
+        joints = (self._joints_on_rows(self._rows_of(self.nodal_vectors(z)), t) if self.joints
+                  else jnp.zeros((0,), z.dtype))
+        return jnp.concatenate([joints] + self._own_equations(z))
+
+    def constraint_rate(self, z, t: Scalar) -> Float[Array, " m"]:
+        """C_t = ∂C/∂t (zero without drivers), of the joints on the rows they read: the bodies'
+        maps do not depend on t, so only the joints' equations are differentiated."""
+        if not self.rheonomic:
+            return jnp.zeros(self.n_constraints, z.dtype)
+        rows = self._rows_of(self.nodal_vectors(z))
+        C_t = jax.jvp(lambda s: self._joints_on_rows(rows, s), (jnp.asarray(t, z.dtype),), (jnp.ones((), z.dtype),))[1]
+        return jnp.concatenate([C_t, jnp.zeros(self.n_body_equations, z.dtype)])
+
+    def _rows_along(self, z, v) -> tuple:
+        """``(x, ẋ, ẍ₀, J)`` on the rows the joints read (``_joint_rows``), each a tuple with one
+        array a body: the nodal vectors, their velocities J v, their second derivative J̇ v along
+        the path z + s v (the nodal accelerations at z̈ = 0) and those rows of J, the last three
+        from one forward-mode derivative of the rows of each body's Jacobian (cheaper than a
+        derivative of its ``tangent``, which maps every nodal vector)."""
+        read = self._joint_rows()
+
+        def along(first):
+            def f(b, zb, vb):
+                J, dJ = jax.jvp(lambda y: b.jacobian(y, read[first]), (zb,), (vb,))
+                return jnp.sum(J * vb, axis=-1), jnp.sum(dJ * vb, axis=-1), J
+            return f
+
+        xd, xdd, Js = zip(*self._map(along, z, v, by_run=True))
+        return self._rows_of(self.nodal_vectors(z)), xd, xdd, Js
+
+    def _joints_along(self, rows, t, dC=None) -> Float[Array, " mj"]:
+        """d²/ds² of the joints' equations along x(s) = x + s ẋ + ½ s² ẍ₀ at time t + s, at s = 0
+        (``rows``: ``_rows_along``'s first three), C_xx(ẋ, ẋ) + 2 C_xt ẋ + C_tt + C_x ẍ₀: the
+        second derivative along (ẋ, 1), and C_x ẍ₀ from the rows' Jacobian ``dC`` when the
+        caller has it (``_joint_jacobian``), else from one more derivative."""
+        x, xd, xdd = rows[:3]
+        t = jnp.asarray(t, jnp.result_type(*x))
+        one = jnp.ones_like(t)
+
+        def rate(y, s):
+            return jax.jvp(self._joints_on_rows, (y, s), (xd, one))[1]
+
+        second = jax.jvp(rate, (x, t), (xd, one))[1]
+        if dC is None:
+            return second + jax.jvp(lambda y: self._joints_on_rows(y, t), (x,), (xdd,))[1]
+        return second + sum(jnp.sum(d * a, axis=(1, 2)) for d, a in zip(dC, xdd))
+
+    def _own_along(self, z, v) -> list:
+        """The bodies' own equations' second derivatives along v (2 ė·ė of |e|² = 1)."""
+        return [jax.jvp(lambda y, b=b, vb=vb: jax.jvp(b.own_equations, (y,), (vb,))[1], (zb,), (vb,))[1]
+                for b, zb, vb in zip(self.bodies, self.split(z), self.split(v)) if b.n_own_equations]
+
+    def constraint_acceleration(self, z, v, t: Scalar = 0.0) -> Float[Array, " m"]:
+        """The part of C̈ = C_z a + (C_z v)_z v + 2 C_zt v + C_tt that does not hold a, by the chain
+        rule through the nodal vectors the joints read (``_rows_along``: x, ẋ = J v, ẍ₀ = J̇ v):
+        the joints' equations' second derivative along the path x + s ẋ + ½ s² ẍ₀ at time t + s,
+
+            d²/ds² C(x(s), t + s) = C_xx(ẋ, ẋ) + 2 C_xt ẋ + C_tt + C_x ẍ₀
+
+        (``_joints_along``), then the bodies' own equations' second derivative along v. The same
+        quantity as the second derivative of ``constraints`` along (v, 1)
+        (``AbstractConstrainedModel``), whose nested derivatives run through every body's map."""
+        joints = [self._joints_along(self._rows_along(z, v), t)] if self.joints else []
+        return jnp.concatenate([jnp.zeros((0,), z.dtype)] + joints + self._own_along(z, v))
+
+    def constraint_jacobian_and_acceleration(self, z, v, t: Scalar = 0.0) -> tuple:
+        """``(C_z, constraint_acceleration)`` from one evaluation of the rows the joints read and
+        of their Jacobians (``_rows_along``), for the consistent accelerations."""
+        if not self.joints:
+            return self.constraint_jacobian(z, t), self.constraint_acceleration(z, v, t)
+        rows = self._rows_along(z, v)
+        dC = jax.jacfwd(lambda x_rows: self._joints_on_rows(x_rows, t))(rows[0])
+        return (jnp.concatenate([_through(dC, rows[3])] + self._own_rows(z), axis=0),
+                jnp.concatenate([self._joints_along(rows, t, dC)] + self._own_along(z, v)))
 
     def _joint_rows(self) -> tuple[tuple[int, ...], ...]:
         """Each body's nodal vectors that any joint reads; for a run of equal bodies one list for
@@ -374,8 +492,9 @@ class Mechanism(AbstractConstrainedModel):
         return tuple(rows)
 
     def _rows_of(self, xs) -> tuple:
-        """Each body's nodal vectors that the joints read (``_joint_rows``), (rows, 3) a body."""
-        return tuple(x[np.asarray(r, dtype=int)] for x, r in zip(xs, self._joint_rows()))
+        """Each body's nodal vectors that the joints read (``_joint_rows``), (rows, 3) a body: the
+        rows by static slices (``_pick``), not a gather."""
+        return tuple(_pick(x, r) for x, r in zip(xs, self._joint_rows()))
 
     def describe(self) -> list[str]:
         """One line a body: its kind and coordinates, and for a reduced body how its basis was
@@ -412,25 +531,46 @@ class Mechanism(AbstractConstrainedModel):
                 xs[b][Directions.frame_key(v)] = T[k]
         return self.joint_equations(xs, t)
 
-    def constraint_jacobian(self, z, t: Scalar = 0.0):
-        """C_z = ∂C/∂x J: the joints differentiated with respect to the few nodal vectors they
-        read, times those rows of each body's J; then the bodies' own rows (2 e_bᵀ of
-        |e_b|² = 1)."""
-        xs = self.nodal_vectors(z)
-        rows = self._joint_rows()
-        if self.joints:
-            dC = jax.jacfwd(lambda x_rows: self._joints_on_rows(x_rows, t))(self._rows_of(xs))  # (m, rows, 3)
-            # the rows a run's bodies are read at are the run's (_joint_rows)
-            Js = self._map(lambda first: lambda b, zb: b.jacobian(zb, rows[first]), z, by_run=True)
-            C_joints = jnp.concatenate([jnp.einsum("mvi,vik->mk", d, J) for d, J in zip(dC, Js)], axis=1)
+    def _joint_jacobian(self, z, t: Scalar = 0.0, rate: bool = False, rows=None) -> tuple:
+        """``(dC, C_joints, C_t)``: the joints' equations differentiated with respect to the few
+        nodal vectors they read (``dC``, one (m, rows, 3) array a body), times those rows of each
+        body's J (``C_joints``, m × n), and, with ``rate`` and drivers, their rate C_t from the
+        same forward-mode derivative (one tangent more; else None). ``rows``: the rows' nodal
+        vectors (``_rows_of``) when the caller has them."""
+        rows = self._rows_of(self.nodal_vectors(z)) if rows is None else rows
+        if rate and self.rheonomic:
+            dC, C_t = jax.jacfwd(self._joints_on_rows, argnums=(0, 1))(rows, jnp.asarray(t, z.dtype))
         else:
-            C_joints = jnp.zeros((0, self.n_dof), z.dtype)
+            dC, C_t = jax.jacfwd(lambda x_rows: self._joints_on_rows(x_rows, t))(rows), None  # (m, rows, 3)
+        # the rows a run's bodies are read at are the run's (_joint_rows)
+        read = self._joint_rows()
+        Js = self._map(lambda first: lambda b, zb: b.jacobian(zb, read[first]), z, by_run=True)
+        return dC, _through(dC, Js), C_t
+
+    def _own_rows(self, z) -> list:
+        """The bodies' own constraints' rows of C_z (2 e_bᵀ of |e_b|² = 1), each as wide as z."""
         own = []
         for b, zb, o in zip(self.bodies, self.split(z), self.offsets):
             if b.n_own_equations:
                 Jb = b.own_jacobian(zb)
                 own.append(jnp.zeros((Jb.shape[0], self.n_dof), z.dtype).at[:, o:o + b.n_z].set(Jb))
-        return jnp.concatenate([C_joints] + own, axis=0)
+        return own
+
+    def constraint_jacobian(self, z, t: Scalar = 0.0):
+        """C_z = ∂C/∂x J: the joints differentiated with respect to the few nodal vectors they
+        read, times those rows of each body's J (``_joint_jacobian``); then the bodies' own rows
+        (2 e_bᵀ of |e_b|² = 1)."""
+        C_joints = self._joint_jacobian(z, t)[1] if self.joints else jnp.zeros((0, self.n_dof), z.dtype)
+        return jnp.concatenate([C_joints] + self._own_rows(z), axis=0)
+
+    def constraint_jacobian_and_rate(self, z, t: Scalar) -> tuple:
+        """``(C_z, C_t)`` from one forward-mode derivative of the joints with respect to their
+        rows and the time (``_joint_jacobian``): the velocity projection reads both."""
+        if not (self.joints and self.rheonomic):
+            return self.constraint_jacobian(z, t), self.constraint_rate(z, t)
+        _, C_joints, C_t = self._joint_jacobian(z, t, rate=True)
+        return (jnp.concatenate([C_joints] + self._own_rows(z), axis=0),
+                jnp.concatenate([C_t, jnp.zeros(self.n_body_equations, z.dtype)]))
 
     def residual(self, t: Scalar, z, v, a) -> Float[Array, " n"]:
         """Σ_b J_bᵀ(M_b ẍ_b − Q_b) + ∂U/∂z, without the joints' forces (the stepper adds C_zᵀ λ).
@@ -508,14 +648,16 @@ class Mechanism(AbstractConstrainedModel):
             blocks = [S + F for S, F in zip(blocks, self._force_blocks(t, z, v, c_K, c_C))]
         return jax.scipy.linalg.block_diag(*blocks)
 
-    def _blocks(self, z, c_M, c_K, v=None, a=None, lam=None, c_C=0.0) -> list:
+    def _blocks(self, z, c_M, c_K, v=None, a=None, lam=None, c_C=0.0, reactions=None) -> list:
         """The ``iteration_matrix``'s diagonal blocks, one a body; with the state's velocity
         ``v``, acceleration ``a`` and multipliers ``lam``, the terms each body keeps of them
-        (``AbstractBodyKind.block``)."""
+        (``AbstractBodyKind.block``). ``reactions``: the joints' nodal forces C_xᵀλ when the
+        caller has them (else from ``lam``, ``_nodal_reactions``)."""
         if a is None:
             return self._map(lambda b, zb: b.block(zb, c_M, c_K, self.gravity), z)
+        reactions = self._nodal_reactions(z, lam) if reactions is None else reactions
         return self._map(lambda b, zb, vb, ab, reaction: b.block(zb, c_M, c_K, self.gravity, (vb, ab, reaction), c_C),
-                         z, v, a, tuple(self._nodal_reactions(z, lam)))
+                         z, v, a, tuple(reactions))
 
     def tangent_blocks(self, t, z, v, a, lam) -> list:
         """∂r/∂z body by body at a state (z, ż, z̈, λ) of the DAE: each body's elastic stiffness with
@@ -534,8 +676,7 @@ class Mechanism(AbstractConstrainedModel):
             return jnp.zeros((0,), lam.dtype), tuple(jnp.zeros_like(x) for x in xs)
         C, pullback = jax.vjp(lambda y: self._joints_on_rows(y, t), self._rows_of(xs))
         f_rows = pullback(lam[:self.n_joint_equations])[0]
-        return C, tuple(jnp.zeros_like(x).at[np.asarray(r, dtype=int)].add(f)
-                        for x, r, f in zip(xs, self._joint_rows(), f_rows))
+        return C, tuple(_place(f, r, x.shape[0]) for x, r, f in zip(xs, self._joint_rows(), f_rows))
 
     def _nodal_reactions(self, z, lam, t: Scalar = 0.0) -> tuple:
         """The joints' forces on each body's nodal vectors, C_xᵀλ (zero without joints)."""
@@ -554,8 +695,17 @@ class Mechanism(AbstractConstrainedModel):
         fraction of its arithmetic, and on a CPU one LU of the whole matrix can cost more than the
         rest of the step. A small block's inverse is formed from its LU (``linalg.factor_block``),
         so that each Newton iteration's solve is a product, one for a chain of equal bodies."""
-        B = self.constraint_jacobian(z, t)
-        blocks = self._blocks(z, 1.0, c_K, v, a, lam, c_C)
+        xs, reactions = self.nodal_vectors(z), None
+        if self.joints:
+            dC, C_joints, _ = self._joint_jacobian(z, t, rows=self._rows_of(xs))
+            if a is not None:  # the reactions C_xᵀλ from the Jacobian on the rows, not from a pullback
+                lam_j = lam[:self.n_joint_equations]
+                reactions = tuple(_place(jnp.sum(lam_j[:, None, None] * d, axis=0), r, x.shape[0])
+                                  for x, r, d in zip(xs, self._joint_rows(), dC))
+        else:
+            C_joints = jnp.zeros((0, self.n_dof), z.dtype)
+        B = jnp.concatenate([C_joints] + self._own_rows(z), axis=0)
+        blocks = self._blocks(z, 1.0, c_K, v, a, lam, c_C, reactions)
         if self.forces:
             blocks = [S + F for S, F in zip(blocks, self._force_blocks(t, z, v, c_K, c_C))]
         # a body that knows its block's structure (an ANCF beam chain) factors it itself; the dense

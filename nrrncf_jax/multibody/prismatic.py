@@ -18,6 +18,7 @@ from typing import ClassVar
 import jax.numpy as jnp
 
 from .cylindrical import Cylindrical
+from .section_frame import dot
 
 N_EQUATIONS = 5
 
@@ -34,7 +35,7 @@ class Prismatic(Cylindrical):
 
     def __call__(self, xs, t=0.0):
         on_axis, n, (_, m) = self._on_axis(xs)
-        return jnp.concatenate([on_axis, (n[1] @ m)[None]])
+        return jnp.concatenate([on_axis, dot(n[1], m)[None]])
 
 
 __all__ = ["Prismatic"]

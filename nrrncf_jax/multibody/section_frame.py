@@ -33,6 +33,44 @@ import numpy as np
 from .._types import Array, Float
 
 
+def dot(a: Float[Array, "... 3"], b: Float[Array, "... 3"]) -> Float[Array, "..."]:
+    """a·b over the vectors' last axis (broadcast over the others): the joints' products of
+    directions and positions, as element-wise products and a sum. As a ``dot_general``
+    (``a @ b``) each product of 3-vectors is a kernel of its own to XLA, compiled on its own, and
+    a mechanism's joints and their derivatives hold hundreds of them; the sum is fused with the
+    products (written component by component it takes more operations and more kernels)."""
+    return jnp.sum(a * b, axis=-1)
+
+
+def _scalars(d1, d2) -> tuple:
+    """The frame's scalars from the section vectors' components: ``(r1, r2, c, s)``, the inverse
+    lengths 1/|d₁|, 1/|d₂|, the cosine c = a·b of the unit vectors and s = √(1 − c²)."""
+    x1, y1, z1 = d1[..., 0], d1[..., 1], d1[..., 2]
+    x2, y2, z2 = d2[..., 0], d2[..., 1], d2[..., 2]
+    r1 = jax.lax.rsqrt(x1 * x1 + y1 * y1 + z1 * z1)
+    r2 = jax.lax.rsqrt(x2 * x2 + y2 * y2 + z2 * z2)
+    c = (x1 * x2 + y1 * y2 + z1 * z2) * r1 * r2
+    return r1, r2, c, jnp.sqrt(1.0 - c * c)
+
+
+def _frame(d1, d2):
+    """``triad``'s closed form, as plain operations (``triad`` adds its derivative's rule): for
+    concrete vectors it evaluates at once, also inside a transformation (``reference_triad``)."""
+    x1, y1, z1 = d1[..., 0], d1[..., 1], d1[..., 2]
+    x2, y2, z2 = d2[..., 0], d2[..., 1], d2[..., 2]
+    r1, r2, c, s = _scalars(d1, d2)
+    inv_s = 1.0 / s
+    k = jax.lax.rsqrt(2.0 + 2.0 * s) * inv_s  # 1/(t s)
+    p, q = (1.0 + s) * k * r1, c * k * r2  # e₂ = p d₁ − q d₂
+    u, w = (1.0 + s) * k * r2, c * k * r1  # e₃ = u d₂ − w d₁
+    n = r1 * r2 * inv_s  # e₁ = n d₁ × d₂
+    e1 = jnp.stack([n * (y1 * z2 - z1 * y2), n * (z1 * x2 - x1 * z2), n * (x1 * y2 - y1 * x2)], axis=-1)
+    e2 = jnp.stack([p * x1 - q * x2, p * y1 - q * y2, p * z1 - q * z2], axis=-1)
+    e3 = jnp.stack([u * x2 - w * x1, u * y2 - w * y1, u * z2 - w * z1], axis=-1)
+    return jnp.stack([e1, e2, e3], axis=-1)
+
+
+@jax.custom_jvp
 def triad(d1: Float[Array, " 3"], d2: Float[Array, " 3"]) -> Float[Array, "3 3"]:
     """The section frame T = [e₁, e₂, e₃] (columns) of two section vectors (module docstring).
 
@@ -45,22 +83,40 @@ def triad(d1: Float[Array, " 3"], d2: Float[Array, " 3"]) -> Float[Array, "3 3"]
 
     Every operation is element-wise on the vectors' components (no reductions, no norms): XLA
     fuses the frame, its derivatives and a joint's equations into a few kernels, where the
-    normalise-four-times form cost a reduced pendulum's step many more operations."""
-    x1, y1, z1 = d1[..., 0], d1[..., 1], d1[..., 2]
-    x2, y2, z2 = d2[..., 0], d2[..., 1], d2[..., 2]
-    r1 = jax.lax.rsqrt(x1 * x1 + y1 * y1 + z1 * z1)
-    r2 = jax.lax.rsqrt(x2 * x2 + y2 * y2 + z2 * z2)
-    c = (x1 * x2 + y1 * y2 + z1 * z2) * r1 * r2
-    s = jnp.sqrt(1.0 - c * c)
-    inv_s = 1.0 / s
-    k = jax.lax.rsqrt(2.0 + 2.0 * s) * inv_s  # 1/(t s)
-    p, q = (1.0 + s) * k * r1, c * k * r2  # e₂ = p d₁ − q d₂
-    u, w = (1.0 + s) * k * r2, c * k * r1  # e₃ = u d₂ − w d₁
-    n = r1 * r2 * inv_s  # e₁ = n d₁ × d₂
-    e1 = jnp.stack([n * (y1 * z2 - z1 * y2), n * (z1 * x2 - x1 * z2), n * (x1 * y2 - y1 * x2)], axis=-1)
-    e2 = jnp.stack([p * x1 - q * x2, p * y1 - q * y2, p * z1 - q * z2], axis=-1)
-    e3 = jnp.stack([u * x2 - w * x1, u * y2 - w * y1, u * z2 - w * z1], axis=-1)
-    return jnp.stack([e1, e2, e3], axis=-1)
+    normalise-four-times form cost a reduced pendulum's step many more operations. Its
+    derivative is the frame's turn in closed form (``_triad_jvp``)."""
+    return _frame(d1, d2)
+
+
+@triad.defjvp
+def _triad_jvp(primals, tangents):
+    """The frame's derivative as its turn, dT = T [ω]×, with ω's components in the frame from the
+    tangents' components P_i = Tᵀ dd_i / |d_i| (the polar factor's derivative, which for two
+    vectors is closed-form):
+
+        ω₁ = ((1 + s)(P₁₃ − P₂₂) − c (P₁₂ − P₂₃)) / (2t),
+        ω₂ = ((1 + s) P₂₁ − c P₁₁) / (t s),   ω₃ = (c P₂₁ − (1 + s) P₁₁) / (t s)
+
+    (ω₁ the turn in the section's plane, shared by both vectors; ω₂, ω₃ the turns of its normal
+    e₁ toward e₃ and e₂). Equal to the derivative of ``triad``'s closed form to round-off, in
+    fewer operations than differentiating that takes: the frame enters every joint's
+    derivatives (the constraint Jacobian, the reactions, the constraints' second derivative).
+    The frame itself is ``triad``'s, so a second derivative turns it by this rule again."""
+    d1, d2 = primals
+    dd1, dd2 = tangents
+    T = triad(d1, d2)
+    r1, r2, c, s = _scalars(d1, d2)
+    g = jax.lax.rsqrt(2.0 + 2.0 * s)  # 1/t
+    k = g / s
+    P1 = r1[..., None] * jnp.sum(T * dd1[..., :, None], axis=-2)  # (e₁, e₂, e₃)·dd₁/|d₁|
+    P2 = r2[..., None] * jnp.sum(T * dd2[..., :, None], axis=-2)
+    w1 = 0.5 * g * ((1.0 + s) * (P1[..., 2] - P2[..., 1]) - c * (P1[..., 1] - P2[..., 2]))
+    w2 = k * ((1.0 + s) * P2[..., 0] - c * P1[..., 0])
+    w3 = k * (c * P2[..., 0] - (1.0 + s) * P1[..., 0])
+    # column j of T [ω]×: ω_{j+2} e_{j+1} − ω_{j+1} e_{j+2} (indices mod 3)
+    W1 = jnp.stack([w3, w1, w2], axis=-1)[..., None, :]
+    W2 = jnp.stack([w2, w3, w1], axis=-1)[..., None, :]
+    return T, jnp.roll(T, -1, axis=-1) * W1 - jnp.roll(T, -2, axis=-1) * W2
 
 
 def reference_triad(d1, d2) -> np.ndarray:
@@ -70,7 +126,7 @@ def reference_triad(d1, d2) -> np.ndarray:
     n1, n2 = np.linalg.norm(d1), np.linalg.norm(d2)
     if n1 == 0 or n2 == 0 or np.linalg.norm(np.cross(d1 / n1, d2 / n2)) < 1e-6:
         raise ValueError(f"section vectors {tuple(d1)} and {tuple(d2)} span no frame (zero or parallel)")
-    return np.asarray(triad(jnp.asarray(d1), jnp.asarray(d2)))
+    return np.asarray(_frame(jnp.asarray(d1), jnp.asarray(d2)))
 
 
 class Directions(eqx.Module):
@@ -133,7 +189,7 @@ class Directions(eqx.Module):
     def __call__(self, xs) -> Float[Array, "k 3"]:
         if self.body is None:
             return self.local
-        return self.local @ self.triad(xs).T
+        return dot(self.local[:, None, :], self.triad(xs)[None, :, :])  # local @ Tᵀ
 
 
 __all__ = ["Directions", "reference_triad", "triad"]

@@ -14,7 +14,7 @@ import jax.numpy as jnp
 
 from .._types import Array, Float
 from .joints import AbstractJoint, _vector
-from .section_frame import Directions
+from .section_frame import Directions, dot
 
 N_EQUATIONS = 4
 
@@ -55,7 +55,7 @@ class Universal(AbstractJoint):
     def __call__(self, xs, t=0.0):
         r_a = self.point if self.body_a is None else _vector(xs, self.body_a, self.position_a)
         return jnp.concatenate([r_a - _vector(xs, self.body_b, self.position_b),
-                                (self.axis_a(xs)[0] @ self.axis_b(xs)[0])[None]])
+                                dot(self.axis_a(xs)[0], self.axis_b(xs)[0])[None]])
 
 
 __all__ = ["Universal"]

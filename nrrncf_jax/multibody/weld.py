@@ -20,7 +20,7 @@ import numpy as np
 
 from .._types import Array, Float
 from .joints import AbstractJoint, _vector
-from .section_frame import Directions
+from .section_frame import Directions, dot
 
 N_EQUATIONS = 6
 
@@ -68,7 +68,7 @@ class Weld(AbstractJoint):
 
     def __call__(self, xs, t=0.0):
         r_a = self.point if self.body_a is None else _vector(xs, self.body_a, self.position_a)
-        S = self.frame_a(xs) @ self.frame_b(xs).T
+        S = dot(self.frame_a(xs)[:, None, :], self.frame_b(xs)[None, :, :])  # frame_a @ frame_bᵀ
         skew = jnp.stack([S[2, 1] - S[1, 2], S[0, 2] - S[2, 0], S[1, 0] - S[0, 1]])
         return jnp.concatenate([r_a - _vector(xs, self.body_b, self.position_b), skew])
 
