@@ -1,9 +1,12 @@
-"""Is the error estimate honest on every example? The effectivity of the *total* estimate (basis +
-time-integration parts) against the total error measured with a converged reference, on the
-examples beside the spin-ups (``results/effectivity.md``, issue 61).
+"""Is the error estimate honest on every example? (``results/effectivity.md``, issue 61)
+
+The effectivity of the *total* estimate (basis + time-integration parts) against the total error
+measured with a converged reference, on the examples beside the spin-ups (whose figures are
+copied from ``results/table3_converged.md``).
 
     python benchmarks/effectivity.py [--cases membrane-in-plane membrane-bending-torsion truss pendulum
-                                              slider_crank rotor] [--rings 5] [--bays 6]
+                                              slider_crank rotor] [--rings 5] [--bays 36]
+                                     [--truss-mesh 1 1]
 
 Each example runs its reduced model at its command's default tolerances and basis, with its error
 estimate from the reduced run alone, and is measured against the full model converged as its
@@ -20,15 +23,19 @@ effectivity (total estimate / measured total) and whether it lies in [0.5, 2].
   through ``run_forced`` as ``run_membrane`` calls it, with ``estimate_integration=True``, which
   ``run_membrane`` does not pass on.
 - ``truss``: ``nrrncf truss dynamics --reference rncf`` (rtol 1e-4, atol 1e-6, 0-10 s, outputs
-  every 0.02 s, 4 VMs + 6 MDs by MMI among 12), on ``--bays`` bays (the paper's 36 take 200 s a
-  full run at rtol 1e-4), through ``run_forced`` as ``run_truss`` calls it, with
-  ``estimate_integration=True``.
+  every 0.02 s, 4 VMs + 6 MDs by MMI among 12) on the paper's 36 bays (``--bays``), but one beam
+  element a longeron bay and one a batten (``--truss-mesh``; the paper's mesh, 6 and 4, takes
+  200 s a full run at rtol 1e-4, and its first bending frequency is the same to 1e-6), through
+  ``run_forced`` as ``run_truss`` calls it, with ``estimate_integration=True``, which
+  ``run_truss`` does not pass on.
 - ``pendulum``: ``nrrncf pendulum --formulation nr-rncf --reference ancf`` (the paper's mesh, 10
   elements a beam; 5 VMs + 15 MDs a beam; rtol 1e-3, atol rtol/10, the PI controller, 0-2 s,
-  outputs every 1 ms), its converged reference by the CLI's rule (the ANCF model at a hundredth
-  and a thousandth of 1e-3 ... : ``cli/pendulum.py``). ``run_pendulum`` estimates the basis part
-  only; the integration part is made here by the library's rule (``reduction.run_error``: the run
-  against its repetition at a tenth of its tolerances), over every output.
+  outputs every 1 ms), its converged reference by the CLI's rule (``cli/pendulum.py``: the ANCF
+  model at a hundredth of its own default rtol 1e-4, or of the run's where tighter, so 1e-6, and
+  at ten times that; the reduced chain again at a hundredth of its rtol, 1e-5, for the parts).
+  ``run_pendulum`` estimates the basis part only; the integration part is made here by the
+  library's rule (``reduction.run_error``: the run against its repetition at a tenth of its
+  tolerances), over every output.
 - ``slider_crank``, ``rotor``: ``nrrncf run MODEL --param formulation=nr-rncf --reference full``
   (the model's defaults); its reference runs (``cli/run.py``'s ``_reference_errors``) with each
   body's nodes recorded. ``run_setup`` makes no estimate: the run here is ``run_setup``'s with its
@@ -38,7 +45,10 @@ effectivity (total estimate / measured total) and whether it lies in [0.5, 2].
   norm, and the per-sensor ones (``nrrncf run``'s) in a table of their own. The integration
   part as for the pendulum.
 
-One core. Run times are not reported (the machine was shared with other jobs).
+Per reduced body of a mechanism the same figures in the norm of the estimate's
+``body_chi_percent`` (the body's position-vector error over its deformation). One core. Run times
+are not reported (the machine was shared with other jobs); the default run takes about 23 min of
+CPU, the truss a third of it.
 """
 
 import argparse
