@@ -518,6 +518,37 @@ def test_reduce_gives_modal_derivatives_to_the_named_loads_and_the_sections_thei
             reduce(beam, ends, **(kw | kwargs))
 
 
+def test_a_planar_basis_keeps_the_in_plane_moments_attachment_modes():
+    """``plane_normal`` with ``interface_rotations``: of the far end's three moments only the one
+    about the normal has an in-plane part (the others act on the coordinates the plane holds),
+    so the basis gains one moment mode, whose static deflection it spans to round-off, under
+    every reference condition that loads the far end; a named derivative of an out-of-plane
+    moment is refused, naming the loads there are."""
+    from nrrncf_jax.multibody.markers import BodyGeometry
+    from nrrncf_jax.multibody.reduce import moment_loads, reduce
+
+    beam = beam_body(Material(1e9, 2700.0, 0.3), TubeSection(0.01), straight_reference(1.0, 2))
+    ends = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)]
+    kw = {"vms": 1, "mds": [], "interface_modes": True, "plane_normal": (0.0, 0.0, 1.0)}
+    for conditions in ("clamped", "pinned", "mean-axis"):
+        forces = reduce(beam, ends, **kw, conditions=conditions)
+        moments = reduce(beam, ends, **kw, conditions=conditions, interface_rotations=True)
+        assert moments.k == forces.k + (2 if conditions == "mean-axis" else 1), conditions  # mz at each loaded end
+    clamped = reduce(beam, ends, **kw, interface_rotations=True)
+    local, free = clamped.body, np.asarray(clamped.free)
+    geometry = BodyGeometry(np.asarray(local.q_hat), np.asarray(local.is_position), local.vectors_per_node,
+                            local.section_slots)
+    F = moment_loads(local, geometry.section(0, geometry.node(Marker(0, ends[1]))))[:, 2]  # about z
+    assert not F[~free].any()
+    K = np.asarray(local.stiffness_matrix(local.q_hat))[np.ix_(free, free)]
+    u = np.zeros(local.n_dof)
+    u[free] = np.linalg.solve(K, F[free])
+    Psi = np.asarray(clamped.basis)
+    assert np.linalg.norm(u - Psi @ np.linalg.lstsq(Psi, u, rcond=None)[0]) < 1e-10 * np.linalg.norm(u)
+    with pytest.raises(ValueError, match="no interface mode here"):
+        reduce(beam, ends, **kw, interface_rotations=True, interface_mds=("mx",))
+
+
 @pytest.mark.slow
 def test_modal_derivatives_chosen_by_the_mechanisms_own_motion():
     """``reduce(..., mds="mmi")`` then ``select_modal_derivatives``: two soft beams hinged end to

@@ -260,15 +260,17 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     if interface_rotations:
         loads += [moment_loads(local, geometry.section(0, v)) for v in loaded]
         names += ["mx", "my", "mz"] * len(loaded)
-    attached = attach(np.concatenate(loads, axis=1))
+    loads, names = _in_plane(np.concatenate(loads, axis=1), free, names)
+    attached = attach(loads)
     if interface_sections == "all":  # every node whose section is free, not only the interfaces'
         held = ~free.reshape(-1, 3).any(axis=1)
         section_nodes = [int(v) for v in np.flatnonzero(geometry.is_position)
                          if not held[list(geometry.section(0, int(v)))].any()]
     else:
         section_nodes = loaded
-    stretched = [attach(np.concatenate([section_loads(local, geometry.section(0, v)) for v in section_nodes],
-                                       axis=1))] if interface_sections else []
+    stretched = [attach(_in_plane(np.concatenate([section_loads(local, geometry.section(0, v))
+                                                  for v in section_nodes], axis=1), free)[0])] \
+        if interface_sections else []
     if not md_loads:
         return modal_body(local, free, phi, pairs, R0, A0, deflation_tol, [attached] + stretched, note=note,
                           space=space)
@@ -282,6 +284,25 @@ def reduce(body: Body, interfaces, vms: int = 5, mds="all", basis: str = "free",
     chosen = [vms + k for k, n in enumerate(names) if n in md_loads]
     pairs = list(pairs) + [(i, j) for i in list(range(vms)) + chosen for j in chosen if j >= i]
     return modal_body(local, free, both, pairs, R0, A0, deflation_tol, stretched, note=note, space=space)
+
+
+def _in_plane(F: np.ndarray, free: np.ndarray, names=None) -> tuple[np.ndarray, list | None]:
+    """The loads (columns of ``F``, named ``names``) that act on free coordinates only. With
+    ``plane_normal`` the coordinates that leave the plane are held (``mirror_even``), and a load
+    that acts on them alone (a moment about an in-plane axis, a section's shear out of the plane)
+    has no in-plane part: it is dropped. A load that acts on both held and free coordinates has
+    no attachment mode under these conditions and is refused, naming it."""
+    held = ~free
+    on_held = np.abs(F[held]).max(axis=0, initial=0.0) > 0
+    on_free = np.abs(F[free]).max(axis=0, initial=0.0) > 0
+    mixed = np.flatnonzero(on_held & on_free)
+    if mixed.size:
+        which = [names[k] for k in mixed] if names is not None else [int(k) for k in mixed]
+        raise ValueError(f"reduce: the interface loads {which} act on coordinates the reference conditions (or "
+                         "plane_normal's in-plane restriction) hold and on free ones at once, so they have no "
+                         "attachment mode here; a plane_normal must be along one of the interfaces' section axes")
+    keep = np.flatnonzero(~on_held)
+    return F[:, keep], (None if names is None else [names[k] for k in keep])
 
 
 def _interface_md_loads(interface_mds) -> tuple[str, ...]:
