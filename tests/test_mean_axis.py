@@ -34,6 +34,7 @@ from nrrncf_jax.bodies import Material, TubeSection, beam_body, straight_referen
 from nrrncf_jax.elements.beam import mirror_even
 from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, simulate
 from nrrncf_jax.multibody import Mechanism, placed
+from nrrncf_jax.multibody.error_estimate import full_counterpart
 from nrrncf_jax.multibody.floating import rotation
 from nrrncf_jax.multibody.reduce import MeanAxisSpace, centre_of_mass, modal_body, reduce
 from nrrncf_jax.post.metrics import chi_rel
@@ -225,16 +226,33 @@ def test_a_free_flying_beam_follows_the_full_one():
     assert np.abs(ref).max() > 3e-3  # it bends
     assert float(chi_rel(ref, w_mid(x_red))) < 1.0
     centre = start + (length / 2, 0.0, 0.0)  # rigid_velocity turns about the origin: the centre moves at v + ω × c
-    np.testing.assert_allclose(R, centre + np.outer(ts, velocity + np.cross((0.0, 0.0, 150.0), centre)), rtol=0,
-                               atol=1e-12)  # measured 1.3e-15: the decoupled R̈ = 0 is solved exactly
+    uniform = centre + np.outer(ts, velocity + np.cross((0.0, 0.0, 150.0), centre))
+    np.testing.assert_allclose(R, uniform, rtol=0, atol=1e-12)  # measured 1.3e-15: the decoupled R̈ = 0 is exact
+
+    # The full-order counterpart (every nodal coordinate, the frame held by G p = 0 instead of
+    # held coordinates; error_estimate.full_counterpart) from the same state: the same motion as
+    # the full ANCF beam, to the two runs' integration error (rtol 1e-5: ~0.1 %, bound 5x), its
+    # conditions held to round-off, and its frame at the centre of mass (the linear momentum's
+    # condition is exact), moving uniformly.
+    counterpart = full_counterpart(system)
+    cb = counterpart.bodies[0]
+    assert cb.tensors.full_order and cb.n_own_equations == 1 + 3  # |e| = 1 and the three in-plane conditions
+    lift = np.asarray(cb.basis).T @ np.asarray(body.basis)
+    zc0, vc0 = (jnp.concatenate([y[:7], jnp.asarray(lift) @ y[7:]]) for y in (z0, v0))
+    mean = simulate(counterpart, GeneralizedAlphaIndex3(0.9), controller, ts, y0=(zc0, vc0),
+                    observe=lambda t, z, v: (counterpart.nodal_vectors(z)[0], z[:3], cb.own_equations(z)[1:]))
+    x_full, R_full, conditions = (np.asarray(y) for y in mean.ys)
+    assert float(chi_rel(ref, w_mid(x_full))) < 0.5
+    assert np.abs(conditions).max() < 1e-12 * np.abs(x_full).max()
+    np.testing.assert_allclose(R_full, uniform, rtol=0, atol=1e-12)
 
 
 def test_mean_axis_refuses_what_it_cannot_build(spatial):
     """Craig-Bampton (its boundary coordinates are held) and the full-order body (the conditions
     are no selection of held coordinates) are refused by name; so is a full-order frame whose free
-    coordinates leave rigid motions (``full_counterpart`` of a mean-axis body, which would be
+    coordinates leave rigid motions unless the mean-axis conditions hold them (it would be
     singular), and a ``MeanAxisSpace`` of a clamped body."""
-    from nrrncf_jax.multibody.error_estimate import full_counterpart
+    from nrrncf_jax.multibody.full_order_frame import full_floating_body
 
     beam, ends, body = spatial
     for kwargs, match in [({"basis": "craig-bampton"}, "mean-axis.*goes with basis='free'"),
@@ -243,7 +261,20 @@ def test_mean_axis_refuses_what_it_cannot_build(spatial):
         with pytest.raises(ValueError, match=match):
             reduce(beam, ends, **({"conditions": "mean-axis"} | kwargs))
     with pytest.raises(ValueError, match="must hold its frame"):
-        full_counterpart(Mechanism([body]))
+        full_floating_body(body.body, np.asarray(body.free))
+    assert full_floating_body(body.body, np.asarray(body.free), mean_axis=True).n_own_equations == 1 + 6
+    # the static error estimate holds each body's frame, which no joint holds under mean axes
+    from nrrncf_jax.multibody.error_estimate import estimate_mechanism_error
+
+    system = Mechanism([body])
+    zs = np.tile(np.asarray(system.reference()), (2, 1))
+    with pytest.raises(ValueError, match="method='dynamic'"):
+        estimate_mechanism_error(full_counterpart(system), system, [0.0, 1.0], zs, 0 * zs)
+    from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum
+
+    with pytest.raises(ValueError, match="estimate_method='dynamic'"):
+        run_pendulum(PendulumSpec(elements=2), formulation="nr-rncf", n_vms=1, estimate=True,
+                     conditions="mean-axis")
     clamped_free = np.ones((beam.n_vectors, 3), bool)
     clamped_free[[0, 2, 4]] = False  # the first node's position and section vectors
     with pytest.raises(ValueError, match="not free-free"):

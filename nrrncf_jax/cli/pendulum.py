@@ -2,6 +2,7 @@
 (``scenarios.pendulum``).
 
     nrrncf pendulum [--formulation {ancf,rncf,nr-rncf}] [--elements 10] [--vms 5] [--mds all|none]
+                    [--conditions {mean-axis,clamped,pinned}]
                     [--joint-modes | --craig-bampton | --tol P [--train-t 0.5]]
                     [--no-estimate | --estimate-method {static,dynamic}]
                     [--reference {ancf,rncf}] [--reference-rtol R] [--t-end 2] [--dt-out 0.001]
@@ -12,8 +13,11 @@ index-3 DAE integrated by generalized-α. ``rncf``: the same beams in floating f
 parameters) with every nodal coordinate but the frame's reference conditions kept
 (``multibody.full_order_frame``): the paper's full-order reference, the ANCF model in other
 coordinates. ``nr-rncf``: each beam in its floating frame with its deformation reduced to its
-first ``--vms`` cantilever modes and their modal derivatives (``multibody.floating``), or with
-``--craig-bampton`` to the extended Craig-Bampton basis (``reduction.craig_bampton``);
+first ``--vms`` vibration modes and their modal derivatives (``multibody.floating``) under the
+reference ``--conditions`` (the paper's cantilever at the left hinge by default; ``mean-axis``,
+free-free modes with the frame at the beam's centre of mass, about half the steps at equal
+accuracy, estimated by ``--estimate-method dynamic`` only), or with
+``--craig-bampton`` to the extended Craig-Bampton basis (``reduction.craig_bampton``, clamped);
 ``--tol P`` chooses the beams' basis instead, the smallest prefix of the ranked candidates whose
 training run over 0-``--train-t`` has a dynamic error estimate of at most P / 2
 (``scenarios.pendulum.pendulum_to_tolerance``), and reports every basis tried;
@@ -84,7 +88,8 @@ def _run(args) -> int:
         run.search = search
     else:
         basis = dict(formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
-                     joint_modes=args.joint_modes, craig_bampton=args.craig_bampton, error_on=args.error_on)
+                     joint_modes=args.joint_modes, craig_bampton=args.craig_bampton, error_on=args.error_on,
+                     conditions=args.conditions)
 
         def chain_at(k, estimate):
             return run_pendulum(spec, **basis, estimate=estimate, estimate_method=args.estimate_method,
@@ -134,16 +139,24 @@ def _check(args) -> None:
     if args.reference_rtol is not None and (args.reference is None or not args.reference_rtol > 0):
         raise ValueError("--reference-rtol needs --reference ancf|rncf and a positive value")
     if args.formulation != "nr-rncf" and (args.reference is not None or args.vms is not None or args.mds is not None
-                                       or args.joint_modes or args.craig_bampton or args.no_estimate):
-        raise ValueError("--reference, --vms, --mds, --joint-modes, --craig-bampton and --no-estimate go with "
-                         "--formulation nr-rncf")
+                                       or args.joint_modes or args.craig_bampton or args.no_estimate
+                                       or args.conditions is not None):
+        raise ValueError("--reference, --vms, --mds, --conditions, --joint-modes, --craig-bampton and --no-estimate "
+                         "go with --formulation nr-rncf")
+    if args.conditions == "mean-axis" and not args.no_estimate and args.estimate_method == "static":
+        raise ValueError("--conditions mean-axis: the static error estimate holds each beam's frame, which no joint "
+                         "holds under mean axes; pass --estimate-method dynamic or --no-estimate")
+    if args.craig_bampton and args.conditions == "mean-axis":
+        raise ValueError("--craig-bampton holds the beams' boundary coordinates: it goes with --conditions clamped "
+                         "or pinned, not mean-axis")
     if args.tol is not None:
         if args.formulation != "nr-rncf":
             raise ValueError("--tol chooses a reduced basis; use it with --formulation nr-rncf")
         _validate.positive("--tol (target chi_rel in per cent)", args.tol)
-        if args.mds is not None or args.joint_modes or args.craig_bampton:
+        if args.mds is not None or args.joint_modes or args.craig_bampton or args.conditions is not None:
             raise ValueError("--tol chooses the modal derivatives and the joint modes itself: leave out --mds, "
-                             "--joint-modes and --craig-bampton (--vms sets the candidate vibration modes)")
+                             "--conditions, --joint-modes and --craig-bampton (--vms sets the candidate vibration "
+                             "modes)")
         _common.output_times(args.train_t, 0.01)
     elif args.train_t != TRAIN_T:
         raise ValueError("--train-t is the training window of --tol; give --tol too")
@@ -183,8 +196,14 @@ def register(sub) -> None:
     t.add_argument("--vms", type=int, default=None, help="nr-rncf: vibration modes a beam (default: 5)")
     t.add_argument("--mds", choices=("all", "none"), default=None,
                    help="nr-rncf: all modal derivatives of the VMs (i <= j), or none (default: all)")
+    t.add_argument("--conditions", choices=("mean-axis", "clamped", "pinned"), default=None,
+                   help="nr-rncf: the beams' reference conditions: clamped (the paper's cantilever at the left "
+                        "hinge; the default), mean-axis (free-free modes, the frame at the beam's centre of mass: "
+                        "about half the steps at equal accuracy; its error estimate needs --estimate-method dynamic "
+                        "or --no-estimate) or pinned (the frame along the chord, simply supported)")
     t.add_argument("--joint-modes", action="store_true",
-                   help="nr-rncf: add each beam's static modes under forces at its right-end joint (3 a beam)")
+                   help="nr-rncf: add each beam's static modes under forces at its joints (the right end's, or under "
+                        "mean axes both ends' inertia-relief modes)")
     t.add_argument("--craig-bampton", action="store_true",
                    help="nr-rncf: the extended Craig-Bampton basis: the right end's position as boundary coordinates, "
                         "fixed-interface VMs and their MDs")

@@ -63,7 +63,7 @@ from ..reduction.error_estimate import (
     integrate_error_equation,
     valid_outputs,
 )
-from .floating import FloatingBody, rotation
+from .floating import FloatingBody, rigid_motions_left, rotation
 from .full_order_frame import full_floating_body
 from .mechanism import Mechanism
 
@@ -78,7 +78,9 @@ def full_counterpart(system: Mechanism) -> Mechanism:
     nodal coordinate its reference conditions leave free (``FloatingBody.free``;
     ``full_floating_body``); every other body, the joints, gravity and the force elements as
     they are. A planar body's ``free`` (``reduce(plane_normal=...)``) holds the coordinates odd
-    under the plane's mirror, which the full planar motion leaves at zero too."""
+    under the plane's mirror, which the full planar motion leaves at zero too. A mean-axis body's
+    ``free`` leaves rigid motions free: its counterpart holds them by the mean-axis conditions
+    (``full_floating_body(mean_axis=True)``), constraints that its reduced basis meets already."""
     if not isinstance(system, Mechanism):
         raise ValueError(f"system must be a Mechanism (FloatingFrameSystem), got {type(system).__name__}")
     if not any(_reduced(b) for b in system.bodies):
@@ -86,8 +88,9 @@ def full_counterpart(system: Mechanism) -> Mechanism:
     if any(_reduced(b) and b.free is None for b in system.bodies):
         raise ValueError("an NR-RNCF body does not record its free coordinates (its reference conditions): build it "
                          "with multibody.reduce, or pass free= to FloatingBody")
-    bodies = [full_floating_body(b.body, np.asarray(b.free), R0=b.R0, A0=np.asarray(rotation(b.e0))) if _reduced(b)
-              else b for b in system.bodies]
+    bodies = [full_floating_body(b.body, np.asarray(b.free), R0=b.R0, A0=np.asarray(rotation(b.e0)),
+                                 mean_axis=bool(rigid_motions_left(b.body, np.asarray(b.free)).shape[1]))
+              if _reduced(b) else b for b in system.bodies]
     return type(system)(bodies, system.joints, gravity=system.gravity, forces=system.forces)
 
 
@@ -95,7 +98,7 @@ def _lift_maps(full: Mechanism, reduced: Mechanism) -> list:
     """For each body, the matrix Ψ̄ (full body's deformation coordinates × reduced ones) that lifts
     p, or None where the two bodies are the same kind of body (z copied). Checks that the
     systems correspond (``ValueError``)."""
-    if len(full.bodies) != len(reduced.bodies) or full.n_constraints != reduced.n_constraints:
+    if len(full.bodies) != len(reduced.bodies) or full.n_joint_equations != reduced.n_joint_equations:
         raise ValueError("full and reduced must be the same mechanism (bodies, joints), the full one with full-order "
                          "bodies: build it with full_counterpart(reduced)")
     maps = []
@@ -149,12 +152,27 @@ def _deformations(reduced: Mechanism, z, flexible) -> Float[Array, " b"]:
     return jnp.stack(out)
 
 
-def _lifted_state(maps, reduced: Mechanism, t, z, v):
+def _lift_multipliers(full: Mechanism, reduced: Mechanism, lam):
+    """The reduced mechanism's multipliers in the full one's layout (the joints', then each
+    body's own equations'): zero on the equations only the full bodies have (a full-order
+    mean-axis body's conditions, which the reduced basis meets by construction)."""
+    if full.n_constraints == reduced.n_constraints:
+        return lam
+    m = reduced.n_joint_equations
+    parts, at = [lam[:m]], m
+    for bf, br in zip(full.bodies, reduced.bodies):
+        parts.append(lam[at:at + br.n_own_equations])
+        parts.append(jnp.zeros(bf.n_own_equations - br.n_own_equations, lam.dtype))
+        at += br.n_own_equations
+    return jnp.concatenate(parts)
+
+
+def _lifted_state(maps, full: Mechanism, reduced: Mechanism, t, z, v):
     """(z_f, ż_f, z̈_f, λ): the reduced state completed by its consistent accelerations and
     multipliers, lifted to the full mechanism's coordinates."""
     a, lam = reduced.consistent_accelerations(t, z, v)
     zf, vf, af = (_lift(maps, reduced, y) for y in (z, v, a))
-    return zf, vf, af, lam
+    return zf, vf, af, _lift_multipliers(full, reduced, lam)
 
 
 @eqx.filter_jit
@@ -164,13 +182,13 @@ def _mechanism_corrections(full, reduced, maps, ts, zs, vs, flexible):
     reason)."""
     def one(args):
         t, z, v = args
-        zf, vf, af, lam = _lifted_state(maps, reduced, t, z, v)
+        zf, vf, af, lam = _lifted_state(maps, full, reduced, t, z, v)
         r = full.split(full.residual(t, zf, vf, af) + full.constraint_force(zf, lam, t))
         blocks = full.tangent_blocks(t, zf, vf, af, lam)
         norms = []
         for b in flexible:
-            e = -jnp.linalg.solve(blocks[b][7:, 7:], r[b][7:])
             body = full.bodies[b]
+            e = -jnp.linalg.solve(blocks[b][7:, 7:], r[b][7:])
             dq = (body.basis @ e).reshape(-1, 3)
             norms.append(jnp.sqrt(jnp.sum(body.is_position[:, None] * dq**2)))
         return jnp.stack(norms)
@@ -202,7 +220,7 @@ def _error_equation(full, reduced, maps, ts, zs, vs, flexible):
     n, m = full.n_dof, full.n_constraints
 
     def linearised(t, h, state):
-        zf, vf, af, lam = _lifted_state(maps, reduced, t, *state)
+        zf, vf, af, lam = _lifted_state(maps, full, reduced, t, *state)
 
         def F(dz, dv, da, mu):
             return (full.residual(t, zf + dz, vf + dv, af + da) + full.constraint_force(zf + dz, lam, t)
@@ -248,6 +266,13 @@ def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, sa
                          f"{zs.shape} and {vs.shape}")
     idx = estimate_indices(ts.shape[0], samples, method)
     maps = _lift_maps(full, reduced)
+    if method == "static" and any(getattr(b, "mean_axis_rows", None) is not None for b in full.bodies):
+        raise ValueError(
+            "the static estimate corrects each body's deformation with its frame held, where a joint holds it; "
+            "a mean-axis body's frame sits at its centre of mass and no joint holds it, so the static correction "
+            "misses the error in where the body lies between its joints (it reads several times low): estimate a "
+            "mechanism with mean-axis bodies by method='dynamic' (the linearised error equation of the whole "
+            "mechanism)")
     flexible = tuple(b for b, P in enumerate(maps) if P is not None)
     args = (full, reduced, maps, jnp.asarray(ts[idx]), jnp.asarray(zs[idx]), jnp.asarray(vs[idx]), flexible)
     fn = _mechanism_corrections if method == "static" else _error_equation

@@ -124,6 +124,21 @@ def _rotation_basis() -> np.ndarray:
 _B = _rotation_basis()
 
 
+def rigid_motions_left(body: Body, free) -> np.ndarray:
+    """The infinitesimal rigid motions of ``body`` (``Body.rigid_modes``) that its held
+    coordinates (``free``'s complement) leave free, as columns (n_dof × r): six on a free body,
+    the three in-plane ones on a planar body (``reduce``'s ``plane_normal`` holds the mirror-odd
+    coordinates), none under clamped, pinned or bearing conditions."""
+    free = np.asarray(free, dtype=bool).reshape(-1)
+    rigid = body.rigid_modes()
+    held = rigid[~free]
+    if not held.size or not np.abs(held).max() > 0:
+        return rigid
+    _, s, Vt = np.linalg.svd(held)
+    rank = int(np.sum(s > 1e-8 * s[0]))
+    return rigid @ Vt[rank:].T
+
+
 class FloatingBody(AbstractBodyKind):
     """A body in a floating frame, deformation reduced: ``body`` in its own frame (its ``q_hat``
     the stress-free state in frame coordinates), the deformation basis ``basis`` (n_dof × k,
@@ -158,12 +173,14 @@ class FloatingBody(AbstractBodyKind):
     H_trace: Float[Array, "k k"]  # Σ_a H_aa = Ψᵀ (M_b ⊗ I) Ψ
     free: Array | None  # the reference conditions' free coordinates (n_dof booleans), if known
     modes: Array | None  # the vibration modes Φ (n_dof × n) the basis was built from, if known
+    mean_axis_rows: Array | None  # G (r × k): a full-order body's mean-axis conditions G p = 0, or None
     awaiting_mds: bool = eqx.field(static=True)  # mds="mmi": its modal derivatives still to be chosen
     note: str = eqx.field(static=True)  # how its basis was chosen, for ``describe`` (``multibody.reduce`` writes it)
 
     def __init__(self, body: Body, basis, tensors: ElasticTensors, R0=(0.0, 0.0, 0.0), A0=None, free=None,
-                 modes=None, awaiting_mds: bool = False, note: str = ""):
+                 modes=None, awaiting_mds: bool = False, note: str = "", mean_axis: bool = False):
         basis = jnp.asarray(basis)
+        mean_axis_rows = None
         if basis.ndim != 2 or basis.shape[0] != body.n_dof:
             raise ValueError(f"basis must be (n_dof, k) = ({body.n_dof}, k), got {basis.shape}")
         if tensors.n_coordinates != basis.shape[1]:
@@ -176,16 +193,25 @@ class FloatingBody(AbstractBodyKind):
             if B.size and B[~free].max(initial=0.0) > 1e-9 * B.max():
                 raise ValueError("the basis moves coordinates that free holds")
             if getattr(tensors, "full_order", False):
-                held = body.rigid_modes()[~free]
-                s = np.linalg.svd(held, compute_uv=False) if held.size else np.zeros(0)
-                left = 6 - int(np.sum(s > 1e-8 * s.max())) if s.size and s.max() > 0 else 6
-                if left:
+                left = rigid_motions_left(body, free)
+                if left.shape[1] and not mean_axis:
                     raise ValueError(
-                        f"a full-order floating body must hold its frame: its free coordinates leave {left} rigid "
-                        "motion(s) free, which the frame's coordinates carry already (its mass matrix would be "
-                        "singular). A mean-axis body (reduce(conditions='mean-axis')) has no such full-order "
-                        "counterpart: its conditions are linear constraints, not held coordinates")
+                        f"a full-order floating body must hold its frame: its free coordinates leave "
+                        f"{left.shape[1]} rigid motion(s) free, which the frame's coordinates carry already (its "
+                        "mass matrix would be singular); hold them (reference conditions) or pass mean_axis=True, "
+                        "which holds them by the mean-axis conditions")
+                if left.shape[1]:
+                    # G p = 0: the deformation's momenta Rᵀ M w on the free coordinates, w = Ψ p
+                    # (reduce's MeanAxisSpace), each row scaled to unit length
+                    G = (np.kron(np.asarray(body.mass_matrix()), np.eye(3)) @ left).T @ np.asarray(basis)
+                    mean_axis_rows = jnp.asarray(G / np.linalg.norm(G, axis=1, keepdims=True))
             free = jnp.asarray(free)
+        elif mean_axis:
+            raise ValueError("mean_axis needs the free coordinates (free=) whose rigid motions it holds")
+        if mean_axis and mean_axis_rows is None:
+            raise ValueError("mean_axis goes with a full-order body (full_order_frame.full_floating_body) whose "
+                             "free coordinates leave rigid motions free; a reduced mean-axis basis satisfies the "
+                             "conditions already (multibody.reduce)")
         if modes is not None:
             modes = jnp.asarray(modes)
             if modes.ndim != 2 or modes.shape[0] != body.n_dof:
@@ -193,6 +219,7 @@ class FloatingBody(AbstractBodyKind):
         if awaiting_mds and modes is None:
             raise ValueError("a body awaiting its modal derivatives must record the vibration modes that choose them")
         self.body, self.basis, self.tensors, self.free, self.modes = body, basis, tensors, free, modes
+        self.mean_axis_rows = mean_axis_rows
         self.basis_rows = jnp.asarray(np.asarray(basis).T.copy())
         self.awaiting_mds = bool(awaiting_mds)
         self.note = str(note)
@@ -345,7 +372,6 @@ class FloatingBody(AbstractBodyKind):
         return jnp.concatenate([self.R0, self.e0, jnp.zeros(self.k)])
 
     # --- as a body kind of a mechanism (``kinds.AbstractBodyKind``) -------------------------------
-    n_own_equations = 1  # |e|² = 1
 
     @property
     def kind(self) -> str:  # type: ignore[override]
@@ -407,19 +433,40 @@ class FloatingBody(AbstractBodyKind):
         system's docstring says why)."""
         _, K = self.tensors.force_and_jacobian(z[7:])
         S = (c_M * self.mass_matrix(z)).at[7:, 7:].add(c_K * K)
+        if self.mean_axis_rows is not None:
+            # A full-order mean-axis body's M and K are both singular along the rigid motions its
+            # frame and its deformation share (G p = 0 tells them apart, a constraint of the
+            # system). The block gains c_M m̄ GᵀG, m̄ its largest nodal mass: with G's rows among
+            # the constraints, Newton's correction Δz is the same (C Δz = −c makes GᵀG Δz a shift
+            # of the conditions' multipliers, zero once the linear G p = 0 holds), and the block
+            # is regular.
+            G = self.mean_axis_rows
+            S = S.at[7:, 7:].add(c_M * jnp.max(jnp.diagonal(self.mass)) * (G.T @ G))
         if state is None:
             return S
         v, a, reaction = state
         F = self.nodal_force(z, v, a, gravity) + reaction
         return S.at[:, 7:].add(self.deformation_tangent(z, v, a, F, c_C, c_K))
 
-    def own_equations(self, z) -> Float[Array, " 1"]:
-        """|e|² − 1."""
-        return jnp.atleast_1d(z[3:7] @ z[3:7] - 1.0)
+    @property
+    def n_own_equations(self) -> int:
+        """|e|² = 1, and a full-order mean-axis body's r conditions G p = 0."""
+        return 1 + (0 if self.mean_axis_rows is None else int(self.mean_axis_rows.shape[0]))
 
-    def own_jacobian(self, z) -> Float[Array, "1 nz"]:
-        """The row 2eᵀ."""
-        return jnp.concatenate([jnp.zeros(3), 2.0 * z[3:7], jnp.zeros(self.k)])[None]
+    def own_equations(self, z) -> Float[Array, " e"]:
+        """|e|² − 1; for a full-order mean-axis body also G p (linear: the deformation's linear
+        and angular momentum relative to the frame, linearised at q̂, Buckens' conditions, which a
+        reduced mean-axis basis meets by construction)."""
+        norm = jnp.atleast_1d(z[3:7] @ z[3:7] - 1.0)
+        return norm if self.mean_axis_rows is None else jnp.concatenate([norm, self.mean_axis_rows @ z[7:]])
+
+    def own_jacobian(self, z) -> Float[Array, "e nz"]:
+        """The row 2eᵀ (and [0, G] for a full-order mean-axis body)."""
+        row = jnp.concatenate([jnp.zeros(3, z.dtype), 2.0 * z[3:7], jnp.zeros(self.k, z.dtype)])[None]
+        if self.mean_axis_rows is None:
+            return row
+        G = self.mean_axis_rows
+        return jnp.concatenate([row, jnp.concatenate([jnp.zeros((G.shape[0], 7), z.dtype), G], axis=1)])
 
     def kinetic_energy(self, z, v) -> Float[Array, ""]:
         xv = self.tangent(z, v)

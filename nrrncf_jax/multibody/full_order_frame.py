@@ -71,13 +71,18 @@ class NodalElasticForce(eqx.Module):
         return self.body.elastic_force(q).reshape(-1)[self.free], K[self.free[:, None], self.free[None, :]]
 
 
-def full_floating_body(body: Body, free, R0=(0.0, 0.0, 0.0), A0=None) -> FloatingBody:
+def full_floating_body(body: Body, free, R0=(0.0, 0.0, 0.0), A0=None, mean_axis: bool = False) -> FloatingBody:
     """``body`` in a floating frame at ``R0``, ``A0`` with every coordinate of the ``free`` mask
     (n_dof booleans: False on the reference conditions, which hold the frame) a deformation
-    coordinate: the full-order RNCF body."""
+    coordinate: the full-order RNCF body. ``mean_axis``: the frame held by the mean-axis
+    conditions instead, where ``free`` leaves rigid motions free (``reduce(conditions=
+    "mean-axis")``): the body adds the linear constraints G p = 0 (the deformation's momenta
+    relative to the frame, ``FloatingBody.own_equations``), one a rigid motion left, so that its
+    frame and its deformation do not share them; its motion is the same as under any other
+    reference conditions, and it is the full-order counterpart of a mean-axis reduced body."""
     force = NodalElasticForce(body, np.asarray(free, dtype=bool))  # checks the mask
     return FloatingBody(body, np.eye(body.n_dof)[:, np.asarray(force.free)], force, R0=R0, A0=A0,
-                        free=np.asarray(free, dtype=bool))
+                        free=np.asarray(free, dtype=bool), mean_axis=mean_axis)
 
 
 __all__ = ["NodalElasticForce", "full_floating_body"]

@@ -67,7 +67,7 @@ from ..reduction import attachment_modes, elastic_tensors, modal_basis, vibratio
 from ..reduction import craig_bampton as craig_bampton_basis
 from ..reduction.modal_derivatives import ModalDerivatives, dK_deta_times, mode_pairs
 from ..reduction.modes import VibrationModes, frame_stiffened
-from .floating import FloatingBody
+from .floating import FloatingBody, rigid_motions_left
 from .full_order_frame import full_floating_body
 from .markers import BodyGeometry, Marker
 from .system import placed
@@ -387,21 +387,6 @@ def centre_of_mass(body: Body) -> np.ndarray:
     M, pos = np.asarray(body.mass_matrix()), np.asarray(body.is_position, dtype=float)
     mu = M @ pos
     return mu @ np.asarray(body.q_hat) / (pos @ mu)
-
-
-def rigid_motions_left(body: Body, free) -> np.ndarray:
-    """The infinitesimal rigid motions of ``body`` (``Body.rigid_modes``) that its held
-    coordinates (``free``'s complement) leave free, as columns (n_dof × r): six on a free body,
-    the three in-plane ones on a planar body (``reduce``'s ``plane_normal`` holds the mirror-odd
-    coordinates), none under clamped, pinned or bearing conditions."""
-    free = np.asarray(free, dtype=bool).reshape(-1)
-    rigid = body.rigid_modes()
-    held = rigid[~free]
-    if not held.size or not np.abs(held).max() > 0:
-        return rigid
-    _, s, Vt = np.linalg.svd(held)
-    rank = int(np.sum(s > 1e-8 * s[0]))
-    return rigid @ Vt[rank:].T
 
 
 @eqx.filter_jit

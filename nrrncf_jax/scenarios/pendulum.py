@@ -154,14 +154,22 @@ def build_rncf_pendulum(spec: PendulumSpec = PendulumSpec(), frame=LEFT_END_FRAM
 
 def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, pairs="all", joint_modes: bool = False,
                            in_plane: bool = True, craig_bampton: bool = False,
-                           body_pairs=None) -> tuple[FloatingFrameSystem, dict]:
-    """NR-RNCF of the pendulum: each beam reduced by ``multibody.reduce`` at its two joints (its
-    floating frame at the left end, ``REFERENCE_CONDITIONS`` held: a cantilever), to ``n_vms``
+                           body_pairs=None, conditions: str | None = None) -> tuple[FloatingFrameSystem, dict]:
+    """NR-RNCF of the pendulum: each beam reduced by ``multibody.reduce`` at its two joints, in
+    the reference ``conditions`` (``reduce``'s): ``"clamped"``, the default (the frame at the left
+    end, a cantilever: the paper's choice, and Craig-Bampton's), ``"mean-axis"`` (free-free modes,
+    the frame at the beam's centre of mass and its deformation without momentum relative to it,
+    Buckens' conditions) or ``"pinned"``. Each beam of the chain hangs from hinges that carry no
+    moment, and at equal modes and accuracy the mean axes take about half the cantilever's steps
+    (``benchmarks/reference_conditions.py``); they are not the default because the static error
+    estimate, the pendulum's default, cannot hold a frame that no joint holds
+    (``multibody.error_estimate``: a mean-axis chain is estimated by the dynamic method). To ``n_vms``
     vibration modes and their modal derivatives (``pairs``: ``"all"``, the k(k+1)/2 pairs i ≤ j,
     the paper's 5 VMs + 15 MDs; or a list of (i, j); or ``[]``), with ``joint_modes`` the static
-    modes of the right-end joint too (``reduce``'s ``interface_modes``: the span of the extended
-    Craig-Bampton's static constraint modes), deflated by SVD (ϑ = 1e-6). ``craig_bampton``: the
-    extended Craig-Bampton basis instead (``reduce(basis="craig-bampton")``): the right end's
+    modes of the joints too (``reduce``'s ``interface_modes``: under clamped conditions the right
+    end's, the span of the extended Craig-Bampton's static constraint modes; under mean axes both
+    ends' inertia-relief modes), deflated by SVD (ϑ = 1e-6). ``craig_bampton``: the
+    extended Craig-Bampton basis instead (``reduce(basis="craig-bampton")``, clamped): the right end's
     position (its in-plane components) kept as boundary coordinates with their static constraint
     modes, and ``n_vms`` fixed-interface modes (both ends held) and their MDs; every beam gets
     the same kind of basis (the last beam's right end is free, and its boundary coordinates are
@@ -169,7 +177,7 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     MD pairs a beam (``mmi_per_body``'s selection). Returns the system and the offline record:
     ``frequencies_hz`` (of the vibration modes; None with ``craig_bampton``), ``pairs``, ``k``
     (coordinates a body after deflation; with ``body_pairs`` a list), ``phi`` (the VMs),
-    ``offline_s``.
+    ``conditions``, ``offline_s``.
 
     ``in_plane`` (default): the beam's in-plane modes and MDs (``reduce``'s ``plane_normal``: its
     coordinates that are odd under the mirror z → −z held at zero, ``elements.beam.mirror_even``,
@@ -185,6 +193,12 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     from ..multibody.reduce import reduce
 
     positive_int("n_vms", n_vms)
+    conditions = conditions or "clamped"
+    if conditions not in ("clamped", "pinned", "mean-axis"):
+        raise ValueError(f"conditions must be 'clamped', 'pinned' or 'mean-axis', got {conditions!r}")
+    if craig_bampton and conditions == "mean-axis":
+        raise ValueError("craig_bampton holds the beams' boundary coordinates: it goes with conditions='clamped' "
+                         "or 'pinned', not 'mean-axis'")
     if craig_bampton and joint_modes:
         raise ValueError("craig_bampton already holds the joint's static modes: pass one of craig_bampton, joint_modes")
     pairs = [(i, j) for i in range(n_vms) for j in range(i, n_vms)] if pairs == "all" else [tuple(p) for p in pairs]
@@ -192,24 +206,25 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
         body_pairs = [[tuple(int(i) for i in pair) for pair in b] for b in body_pairs]
         if len(body_pairs) != spec.beams or craig_bampton or joint_modes:
             raise ValueError(f"body_pairs takes one list of MD pairs for each of the {spec.beams} beams, with the "
-                             "cantilever basis (neither craig_bampton nor joint_modes)")
+                             "vibration modes alone (neither craig_bampton nor joint_modes)")
     t0 = time.perf_counter()
     beam = _beam(spec)
 
-    def reduced(mds):  # the beam at the origin, its frame at its left end, its joint at its right end
+    def reduced(mds):  # the beam at the origin, its joints at its ends (the first interface the left end)
         return reduce(beam, [(0.0, 0.0, 0.0), (spec.length, 0.0, 0.0)], vms=n_vms, mds=mds,
                       basis="craig-bampton" if craig_bampton else "free", interface_modes=joint_modes,
-                      plane_normal=(0.0, 0.0, 1.0) if in_plane else None)
+                      plane_normal=(0.0, 0.0, 1.0) if in_plane else None, conditions=conditions)
 
-    # equal beams share one reduction, moved along the chain (one offline computation, one vmap)
+    # equal beams share one reduction, moved along the chain (one offline computation, one vmap);
+    # each by its own frame's origin (the left end, or the centre of mass for mean axes)
     templates = [reduced(pairs)] * spec.beams if body_pairs is None else [reduced(bp) for bp in body_pairs]
-    bodies = [b.moved((k * spec.length, 0.0, 0.0)) for k, b in enumerate(templates)]
+    bodies = [b.moved(np.asarray(b.R0) + (k * spec.length, 0.0, 0.0)) for k, b in enumerate(templates)]
     system = FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
     phi = None if craig_bampton else np.asarray(bodies[0].modes)
     info = {"frequencies_hz": None if craig_bampton else _frequencies_hz(bodies[0].body, phi).tolist(),
             "pairs": pairs if body_pairs is None else body_pairs,
             "k": bodies[0].k if body_pairs is None else [b.k for b in bodies], "phi": phi,
-            "offline_s": time.perf_counter() - t0}
+            "conditions": conditions, "offline_s": time.perf_counter() - t0}
     return system, info
 
 
@@ -367,7 +382,8 @@ class PendulumRun(RunRecord):
                 "energy_drift": float(np.abs(self.energy - self.energy[0]).max()),
                 "kinetic_max": float(self.kinetic.max()),
                 "tips_final_m": self.tips[-1, :, :2].round(6).tolist(),
-                **({} if self.offline is None else {"offline_s": round(self.offline["offline_s"], 3)}),
+                **({} if self.offline is None else {"offline_s": round(self.offline["offline_s"], 3),
+                                                     "conditions": self.offline.get("conditions")}),
                 **self.comparison(), **self.estimate_summary(),
                 **({} if self.search is None else self.search.summary())}
 
@@ -380,11 +396,12 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
                  max_steps: int = 500_000, formulation: str = "ancf", n_vms: int = 5, pairs="all",
                  joint_modes: bool = False, newton_tol: float = 1e-2, craig_bampton: bool = False,
                  body_pairs=None, estimate: bool = False, estimate_samples: int = 16,
-                 estimate_method: str = "static", step_control: str = "plain", error_on: str = "nodes") -> PendulumRun:
+                 estimate_method: str = "static", step_control: str = "plain", error_on: str = "nodes",
+                 conditions: str | None = None) -> PendulumRun:
     """The pendulum released from rest: full order (``"ancf"``: ANCF bodies, ``build_pendulum``;
     ``"rncf"``: floating frames, ``build_rncf_pendulum``) or NR-RNCF (``"nr-rncf"``:
     ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=...,
-    body_pairs=...)``), index-3 generalized-α. ``estimate`` (NR-RNCF): the run's error estimate
+    body_pairs=..., conditions=...)``), index-3 generalized-α. ``estimate`` (NR-RNCF): the run's error estimate
     from the run alone (``run_chain``). ``step_control``: the adaptive controller by name,
     ``error_on``: what the step error is measured on (``run_chain``)."""
     if formulation not in FORMULATIONS:
@@ -396,7 +413,11 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
         system = build_rncf_pendulum(spec)
     else:
         system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=craig_bampton,
-                                              body_pairs=body_pairs)
+                                              body_pairs=body_pairs, conditions=conditions)
+    if estimate and estimate_method == "static" and conditions == "mean-axis":
+        raise ValueError("the static error estimate holds each beam's frame, which under mean axes no joint holds "
+                         "(multibody.error_estimate): with conditions='mean-axis' use estimate_method='dynamic' or "
+                         "estimate=False")
     if estimate and formulation != "nr-rncf":
         raise ValueError("estimate goes with formulation='nr-rncf' (a full model has no reduction error to estimate)")
     run = run_chain(system, t_end, dt_out, rho_inf, rtol, atol, progress, max_steps, newton_tol, estimate=estimate,
