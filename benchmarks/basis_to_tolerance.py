@@ -21,6 +21,7 @@ candidates (``run_forced`` sets no cap).
 """
 
 import argparse
+import dataclasses
 import os
 import sys
 
@@ -31,6 +32,7 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
+from nrrncf_jax.reduction import Basis  # noqa: E402
 from nrrncf_jax.scenarios.spinup import run_nr_rncf_spinup, run_spinup  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -74,13 +76,13 @@ def _large(case):
         tol = float(parts[1])
         ref = run_truss("rncf")
         return _row("truss (36 bays)", 0.0, tol, run_truss("nr-rncf", tol=tol, reference=ref), PAPER_DOFS["truss"])
-    from nrrncf_jax.scenarios.membrane import DEFAULT_OMEGA, MembraneSpec, run_membrane
+    from nrrncf_jax.scenarios.membrane import DEFAULT_BASIS, DEFAULT_OMEGA, MembraneSpec, run_membrane
 
     which, rings, tol = parts[1], int(parts[2]), float(parts[3])
     spec = MembraneSpec(rings=rings)
     ref = run_membrane(which, formulation="rncf", spec=spec)
-    res = run_membrane(which, formulation="nr-rncf", spec=spec, n_modes=24 if rings >= 15 else 60, tol=tol,
-                       reference=ref)
+    basis = dataclasses.replace(DEFAULT_BASIS, n_modes=24 if rings >= 15 else 60)
+    res = run_membrane(which, formulation="nr-rncf", spec=spec, basis=basis, tol=tol, reference=ref)
     return _row(f"membrane {which} ({rings} rings)", DEFAULT_OMEGA[which], tol, res, PAPER_DOFS[f"membrane:{which}"])
 
 
@@ -101,8 +103,8 @@ def main():
             continue
         beam, om, tol = case.split(":")[0], float(case.split(":")[1]), float(case.split(":")[2])
         ref = run_spinup("rncf", beam, om, t_end=30.0, save_displacements=True)
-        res = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements, tol=tol, reference=ref,
-                                 max_dofs=args.max_dofs)
+        res = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements, basis=Basis(max_dofs=args.max_dofs),
+                                 tol=tol, reference=ref)
         converged = run_spinup("rncf", beam, om, t_end=30.0, save_displacements=True, rtol=TIGHT, atol=TIGHT / 100,
                                max_steps=10**6)
         rows.append(_row(beam, om, tol, res, PAPER_DOFS.get((beam, om)), _basis_error(res, converged)))

@@ -19,15 +19,13 @@ effectivity (total estimate / measured total) and whether it lies in [0.5, 2].
 
 - ``membrane-*``: ``nrrncf membrane --case CASE --reference rncf`` (rtol 1e-5, atol 1e-7, 0-3 s,
   outputs every 0.01 s, the paper's basis found by mode type) on a disk of ``--rings`` rings (the
-  paper's 15 would take hours: the full run at rtol 1e-5 alone takes 490 s, `membrane.md`);
-  through ``run_forced`` as ``run_membrane`` calls it, with ``estimate_integration=True``, which
-  ``run_membrane`` does not pass on.
+  paper's 15 would take hours: the full run at rtol 1e-5 alone takes 490 s, `membrane.md`), with
+  ``--estimate-integration`` (``run_membrane(estimator=ErrorEstimator(integration=True))``).
 - ``truss``: ``nrrncf truss dynamics --reference rncf`` (rtol 1e-4, atol 1e-6, 0-10 s, outputs
   every 0.02 s, 4 VMs + 6 MDs by MMI among 12) on the paper's 36 bays (``--bays``), but one beam
   element a longeron bay and one a batten (``--truss-mesh``; the paper's mesh, 6 and 4, takes
-  200 s a full run at rtol 1e-4, and its first bending frequency is the same to 1e-6), through
-  ``run_forced`` as ``run_truss`` calls it, with ``estimate_integration=True``, which
-  ``run_truss`` does not pass on.
+  200 s a full run at rtol 1e-4, and its first bending frequency is the same to 1e-6), with
+  ``--estimate-integration`` (``run_truss(estimator=ErrorEstimator(integration=True))``).
 - ``pendulum``: ``nrrncf pendulum --formulation nr-rncf --reference ancf`` (the paper's mesh, 10
   elements a beam; 5 VMs + 15 MDs a beam; rtol 1e-3, atol rtol/10, the PI controller, 0-2 s,
   outputs every 1 ms), its converged reference by the CLI's rule (``cli/pendulum.py``: the ANCF
@@ -52,6 +50,7 @@ CPU, the truss a third of it.
 """
 
 import argparse
+import dataclasses
 import os
 import sys
 
@@ -88,7 +87,7 @@ def _row(example, model, dofs, full_dofs, rtol, total, integ, basis, own, est_ba
                 eff=eff, total=total, own=own, est_basis=est_basis, est_integ=est_integ, basis=basis, integ=integ)
 
 
-# --- the large bodies: run_forced with the integration part estimated --------------------------------
+# --- the large bodies: run_membrane and run_truss with the integration part estimated --------------
 
 
 def _forced(x, example, model, full_dofs, rtol):
@@ -99,51 +98,32 @@ def _forced(x, example, model, full_dofs, rtol):
 
 
 def membrane(case, rings):
-    from nrrncf_jax import _validate
-    from nrrncf_jax.scenarios.forced_run import run_forced
-    from nrrncf_jax.scenarios.membrane import (
-        DEFAULT_OMEGA,
-        MembraneRun,
-        MembraneSpec,
-        build_membrane,
-        membrane_model,
-        membrane_modes,
-        paper_basis,
-    )
+    from nrrncf_jax.reduction import ErrorEstimator
+    from nrrncf_jax.scenarios.membrane import DEFAULT_BASIS, DEFAULT_OMEGA, MembraneSpec, run_membrane
 
-    # nrrncf membrane's defaults (cli/membrane.py), the body of run_membrane with estimate_integration
-    rtol, atol, t_end, dt_out, rho_inf = 1e-5, 1e-7, 3.0, 0.01, 0.9
+    # nrrncf membrane's defaults (cli/membrane.py: rtol 1e-5, atol 1e-7, 0-3 s, outputs every 0.01 s,
+    # the paper's basis), with the integration part estimated (--estimate-integration)
+    rtol = 1e-5
     spec = MembraneSpec(rings=rings)
     n_modes = 24 if rings >= 15 else 60  # the in-plane torsion mode lies higher on coarse disks (error_estimate.py)
     omega = DEFAULT_OMEGA[case]
-    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
-    m = build_membrane(spec)
-    full = membrane_model(m, case, omega)
-    modes = membrane_modes(spec, n_modes)[0]
-    vms, mds = paper_basis(case, spec, n_modes)
-    x = run_forced(full, "nr-rncf", ts, m.rim_point, vms=vms, mds=mds, n_modes=n_modes, spin_state=False, modes=modes,
-                   rho_inf=rho_inf, rtol=rtol, atol=atol, estimate_integration=True, reference=True, cls=MembraneRun,
-                   case=case, omega_s=float(omega))
-    full_dofs = int(np.sum(np.asarray(full.free_mask())))
-    model = f"paper basis, VMs {list(map(int, vms))} + {len(mds)} MDs ({rings} rings)"
+    x = run_membrane(case, omega, "nr-rncf", spec, dataclasses.replace(DEFAULT_BASIS, n_modes=n_modes),
+                     estimator=ErrorEstimator(integration=True), reference=True)
+    full_dofs = x.reference_dofs
+    model = f"paper basis, VMs {list(map(int, x.vms))} + {len(x.mds)} MDs ({rings} rings)"
     return _forced(x, f"membrane {case}, ωs = {omega:g}", model, full_dofs, rtol)
 
 
 def truss(bays, longeron, batten):
-    from nrrncf_jax import _validate
-    from nrrncf_jax.scenarios.forced_run import run_forced
-    from nrrncf_jax.scenarios.truss import TrussRun, TrussSpec, build_truss, resonant_force, truss_model
+    from nrrncf_jax.reduction import ErrorEstimator
+    from nrrncf_jax.scenarios.truss import TrussSpec, run_truss
 
-    # nrrncf truss dynamics' defaults (cli/truss.py), the body of run_truss with estimate_integration
-    rtol, atol, t_end, dt_out, rho_inf = 1e-4, 1e-6, 10.0, 0.02, 0.9
+    # nrrncf truss dynamics' defaults (cli/truss.py: rtol 1e-4, atol 1e-6, 0-10 s, outputs every
+    # 0.02 s, 4 VMs + 6 MDs by MMI among 12), with the integration part estimated (--estimate-integration)
+    rtol = 1e-4
     spec = TrussSpec(bays=bays, longeron_elements=longeron, batten_elements=batten)
-    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
-    t = build_truss(spec)
-    F0, f = resonant_force(t, 0.05 * spec.length, t_end)
-    full = truss_model(t, F0, f)
-    x = run_forced(full, "nr-rncf", ts, t.tip_positions, vms=4, mds=6, n_modes=12, rho_inf=rho_inf, rtol=rtol,
-                   atol=atol, estimate_integration=True, reference=True, cls=TrussRun)
-    full_dofs = int(np.sum(np.asarray(full.free_mask())))
+    x = run_truss("nr-rncf", spec, estimator=ErrorEstimator(integration=True), reference=True)
+    full_dofs = x.reference_dofs
     model = f"4 VMs + 6 MDs by MMI ({bays} bays, {longeron}/{batten} elements a longeron bay/batten)"
     return _forced(x, "truss, tip force at f1", model, full_dofs, rtol)
 

@@ -26,6 +26,7 @@ on each (a sparse factorisation an output).
 """
 
 import argparse
+import dataclasses
 import os
 import sys
 
@@ -65,16 +66,17 @@ def _displacements(model, P):
 def _large(case):
     """Rows of a large body's case (module docstring): its runs carry their estimates."""
     if case == "truss":
-        from nrrncf_jax.scenarios.truss import build_truss, resonant_force, run_truss, truss_model
+        from nrrncf_jax.scenarios.truss import DEFAULT_BASIS, build_truss, resonant_force, run_truss, truss_model
 
         truss = build_truss()
         full = truss_model(truss, *resonant_force(truss, 0.05 * truss.spec.length, 10.0))  # run_truss's own
         ref = run_truss("rncf")
         runs = [("4 VMs + 6 MDs", run_truss("nr-rncf", reference=ref)),
-                ("VMs only", run_truss("nr-rncf", mds=0, reference=ref))]
+                ("VMs only", run_truss("nr-rncf", basis=dataclasses.replace(DEFAULT_BASIS, mds=0), reference=ref))]
         name, om, rtol, atol = "truss (36 bays)", 0.0, 1e-4, 1e-6
     else:
         from nrrncf_jax.scenarios.membrane import (
+            DEFAULT_BASIS,
             DEFAULT_OMEGA,
             MembraneSpec,
             build_membrane,
@@ -87,9 +89,10 @@ def _large(case):
         full = membrane_model(build_membrane(spec), which, DEFAULT_OMEGA[which])
         n_modes = 24 if int(rings) >= 15 else 60  # the in-plane torsion mode lies higher on coarse disks
         ref = run_membrane(which, formulation="rncf", spec=spec)
-        runs = [("paper basis", run_membrane(which, formulation="nr-rncf", spec=spec, n_modes=n_modes, reference=ref)),
-                ("VMs only", run_membrane(which, formulation="nr-rncf", spec=spec, n_modes=n_modes, mds=[],
-                                          reference=ref))]
+        paper = dataclasses.replace(DEFAULT_BASIS, n_modes=n_modes)
+        runs = [("paper basis", run_membrane(which, formulation="nr-rncf", spec=spec, basis=paper, reference=ref)),
+                ("VMs only", run_membrane(which, formulation="nr-rncf", spec=spec,
+                                          basis=dataclasses.replace(paper, mds=[]), reference=ref))]
         name, om, rtol, atol = f"membrane {which} ({rings} rings, {ref.dofs} DOFs)", DEFAULT_OMEGA[which], 1e-5, 1e-7
     pos = np.flatnonzero(np.asarray(full.body.is_position))
     rows = (3 * pos[:, None] + np.arange(3)).reshape(-1)  # the position vectors, as run_forced's χ_rel
@@ -124,10 +127,10 @@ def main():
         converged = run_spinup("rncf", beam, om, t_end=30.0, save_displacements=True, rtol=TIGHT, atol=TIGHT / 100,
                                max_steps=10**6)
         full = build_spinup_model("rncf", beam, om, 15.0, ref.elements)
-        default = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements, reference=ref, estimate=False)
+        default = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements, reference=ref, estimator=None)
         vm_only = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements,
                                      basis=Basis(vms=default.dofs, mds=0, spin_state=False), reference=ref,
-                                     estimate=False)
+                                     estimator=None)
         for label, res in (("default", default), ("VMs only", vm_only)):
             model = res.reduction.model
             P, V, run_s, steps = _pv(res, RTOL)  # no stops: its outputs are interpolated between steps

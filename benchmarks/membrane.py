@@ -17,6 +17,7 @@ the peak memory of the process.
 """
 
 import argparse
+import dataclasses
 import json
 import resource
 import subprocess
@@ -32,6 +33,7 @@ from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax.reduction import modal_derivatives  # noqa: E402
 from nrrncf_jax.scenarios.membrane import (  # noqa: E402
+    DEFAULT_BASIS,
     MembraneSpec,
     build_membrane,
     membrane_model,
@@ -53,8 +55,10 @@ def case_rows(spec, n_modes, case, omega, t_end) -> list[str]:
     membrane_modes(spec, n_modes)  # the modal analysis, outside the offline times (see the footnote)
     ref = run_membrane(case, omega, "rncf", spec, t_end=t_end, progress=True)
     rows = [ref]
-    rows.append(run_membrane(case, omega, "nr-rncf", spec, n_modes=n_modes, t_end=t_end, reference=ref))
-    rows.append(run_membrane(case, omega, "nr-rncf", spec, n_modes=n_modes, mds=[], t_end=t_end, reference=ref))
+    paper = dataclasses.replace(DEFAULT_BASIS, n_modes=n_modes)
+    rows.append(run_membrane(case, omega, "nr-rncf", spec, paper, t_end=t_end, reference=ref))
+    rows.append(run_membrane(case, omega, "nr-rncf", spec, dataclasses.replace(paper, mds=[]), t_end=t_end,
+                             reference=ref))
     lines = []
     for r in rows:
         basis = "–" if r.vms is None else f"VMs {list(r.vms)} + {len(r.mds)} MDs"

@@ -24,6 +24,8 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+from nrrncf_jax.integrate import AdaptiveStepSize  # noqa: E402
+from nrrncf_jax.reduction import Basis, ErrorEstimator  # noqa: E402
 from nrrncf_jax.scenarios.spinup import default_elements, run_nr_rncf_spinup  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -63,8 +65,10 @@ def main():
     for beam, w, n_el, max_dofs in cases:
         case = f"{beam}, ωs = {w:g}"
         print(f"{case} ...", file=sys.stderr, flush=True)
-        x = run_nr_rncf_spinup(beam, w, T_s=15.0, t_end=a.t_end, elements=n_el, rtol=a.rtol, atol=a.rtol / 100,
-                               n_modes=a.modes, max_dofs=max_dofs, reference=True, estimate_integration=True)
+        x = run_nr_rncf_spinup(beam, w, T_s=15.0, t_end=a.t_end, elements=n_el,
+                               basis=Basis(n_modes=a.modes, max_dofs=max_dofs),
+                               controller=AdaptiveStepSize(a.rtol, a.rtol / 100),
+                               estimator=ErrorEstimator(integration=True), reference=True)
         rows.append(_row(case, a.rtol, x))
         print("| " + " | ".join(str(c) for c in rows[-1]) + " |", file=sys.stderr, flush=True)
     lines = ["| " + " | ".join(HEAD) + " |", "|---|" + "---:|" * (len(HEAD) - 1)]

@@ -13,6 +13,7 @@ with the full RNCF model and NR-RNCF.
 """
 
 import argparse
+import dataclasses
 import sys
 import time
 
@@ -27,6 +28,7 @@ from nrrncf_jax.models import RotatingFrameModel  # noqa: E402
 from nrrncf_jax.motion import Stationary  # noqa: E402
 from nrrncf_jax.reduction import vibration_modes  # noqa: E402
 from nrrncf_jax.scenarios.truss import (  # noqa: E402
+    DEFAULT_BASIS,
     TrussSpec,
     build_truss,
     equivalent_beam,
@@ -102,7 +104,8 @@ def main(argv=None):
     ref = run_truss("rncf", spec, F0, f1, t_end=a.t_end, progress=True)
     rows = [ref]
     for vms, mds in ((4, 0), (4, 6)):
-        rows.append(run_truss("nr-rncf", spec, F0, f1, t_end=a.t_end, vms=vms, mds=mds, reference=ref))
+        basis = dataclasses.replace(DEFAULT_BASIS, vms=vms, mds=mds)
+        rows.append(run_truss("nr-rncf", spec, F0, f1, t_end=a.t_end, basis=basis, reference=ref))
     for r in rows:
         s = r.summary()
         basis = "–" if r.vms is None else f"{len(r.vms)} VMs {list(r.vms)} + {len(r.mds)} MDs"

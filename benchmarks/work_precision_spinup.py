@@ -20,6 +20,7 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+from nrrncf_jax.integrate import AdaptiveStepSize  # noqa: E402
 from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.spinup import run_nr_rncf_spinup, run_spinup  # noqa: E402
 
@@ -48,7 +49,7 @@ def main():
         rows.append(("full RNCF", run.dofs, rtol, atol, run.steps, run.rejected, run.run_s, err))
         print(rows[-1], flush=True)
     for rtol, atol in TOLERANCES:
-        run = run_nr_rncf_spinup(**CASE, rtol=rtol, atol=atol, estimate=False)
+        run = run_nr_rncf_spinup(**CASE, controller=AdaptiveStepSize(rtol, atol), estimator=None)
         err = float(chi_rel(w_ref, run.displacement_series()))
         rows.append(("NR-RNCF (the command's basis)", run.dofs, rtol, atol, run.steps, run.rejected, run.run_s, err))
         print(rows[-1], flush=True)

@@ -16,7 +16,8 @@ from nrrncf_jax.motion.profiles import FourierSpinUp
 from nrrncf_jax.studies.control import optimal_spinup, residual_amplitude, residual_mean_square, tip_response
 
 OMEGA_S, T_S, T_END = 1.0, 3.0, 5.0  # a short manoeuvre; still tip deflections of ~0.8 m
-FIXED = dict(adaptive=False, dt0=0.02)  # fixed steps: finite differences must not see step choices
+# fixed steps: finite differences must not see step choices
+FIXED = dict(controller=ConstantStepSize(0.02, rtol=1e-5, atol=1e-8))
 # ... and Newton converged far below the finite-difference step (rtol/atol only scale its test)
 TIGHT = dict(controller=ConstantStepSize(0.02, rtol=1e-10, atol=1e-12), newton=Newton(kind="full"))
 

@@ -140,6 +140,40 @@ def test_run_error_splits_basis_and_integration(spin):
         estimate_run_error(full, red, TS, P[:, :2], rtol=1e-3, atol=1e-5)
 
 
+def test_error_estimator_checks_its_fields():
+    """``ErrorEstimator`` (``reduction.run_error``: how the scenario runners estimate a reduced
+    run's error) holds the runners' defaults (static, 16 samples, no integration part), is
+    exported beside ``Basis``, frozen and keyword-only; its ``step_ts`` stops the run on the static
+    estimate's samples only where the estimate reads the run's own states. A bad field is a
+    ``ValueError`` on construction that names it."""
+    import dataclasses
+
+    import nrrncf_jax
+    from nrrncf_jax.reduction import ErrorEstimator
+    from nrrncf_jax.reduction.run_error import estimate_times
+
+    assert nrrncf_jax.ErrorEstimator is ErrorEstimator
+    e = ErrorEstimator()
+    assert (e.method, e.samples, e.integration) == ("static", 16, False)
+    np.testing.assert_array_equal(e.step_ts(TS), estimate_times(TS, 16))
+    np.testing.assert_array_equal(ErrorEstimator(samples=5).step_ts(TS), estimate_times(TS, 5))
+    assert ErrorEstimator(integration=True).step_ts(TS) is None  # the repetition gives the states
+    assert ErrorEstimator(method="dynamic").step_ts(TS) is None  # every output: on a repetition
+    assert ErrorEstimator(samples=np.int64(4)).samples == 4
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        e.samples = 8
+    with pytest.raises(TypeError):
+        ErrorEstimator("dynamic")  # keyword-only, as Basis
+    for kw, says in ((dict(method="quasi-static"), r"ErrorEstimator\.method must be one of \('static', 'dynamic'\)"),
+                     (dict(samples=1), r"ErrorEstimator\.samples must be an integer >= 2, got 1"),
+                     (dict(samples=4.0), r"ErrorEstimator\.samples must be an integer >= 2, got 4\.0"),
+                     (dict(samples=True), r"ErrorEstimator\.samples must be an integer >= 2, got True"),
+                     (dict(integration=1), r"ErrorEstimator\.integration must be True or False, got 1"),
+                     (dict(integration="yes"), r"ErrorEstimator\.integration must be True or False")):
+        with pytest.raises(ValueError, match=says):
+            ErrorEstimator(**kw)
+
+
 @pytest.mark.xdist_group("error_estimate")
 def test_run_error_from_the_runs_own_step_ends(spin):
     """A run that ends its steps on the estimate's times (``estimate_times`` as ``step_ts``) is

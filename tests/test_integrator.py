@@ -310,6 +310,24 @@ def test_reverse_mode_through_the_default_loop_names_the_option():
                                                   observe=_first).ys))(jnp.asarray(OMEGA**2))
 
 
+def test_a_controller_at_other_tolerances_keeps_its_step_control():
+    """``with_tolerances`` (a run repeated at tightened tolerances, as the converged references
+    do) changes a controller's tolerances alone, its PI coefficients and step limits kept;
+    ``step_control_name`` names the coefficients as ``STEP_CONTROLS`` does (what a run's record
+    says of its controller)."""
+    from nrrncf_jax.integrate import step_control_name, with_tolerances
+
+    pi = adaptive_step_size(1e-4, 1e-6, "pi", dt_max=0.5)
+    tight = with_tolerances(pi, 1e-4 / 10, 1e-6 / 10)
+    assert float(tight.rtol) == 1e-4 / 10 and float(tight.atol) == 1e-6 / 10
+    assert (tight.pcoeff, tight.icoeff, float(tight.dt_max)) == (pi.pcoeff, pi.icoeff, 0.5)
+    assert step_control_name(tight) == "pi" and step_control_name(AdaptiveStepSize()) == "plain"
+    assert step_control_name(AdaptiveStepSize(pcoeff=0.2, icoeff=0.5)) == "pi(pcoeff=0.2, icoeff=0.5)"
+    assert step_control_name(ConstantStepSize(0.1)) == "constant"
+    with pytest.raises(ValueError, match="rtol"):
+        with_tolerances(pi, 0.0, 1e-6)
+
+
 def test_bad_integrator_input():
     m = _oscillator()
     ctrl = AdaptiveStepSize()

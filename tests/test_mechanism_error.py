@@ -67,14 +67,19 @@ def test_the_full_counterpart_keeps_every_free_coordinate():
     np.testing.assert_allclose(np.asarray(full.reference()[:7]), np.asarray(reduced.reference()[:7]))
 
 
-def test_an_exact_basis_has_an_estimate_at_round_off(full_swing):
+def test_an_exact_basis_has_an_estimate_at_round_off():
     """A basis of every free coordinate (all N_FREE vibration modes) is the full model in other
     coordinates (for constant κ the cubic force is exact), so the lifted state satisfies the full
     equations and the estimate is round-off: ε times the tangent's condition (~1e7 for this soft
-    beam), far below any basis error (a per cent for four modes and their derivatives)."""
+    beam), far below any basis error (a per cent for four modes and their derivatives). Any state
+    of the reduced model lifts to one of the full model, so the run need not be accurate: a short
+    one at a loose tolerance."""
     exact = _swing(vms=N_FREE, mds=())
-    zs, vs = _run(exact)
-    est = estimate_mechanism_error(full_swing[0], exact, TS, zs, vs, samples=8)
+    ts = TS[:11]
+    sol = simulate(exact, GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(1e-4, 1e-6), jnp.asarray(ts),
+                   observe=lambda t, z, v: (z, v))
+    zs, vs = (np.asarray(y) for y in sol.ys)
+    est = estimate_mechanism_error(full_counterpart(exact), exact, ts, zs, vs, samples=8)
     assert est.chi_rel_percent < 1e-6
 
 

@@ -56,13 +56,13 @@ def test_tol_chooses_the_step_tolerance_too():
     import jax
     import jax.numpy as jnp
 
-    from nrrncf_jax.integrate import GeneralizedAlpha, adaptive_step_size, simulate
+    from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlpha, adaptive_step_size, simulate
     from nrrncf_jax.reduction.run_error import observe_state
     from nrrncf_jax.scenarios.spinup import run_nr_rncf_spinup
 
     case = dict(beam="paper", omega_s=4.0, T_s=5.0, t_end=8.0, elements=2, dt_out=0.02)
     tol = 1.0
-    run = run_nr_rncf_spinup(**case, rtol=1e-3, atol=1e-5, tol=tol)
+    run = run_nr_rncf_spinup(**case, controller=AdaptiveStepSize(1e-3, 1e-5), tol=tol)
     rtol, atol = run.step_tolerances
     assert rtol < 1e-3 and atol / rtol == pytest.approx(1e-2)
     s = run.summary()

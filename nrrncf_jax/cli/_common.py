@@ -116,6 +116,38 @@ def add_estimate_options(parser, method_help: str) -> None:
                              ">= 2 (default 16; fewer cost less and integrate the chi_rel norm more coarsely)")
 
 
+def add_estimate_integration(parser, scope: str, default_help: str) -> None:
+    """``--estimate-integration`` / ``--no-estimate-integration``: also estimate the run's own
+    time-integration error (the ``integration`` of the runners' ``reduction.ErrorEstimator``);
+    ``scope``: when it applies (the help's first words). Not given, it is None until the command's
+    check resolves it (``estimate_integration``), as ``default_help`` says."""
+    parser.add_argument("--estimate-integration", action=argparse.BooleanOptionalAction, default=None,
+                        help=f"{scope}: also estimate the run's own time-integration error, by repeating the run at "
+                             "rtol/10 (a few times the reduced run's cost), so that chi_rel_estimate_percent is the "
+                             "total error's estimate and integration_error_estimate_percent its time-integration "
+                             "part" + default_help)
+
+
+def estimate_integration(args, reduced: bool, default: bool) -> None:
+    """``--estimate-integration`` checked (a reduced run's) and, where not given, set to
+    ``default``."""
+    if args.estimate_integration is None:
+        args.estimate_integration = default
+    if args.estimate_integration and not reduced:
+        raise ValueError("--estimate-integration estimates a reduced run's error; use it with --formulation nr-rncf")
+
+
+def estimator(args):
+    """The scenario runners' ``reduction.ErrorEstimator`` from ``--estimate-method``,
+    ``--estimate-samples`` (not given: the estimator's default, 16) and
+    ``--estimate-integration``, after the checks (``estimate_samples``, ``estimate_integration``).
+    Imports the library: call it when the run starts."""
+    from ..reduction import ErrorEstimator
+
+    samples = {} if args.estimate_samples is None else {"samples": args.estimate_samples}
+    return ErrorEstimator(method=args.estimate_method, integration=bool(args.estimate_integration), **samples)
+
+
 def add_tol_and_reference_options(parser, scope: str) -> None:
     """``--tol P`` (the basis chosen to a target χ_rel) and ``--reference rncf`` (the full model
     converged, ``RunRecord.compare_converged``) of the large bodies' commands; ``scope``: when they

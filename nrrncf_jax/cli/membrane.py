@@ -1,8 +1,8 @@
 """``nrrncf membrane``: the rotating membrane of the paper's Sec. 4.3 (``scenarios.membrane``).
 
     nrrncf membrane --case {in-plane,bending-torsion} [--omega W] --formulation {rncf,nr-rncf}
-                    [--vms I ...] [--mds I,J ...] [--estimate-method {static,dynamic}] [--reference rncf]
-                    [--plot F] [--vtk DIR] [--json]
+                    [--vms I ...] [--mds I,J ...] [--estimate-method {static,dynamic}]
+                    [--estimate-integration] [--reference rncf] [--plot F] [--vtk DIR] [--json]
 
 The defaults reproduce the paper's bases: VM 19 + θ19,19 in-plane, VMs 3, 8, 19 and their six
 MDs in bending-torsion, found by mode shape. ``--json`` prints one JSON object as the last line
@@ -11,8 +11,11 @@ with ``dofs, vms, mds, steps, compile_s, run_s, offline_s`` and with ``--referen
 converged (run at a tenth and a hundredth of the tolerances: ``reference_error_percent`` bounds
 its own error), ``chi_rel_percent`` the run's total error against it, split into
 ``integration_error_percent`` (the run against its repetition at the reference's tolerance) and
-``basis_error_percent``; the speed-up is against the full run at a tenth of the tolerances. Mode
-indices are 0-based (the paper's 19th mode is 18).
+``basis_error_percent``; the speed-up is against the full run at a tenth of the tolerances. The
+error estimate from the reduced run alone is ``chi_rel_estimate_percent``; with
+``--estimate-integration`` it is the total of ``basis_error_estimate_percent`` and
+``integration_error_estimate_percent`` (the run against its repetition at rtol/10), as ``nrrncf
+spinup`` reports it. Mode indices are 0-based (the paper's 19th mode is 18).
 """
 
 from .. import _validate
@@ -32,21 +35,26 @@ def _pair(s: str) -> tuple[int, int]:
 
 
 def _run(args) -> int:
-    from ..scenarios.membrane import DEFAULT_OMEGA, MembraneSpec, build_membrane, run_membrane
+    import dataclasses
+
+    from ..integrate import AdaptiveStepSize
+    from ..scenarios.membrane import DEFAULT_BASIS, DEFAULT_OMEGA, MembraneSpec, build_membrane, run_membrane
 
     spec = MembraneSpec(rings=args.rings, thickness=args.thickness)
     omega = DEFAULT_OMEGA[args.case] if args.omega is None else args.omega
     _common.say(args, f"rotating membrane ({spec.rings} rings), {args.case}, omega_s = {omega:g} rad/s, "
                       f"{args.formulation}, 0-{args.t_end:g} s ...")
-    kw = dict(T_s=args.ts, t_end=args.t_end, dt_out=args.dt_out, rtol=args.rtol, atol=args.atol,
+    kw = dict(T_s=args.ts, t_end=args.t_end, dt_out=args.dt_out, controller=AdaptiveStepSize(args.rtol, args.atol),
               progress=not (args.json or args.no_progress))
     if args.formulation == "rncf":
         run = run_membrane(args.case, omega, "rncf", spec, **kw)
     else:  # --reference rncf: against the full model converged, the error split into its parts
-        mds = None if args.mds is None else ([] if args.mds == ["none"] else args.mds)
-        run = run_membrane(args.case, omega, "nr-rncf", spec, vms=args.vms, mds=mds, n_modes=args.modes, tol=args.tol,
-                           estimate_method=args.estimate_method, reference=args.reference == "rncf",
-                           **_common.estimate_samples(args, True), **kw)
+        # not given: the paper's ("auto" stands for it in run_membrane)
+        mds = "auto" if args.mds is None else ([] if args.mds == ["none"] else args.mds)
+        basis = dataclasses.replace(DEFAULT_BASIS, n_modes=args.modes, vms="auto" if args.vms is None else args.vms,
+                                    mds=mds)
+        run = run_membrane(args.case, omega, "nr-rncf", spec, basis, estimator=_common.estimator(args), tol=args.tol,
+                           reference=args.reference == "rncf", **kw)
     if args.plot:
         from ..post.plotting import plot_membrane_rim
 
@@ -79,6 +87,7 @@ def _check(args) -> None:
         if args.vms is not None or args.mds is not None:
             raise ValueError("--vms and --mds go with --formulation nr-rncf")
     _common.estimate_samples(args, args.formulation == "nr-rncf")
+    _common.estimate_integration(args, args.formulation == "nr-rncf", default=False)
     if args.mds is not None and "none" in args.mds and len(args.mds) > 1:
         raise ValueError("--mds none stands alone")
     highest = max([*(args.vms or []), *(i for p in (args.mds or []) if p != "none" for i in p)], default=-1)
@@ -109,6 +118,7 @@ def register(sub) -> None:
         "a factorisation each) or dynamic (the linearised error equation over every output, a "
         "factorisation each: minutes on the full mesh, but it flags a basis whose error grows as "
         "drift; estimate_valid_until_s says where its linearisation stopped holding)"))
+    _common.add_estimate_integration(t, "nr-rncf", " (default: off)")
     _common.add_tol_and_reference_options(t, "nr-rncf")
     t.add_argument("--rings", type=int, default=15, help="rings of the hexagonal disk mesh (15: 1350 triangles)")
     t.add_argument("--thickness", type=float, default=1.36e-3, help="plate thickness [m]")

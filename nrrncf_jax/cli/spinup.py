@@ -1,7 +1,5 @@
 """``nrrncf spinup``: the paper's spin-up manoeuvre (Section 4.1, Eq. 43), full or reduced."""
 
-import argparse
-
 from .. import _validate
 from . import _common
 
@@ -23,11 +21,10 @@ def _check(args) -> None:
         _validate.positive("--tol (target chi_rel in per cent)", args.tol)
         if args.formulation != "nr-rncf":
             raise ValueError("--tol chooses a reduced basis; use it with --formulation nr-rncf")
-    if args.estimate_integration is None:
-        args.estimate_integration = args.formulation == "nr-rncf"
     if (args.estimate_method != "static" or args.estimate_integration) and args.formulation != "nr-rncf":
         raise ValueError("--estimate-method and --estimate-integration estimate a reduced run's error; use them "
                          "with --formulation nr-rncf")
+    _common.estimate_integration(args, args.formulation == "nr-rncf", default=args.formulation == "nr-rncf")
     _common.estimate_samples(args, args.formulation == "nr-rncf")
     if args.reference and args.formulation != "nr-rncf":
         raise ValueError("--reference compares a reduced run against the full model; use it with "
@@ -50,19 +47,21 @@ def _spinup(args) -> int:
                  + (f", reference {args.reference.upper()}" if args.reference else "")) if reduced else ""
         print(f"nrrncf spinup: {args.formulation.upper()} {args.beam} beam, omega_s = {args.omega:g} rad/s, "
               f"T_s = {args.ts:g} s, t = 0..{args.t_end:g} s, {args.elements} elements{basis}", flush=True)
-    common = dict(T_s=args.ts, t_end=args.t_end, elements=args.elements, rho_inf=args.rho_inf, rtol=args.rtol,
-                  dt_out=args.dt_out, progress=not args.no_progress, step_control=args.step_control)
+    common = dict(T_s=args.ts, t_end=args.t_end, elements=args.elements, dt_out=args.dt_out,
+                  progress=not args.no_progress)
     if reduced:
+        from ..integrate import GeneralizedAlpha, adaptive_step_size
         from ..reduction import Basis
 
         basis = Basis(n_modes=args.modes, vms=args.vms, mds=args.mds, max_dofs=args.max_dofs,
                       spin_state={"auto": "auto", "on": True, "off": False}[args.spin_state])
-        res = run_nr_rncf_spinup(args.beam, args.omega, basis=basis, tol=args.tol, reference=args.reference == "rncf",
-                                 estimate_method=args.estimate_method,
-                                 estimate_integration=args.estimate_integration,
-                                 **_common.estimate_samples(args, True), **common)
+        res = run_nr_rncf_spinup(args.beam, args.omega, basis=basis, solver=GeneralizedAlpha(args.rho_inf),
+                                 controller=adaptive_step_size(args.rtol, 1e-6, args.step_control),
+                                 estimator=_common.estimator(args), tol=args.tol,
+                                 reference=args.reference == "rncf", **common)
     else:
-        res = run_spinup(args.formulation, args.beam, args.omega, **common)
+        res = run_spinup(args.formulation, args.beam, args.omega, rho_inf=args.rho_inf, rtol=args.rtol,
+                         step_control=args.step_control, **common)
     if args.out:
         res.to_csv(args.out)
     if args.plot:
@@ -114,10 +113,7 @@ def register(sub) -> None:
         "(static), or the linearised error equation over every output (dynamic; where it stops "
         "being valid the JSON says so in estimate_valid_until_s); static: the run ends a step on "
         "each sample; dynamic: on a repetition of the run that ends a step on every output"))
-    s.add_argument("--estimate-integration", action=argparse.BooleanOptionalAction, default=None,
-                   help="nr-rncf: also estimate the run's own time-integration error, by repeating the run at "
-                        "rtol/10 (a few times the reduced run's cost), so that chi_rel_estimate_percent is the "
-                        "total error's estimate (default: on for nr-rncf)")
+    _common.add_estimate_integration(s, "nr-rncf", " (default: on for nr-rncf)")
     s.add_argument("--reference", choices=["rncf"], default=None,
                    help="nr-rncf: also run the full RNCF model, converged (at rtol/10 and rtol/100); report the "
                         "total chi_rel (Eq. 40) against it, its time-integration and basis parts, the reference's "

@@ -2,7 +2,8 @@
 
     nrrncf truss modes [--count 10] [--plot F] [--vtk DIR] [--json] [--no-progress]
     nrrncf truss dynamics --formulation {rncf,nr-rncf} [--vms 4] [--mds 6]
-                          [--estimate-method {static,dynamic}] [--reference rncf] [--plot F] [--vtk DIR] [--json]
+                          [--estimate-method {static,dynamic}] [--estimate-integration] [--reference rncf]
+                          [--plot F] [--vtk DIR] [--json]
 
 ``--json`` prints one JSON object as the last line: for ``modes`` ``frequencies_hz`` (ascending)
 and ``mode_types``; for ``dynamics`` ``dofs, vms, mds, steps, compile_s, run_s, offline_s`` and
@@ -12,7 +13,10 @@ reference is the full model converged (run at a tenth and a hundredth of the tol
 against it, split into
 ``integration_error_percent`` (the run against its repetition at the reference's tolerance) and
 ``basis_error_percent``; the speed-up is against the full run at a tenth of the tolerances.
-Mode indices are 0-based.
+The error estimate from the reduced run alone is ``chi_rel_estimate_percent``; with
+``--estimate-integration`` it is the total of ``basis_error_estimate_percent`` and
+``integration_error_estimate_percent`` (the run against its repetition at rtol/10), as ``nrrncf
+spinup`` reports it. Mode indices are 0-based.
 """
 
 import json
@@ -70,8 +74,9 @@ def _modes(args) -> int:
 
 
 def _dynamics(args) -> int:
+    import dataclasses
 
-    from ..scenarios.truss import run_truss
+    from ..scenarios.truss import DEFAULT_BASIS, run_truss
 
     spec = _spec(args)
     _common.say(args, f"truss ({spec.bays} bays), {args.formulation}, 0-{args.t_end:g} s ...")
@@ -79,9 +84,9 @@ def _dynamics(args) -> int:
     if args.formulation == "rncf":
         run = run_truss("rncf", spec, **kw)
     else:  # --reference rncf: against the full model converged, the error split into its parts
-        run = run_truss("nr-rncf", spec, vms=args.vms, mds=args.mds, n_modes=args.modes, tol=args.tol,
-                        estimate_method=args.estimate_method, reference=args.reference == "rncf",
-                        **_common.estimate_samples(args, True), **kw)
+        basis = dataclasses.replace(DEFAULT_BASIS, n_modes=args.modes, vms=args.vms, mds=args.mds)
+        run = run_truss("nr-rncf", spec, basis=basis, estimator=_common.estimator(args), tol=args.tol,
+                        reference=args.reference == "rncf", **kw)
     if args.plot:
         from ..post.plotting import plot_truss_tip
 
@@ -113,6 +118,7 @@ def _check(args) -> None:
                                            or args.estimate_method != "static"):
             raise ValueError("--reference, --tol and --estimate-method go with --formulation nr-rncf")
         _common.estimate_samples(args, args.formulation == "nr-rncf")
+        _common.estimate_integration(args, args.formulation == "nr-rncf", default=False)
         _common.at_least("--vms", args.vms, 1)
         _common.at_least("--mds", args.mds, 0)
         _common.at_least("--modes", args.modes, args.vms)
@@ -138,6 +144,7 @@ def register(sub) -> None:
         "outputs, a sparse factorisation each) or dynamic (the linearised error equation over every "
         "output, a factorisation each: minutes, but it flags a basis whose error grows as drift; "
         "estimate_valid_until_s says where its linearisation stopped holding)"))
+    _common.add_estimate_integration(t, "dynamics, nr-rncf", " (default: off)")
     _common.add_tol_and_reference_options(t, "dynamics, nr-rncf")
     t.add_argument("--t-end", type=float, default=10.0, help="dynamics: end time [s]")
     t.add_argument("--dt-out", type=float, default=0.02, help="dynamics: output interval [s]")

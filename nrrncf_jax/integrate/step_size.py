@@ -131,6 +131,26 @@ def adaptive_step_size(rtol, atol, step_control: str = "plain", **kw) -> Adaptiv
     return AdaptiveStepSize(rtol, atol, **STEP_CONTROLS[step_control], **kw)
 
 
+def step_control_name(controller: AbstractStepSizeController) -> str:
+    """The name under which ``STEP_CONTROLS`` holds an ``AdaptiveStepSize``'s coefficients
+    (``"plain"``, ``"pi"``), what a run's record says of its controller; other coefficients as
+    ``"pi(pcoeff=…, icoeff=…)"``, a ``ConstantStepSize`` as ``"constant"``."""
+    if not isinstance(controller, AdaptiveStepSize):
+        return "constant" if isinstance(controller, ConstantStepSize) else type(controller).__name__
+    coeffs = {"pcoeff": controller.pcoeff, "icoeff": controller.icoeff}
+    for name, kw in STEP_CONTROLS.items():
+        if coeffs == {"pcoeff": 0.0, "icoeff": 1.0, **kw}:
+            return name
+    return f"pi(pcoeff={controller.pcoeff:g}, icoeff={controller.icoeff:g})"
+
+
+def with_tolerances(controller: AbstractStepSizeController, rtol, atol) -> AbstractStepSizeController:
+    """``controller`` at the tolerances ``rtol``, ``atol`` (checked > 0), its other settings (the
+    step limits, the PI coefficients, a constant step) kept: a run repeated at tightened
+    tolerances (``rtol / k``, ``atol / k``) with the same step control."""
+    return eqx.tree_at(lambda c: (c.rtol, c.atol), controller, (_positive("rtol", rtol), _positive("atol", atol)))
+
+
 class ConstantStepSize(AbstractStepSizeController):
     """Steps of size ``dt``. ``rtol``/``atol`` scale Newton's stopping test only. A run whose
     Newton converges in every step is a smooth function of its parameters; ``num_rejected > 0``
@@ -158,4 +178,5 @@ class ConstantStepSize(AbstractStepSizeController):
         return ok, jnp.where(ok, jnp.minimum(2.0 * h, self.dt), 0.25 * h)
 
 
-__all__ = ["STEP_CONTROLS", "AbstractStepSizeController", "AdaptiveStepSize", "ConstantStepSize", "adaptive_step_size"]
+__all__ = ["STEP_CONTROLS", "AbstractStepSizeController", "AdaptiveStepSize", "ConstantStepSize", "adaptive_step_size",
+           "step_control_name", "with_tolerances"]

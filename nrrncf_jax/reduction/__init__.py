@@ -38,7 +38,9 @@ coordinates, the same span kept as plain basis vectors. Mode indices are 0-based
 How good a reduced run is, without the full run: ``error_estimate`` (the static-correction
 estimate of χ_rel from the run alone), made on a run of one's own by ``run_error``: run the
 reduced model with ``step_ts=estimate_times(ts)`` (its steps then end on the samples), then
-``estimate_run_error(full, reduced, ts, P, V)`` with its coordinates and velocities at ``ts``;
+``estimate_run_error(full, reduced, ts, P, V)`` with its coordinates and velocities at ``ts``
+(``ErrorEstimator``: how the scenario runners make it, static or dynamic, with or without the
+run's time-integration part);
 and ``basis_to_tolerance`` (``nr_rncf_to_tolerance(full, ts, P)``: the
 basis grown along the MMI ranking until that estimate over a training run is at most P per cent);
 for jointed systems of reduced bodies, ``multibody.error_estimate``."""
@@ -66,6 +68,7 @@ from .pipeline import Reduction as Reduction
 from .pipeline import nr_rncf as nr_rncf
 from .reduced_model import ReducedRotatingModel as ReducedRotatingModel
 from .reduced_model import reduce_rotating_model as reduce_rotating_model
+from .run_error import ErrorEstimator as ErrorEstimator
 from .run_error import estimate_run_error as estimate_run_error
 from .run_error import estimate_times as estimate_times
 from .selection import Selection as Selection

@@ -37,7 +37,7 @@ import numpy as np
 
 from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha, states_at
-from .error_estimate import ErrorEstimate, estimate_error, estimate_indices, sample_indices
+from .error_estimate import METHODS, ErrorEstimate, estimate_error, estimate_indices, sample_indices
 
 TIGHTEN = 10.0
 """The repetition's tolerances are the run's divided by this: its own integration error is then
@@ -145,5 +145,57 @@ def estimate_own_run(full, reduced, ts, ps, vs, *, samples: int = 16, method: st
                               tighten=TIGHTEN if integration else 1.0, **kwargs)
 
 
-__all__ = ["TIGHTEN", "estimate_own_run", "estimate_run_error", "estimate_times", "observe_state", "run_step_ts",
-           "sampled_states"]
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ErrorEstimator:
+    """How a scenario runner estimates its reduced run's error from reduced runs alone (module
+    docstring); ``None`` in its place makes no estimate. The result is an ``ErrorEstimate``.
+
+    ``method``: ``"static"`` lifts the reduced state to the full coordinates at ``samples`` of the
+    output times, evaluates the full model's residual r there and solves K_T e = −r for the
+    displacement error the basis leaves (the quasi-static correction, ``reduction.error_estimate``):
+    one sparse factorisation of the full model per sample, and the run ends a step on each sample
+    so that the estimate reads its own states, not an interpolation (``step_ts``). ``"dynamic"``
+    integrates the linearised error equation M ë + R_q̇ ė + R_q e = −r over every output instead (a
+    factorisation an output, on a repetition of the run that ends a step on each; ``samples`` is
+    then not used): costlier, but it follows the error a basis lets grow over the run as drift,
+    which the quasi-static correction cannot see. Either estimates χ_rel (Eq. 40; docs/theory.md,
+    §9 Accuracy measures and checks) over the same displacements as the measured one.
+
+    ``integration``: also estimate the run's own time-integration error, χ_rel of the run against
+    its repetition at the tolerances divided by ``TIGHTEN`` at the samples (that repetition also
+    gives the states the basis's part is estimated at): its cost is the repetition, more than the
+    run itself. The two parts bound the run's total error (the triangle inequality), which a
+    basis error alone does not where the steps are loose."""
+
+    method: str = "static"
+    samples: int = 16
+    integration: bool = False
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise ValueError(f"ErrorEstimator.method must be one of {METHODS}, got {self.method!r}")
+        if isinstance(self.samples, bool) or not isinstance(self.samples, (int, np.integer)) or self.samples < 2:
+            raise ValueError(f"ErrorEstimator.samples must be an integer >= 2, got {self.samples!r}")
+        _validate.boolean("ErrorEstimator.integration", self.integration)
+
+    def step_ts(self, ts):
+        """The ``step_ts`` of the run to be estimated (``run_step_ts``): the static estimate's
+        samples, or None where the estimate repeats the run."""
+        return run_step_ts(ts, self.samples, self.method, self.integration)
+
+    def estimate(self, full, reduced, ts, ps, vs, solver, controller, *, max_steps: int = 500_000, output=(),
+                 norm_rows=None) -> ErrorEstimate:
+        """The estimate (``estimate_own_run``) of the run of ``reduced`` made with ``solver`` (a
+        ``GeneralizedAlpha``), ``controller`` (an ``AdaptiveStepSize``) and
+        ``step_ts=self.step_ts(ts)``, its coordinates ``ps`` and velocities ``vs`` recorded at the
+        output times ``ts``. A repetition runs at the solver's ρ∞ with the plain controller at
+        the controller's tolerances (divided by ``TIGHTEN`` for ``integration``). ``output``,
+        ``norm_rows``: ``estimate_error``'s."""
+        return estimate_own_run(full, reduced, ts, ps, vs, samples=self.samples, method=self.method,
+                                integration=self.integration, rho_inf=float(solver.rho_inf),
+                                rtol=float(controller.rtol), atol=float(controller.atol), max_steps=max_steps,
+                                output=output, norm_rows=norm_rows)
+
+
+__all__ = ["TIGHTEN", "ErrorEstimator", "estimate_own_run", "estimate_run_error", "estimate_times", "observe_state",
+           "run_step_ts", "sampled_states"]

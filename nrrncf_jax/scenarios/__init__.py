@@ -27,6 +27,13 @@
 - ``forced_run``: a large body's full or NR-RNCF run and its χ_rel against a full one, shared by
   the truss and the membrane.
 
+The NR-RNCF runners (``run_nr_rncf_spinup``, ``run_membrane``, ``run_truss``, ``run_forced``) take
+their options as objects, as ``integrate.simulate`` and ``reduction.nr_rncf`` do: the basis a
+``reduction.Basis``, the time integration a ``solver`` (``integrate.GeneralizedAlpha``) and a step-size
+``controller`` (``integrate.AdaptiveStepSize``, plain or PI), the a-posteriori error estimate a
+``reduction.ErrorEstimator`` (None: none), and a basis chosen to a tolerance ``tol`` (per cent, or a
+``reduction.ToTolerance``). Their defaults are each scenario's own.
+
 Each example has its ``nrrncf`` subcommand, its notebook and its benchmark; the measured figures
 are on the documentation's Benchmark results page, summed up in the README's results table.
 """

@@ -14,14 +14,20 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import _validate
-from ..integrate import AdaptiveStepSize, GeneralizedAlpha
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha, step_control_name, with_tolerances
 from ..integrate.simulate import simulate, simulate_timed
 from ..models import RotatingFrameModel
-from ..reduction.run_error import estimate_own_run, run_step_ts
-from .run_record import RunRecord
+from ..reduction.basis_choice import Basis
+from ..reduction.basis_to_tolerance import ToTolerance, nr_rncf_to_tolerance
+from ..reduction.pipeline import nr_rncf
+from ..reduction.run_error import ErrorEstimator
+from .run_record import RunRecord, check_reduction, run_integrator
 
 FORMULATIONS = ("rncf", "nr-rncf")
+
+DEFAULT_BASIS = Basis(n_modes=12, vms=4, mds=6, max_dofs=None)
+"""``run_forced``'s (and ``run_truss``'s) basis: 4 VMs and 6 MDs chosen by MMI among 12 candidate
+modes, no cap on the size."""
 
 
 @dataclasses.dataclass(kw_only=True)
@@ -76,39 +82,46 @@ class ForcedRun(RunRecord):
         return fields, self.ts[::every]
 
 
-def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *, vms=4, mds=6, n_modes: int = 12,
-               spin_state="auto", modes=None, rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-6,
-               progress: bool = False, max_steps: int = 500_000, estimate: bool = True, estimate_samples: int = 16,
-               tol: float | None = None, estimate_integration: bool = False, estimate_method: str = "static",
-               reference: "bool | ForcedRun" = False, cls=ForcedRun, **fields) -> ForcedRun:
-    """Run ``full`` (``'rncf'``) or its NR-RNCF reduction (``'nr-rncf'``: ``nr_rncf`` with ``vms``,
-    ``mds`` among ``n_modes`` candidates, MMI over ``ts``, no cap on the size; ``modes``: see
-    ``nr_rncf``) to the output times
-    ``ts``, observing the mean displacement of ``point_vectors``. Returns a ``cls`` (a
-    ``ForcedRun``) with ``fields`` added. ``estimate``: an NR-RNCF run's a-posteriori error
-    estimate from the reduced run alone (``reduction.run_error``, at ``estimate_samples`` output
-    times, on which the run then ends steps, over the position vectors as χ_rel is): one sparse
-    factorisation of the full model per sample.
-    ``estimate_integration``: also the run's own time-integration error, by a repetition of the
-    run at tightened tolerances. ``estimate_method``: ``"static"`` (the quasi-static correction at
-    the samples, above) or ``"dynamic"`` (the linearised error equation over every output, on a
-    repetition of the run ending a step on each: a sparse factorisation an output, far costlier
-    on a large body, but the one that flags a basis whose error grows over the run as drift).
-    ``tol``: the basis chosen to a target χ_rel in per cent
-    instead (``nr_rncf_to_tolerance``, the run itself the training manoeuvre; ``vms`` and ``mds``
-    are then not used, and ``spin_state`` governs the spinning-state check of each basis tried).
+def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *, basis: Basis = DEFAULT_BASIS,
+               modes=None, solver: GeneralizedAlpha | None = None, controller: AdaptiveStepSize | None = None,
+               estimator: ErrorEstimator | None = ErrorEstimator(), tol: float | ToTolerance | None = None,
+               reference: "bool | ForcedRun" = False, progress: bool = False, max_steps: int = 500_000,
+               cls=ForcedRun, **fields) -> ForcedRun:
+    """Run ``full`` (``'rncf'``) or its NR-RNCF reduction (``'nr-rncf'``: ``nr_rncf`` with
+    ``basis``, a ``reduction.Basis``, default ``DEFAULT_BASIS``: MMI over ``ts``; ``modes``: see
+    ``nr_rncf``) to the output times ``ts`` with ``solver`` (default ``GeneralizedAlpha(0.9)``)
+    and ``controller`` (default ``AdaptiveStepSize(1e-4, 1e-6)``), observing the mean displacement
+    of ``point_vectors``. Returns a ``cls`` (a ``ForcedRun``) with ``fields`` added.
+
+    ``estimator`` (a ``reduction.ErrorEstimator``; None: none): an NR-RNCF run's a-posteriori
+    error estimate from reduced runs alone (``reduction.run_error``), over the position vectors
+    as χ_rel is. The static one at its samples, on which the run then ends steps, costs one
+    sparse factorisation of the full model per sample; the dynamic one a factorisation an
+    output, far costlier on a large body, but the one that flags a basis whose error grows over
+    the run as drift; with ``integration`` the run's own time-integration error too, by a
+    repetition at tightened tolerances.
+
+    ``tol`` (a target χ_rel in per cent, or a ``reduction.ToTolerance``; a number takes the
+    estimator's samples): the basis chosen to it instead (``nr_rncf_to_tolerance``, the run itself
+    the training manoeuvre, the basis's ``max_dofs`` the largest basis tried; its ``vms`` and
+    ``mds`` are then not used, its ``spin_state`` governs the spinning-state check of each basis
+    tried); the search's training runs and the estimate's repetition take the plain controller at
+    the controller's tolerances. The search's estimate of the chosen basis is then the run's.
+
     ``reference`` (an NR-RNCF run): ``True`` compares it with the full model converged
     (``RunRecord.compare_converged``: the full run at a tenth and a hundredth of the tolerances,
     the reduced model again at the tighter, and the error split into its time-integration and
-    basis parts); a full ``ForcedRun`` of the same body and output times is compared as it is."""
-    from ..reduction import Basis, ToTolerance, nr_rncf, nr_rncf_to_tolerance
-
+    basis parts; each with the same solver and step control); a full ``ForcedRun`` of the same
+    body and output times is compared as it is."""
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     if formulation == "rncf" and reference is not False and reference is not None:
         raise ValueError("reference compares an NR-RNCF run with the full model; formulation 'rncf' is the full model")
-    _validate.boolean("estimate_integration", estimate_integration)
-    stops = run_step_ts(ts, estimate_samples, estimate_method, estimate_integration)  # checks them before anything runs
+    solver, controller = run_integrator(solver, controller)
+    check_reduction(basis, estimator)
+    if tol is not None and not isinstance(tol, ToTolerance):
+        tol = ToTolerance(tol=tol) if estimator is None else ToTolerance(tol=tol, samples=estimator.samples)
+    stops = None if estimator is None else estimator.step_ts(ts)  # checks them before anything runs
     pos = np.flatnonzero(np.asarray(full.body.is_position))
     red = None
     if formulation == "rncf":
@@ -117,10 +130,9 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
         # The step error on the position vectors' coordinates (what χ_rel measures): mapping it to
         # all of a large body's coordinates every step costs more than the reduced step itself.
         rows = (3 * pos[:, None] + np.arange(3)).reshape(-1)
-        basis = Basis(n_modes=n_modes, vms=vms, mds=mds, max_dofs=None, spin_state=spin_state)
         red = (nr_rncf(full, jnp.asarray(ts), basis, error_rows=rows, modes=modes) if tol is None else
-               nr_rncf_to_tolerance(full, jnp.asarray(ts), ToTolerance(tol=tol, samples=estimate_samples), basis,
-                                    solver=GeneralizedAlpha(rho_inf), controller=AdaptiveStepSize(rtol, atol),
+               nr_rncf_to_tolerance(full, jnp.asarray(ts), tol, basis, solver=solver,
+                                    controller=AdaptiveStepSize(controller.rtol, controller.atol),
                                     max_steps=max_steps, error_rows=rows, norm_rows=rows, modes=modes))
         model = red.model
 
@@ -134,10 +146,9 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
             return np.asarray(jax.device_get(sol.ys))
         return np.asarray(jax.vmap(lambda p: model.displacements(0.0, p)[pos])(sol.ys[0]))
 
-    own = red is not None and red.search is None and estimate  # the estimate reads the run's own step ends
-    sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol, atol),
-                                           jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps,
-                                           step_ts=stops if own else None)
+    own = red is not None and red.search is None and estimator is not None  # the estimate reads the run's step ends
+    sol, compile_s, run_s = simulate_timed(model, solver, controller, jnp.asarray(ts), observe=observe,
+                                           progress=progress, max_steps=max_steps, step_ts=stops if own else None)
     w = positions(sol)
     if red is not None:
         P, V = (np.asarray(y) for y in jax.device_get(sol.ys))
@@ -145,7 +156,8 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     run = cls(formulation=formulation, dofs=int(np.sum(np.asarray(full.free_mask()))) if red is None else red.dofs,
               ts=np.asarray(ts), point=w[:, [where[int(p)] for p in np.atleast_1d(point_vectors)]].mean(axis=1),
               positions=w, steps=int(sol.num_steps), rejected=int(sol.num_rejected),
-              newton_iters=int(sol.num_newton), compile_s=compile_s, run_s=run_s, **fields)
+              newton_iters=int(sol.num_newton), compile_s=compile_s, run_s=run_s,
+              step_control=step_control_name(controller), **fields)
     if red is not None:
         run.vms, run.mds, run.reduction = red.selection.vms, red.selection.pairs, red
         run.offline_s = red.offline_s["total"]  # nr_rncf's own timing of its stages
@@ -154,23 +166,24 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
             # estimate is this run's, and a second one would cost a sparse factorisation a sample.
             run.estimate = red.search.estimate
         elif own:
-            run.estimate = estimate_own_run(full, model, ts, P, V, samples=estimate_samples, method=estimate_method,
-                                            integration=estimate_integration, rho_inf=rho_inf, rtol=rtol,
-                                            atol=atol, max_steps=max_steps, norm_rows=rows)
+            run.estimate = estimator.estimate(full, model, ts, P, V, solver, controller, max_steps=max_steps,
+                                              norm_rows=rows)
     if reference is False or reference is None:
         return run
     if reference is not True:
         return run.compare(reference)
+    rtol, atol = float(controller.rtol), float(controller.atol)
 
     def full_at(k):
-        return run_forced(full, "rncf", ts, point_vectors, rho_inf=rho_inf, rtol=rtol / k, atol=atol / k,
-                          progress=progress, max_steps=max_steps, cls=cls, **fields)
+        return run_forced(full, "rncf", ts, point_vectors, solver=solver,
+                          controller=with_tolerances(controller, rtol / k, atol / k), progress=progress,
+                          max_steps=max_steps, cls=cls, **fields)
 
     def repeat_at(k):
-        return positions(simulate(model, GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol / k, atol / k),
-                                  jnp.asarray(ts), observe=observe, max_steps=max_steps))
+        return positions(simulate(model, solver, with_tolerances(controller, rtol / k, atol / k), jnp.asarray(ts),
+                                  observe=observe, max_steps=max_steps))
 
     return run.compare_converged(full_at, repeat_at, rtol=rtol)
 
 
-__all__ = ["FORMULATIONS", "ForcedRun", "run_forced"]
+__all__ = ["DEFAULT_BASIS", "FORMULATIONS", "ForcedRun", "run_forced"]

@@ -39,9 +39,14 @@ import numpy as np
 from .. import _validate
 from ..bodies.plate_mesh import PlateBody, hexagonal_disk, plate_body
 from ..elements import TrianglePlate
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..models import RotatingFrameModel
 from ..motion import ComposedMotion, HarmonicTranslation, SpinUp
+from ..reduction.basis_choice import Basis
+from ..reduction.basis_to_tolerance import ToTolerance
+from ..reduction.run_error import ErrorEstimator
 from .forced_run import FORMULATIONS, ForcedRun, run_forced
+from .run_record import check_reduction, run_integrator
 
 CASES = ("in-plane", "bending-torsion")
 
@@ -190,6 +195,10 @@ def membrane_model(membrane: Membrane, case: str, omega_s: float, T_s: float = 2
 
 DEFAULT_OMEGA = {"in-plane": 7.0, "bending-torsion": 4.0}
 
+DEFAULT_BASIS = Basis(n_modes=24, spin_state=False, max_dofs=None)
+"""``run_membrane``'s basis: the paper's (its ``"auto"`` VMs and MDs stand for ``paper_basis``'s)
+among 24 candidate modes, as given: no spinning-state enrichment and no cap on its size."""
+
 
 @dataclasses.dataclass
 class MembraneRun(ForcedRun):
@@ -211,21 +220,27 @@ class MembraneRun(ForcedRun):
 
 
 def run_membrane(case: str = "in-plane", omega_s: float | None = None, formulation: str = "nr-rncf",
-                 spec: MembraneSpec = MembraneSpec(), vms=None, mds=None, n_modes: int = 24, T_s: float = 2.0,
-                 t_end: float = 3.0, dt_out: float = 0.01, rho_inf: float = 0.9, rtol: float = 1e-5,
-                 atol: float = 1e-7, reference: "bool | MembraneRun" = False, progress: bool = False,
-                 max_steps: int = 500_000, tol: float | None = None, estimate_method: str = "static",
-                 estimate_samples: int = 16) -> MembraneRun:
+                 spec: MembraneSpec = MembraneSpec(), basis: Basis = DEFAULT_BASIS, T_s: float = 2.0,
+                 t_end: float = 3.0, dt_out: float = 0.01, *, solver: GeneralizedAlpha | None = None,
+                 controller: AdaptiveStepSize | None = None, estimator: ErrorEstimator | None = ErrorEstimator(),
+                 tol: float | ToTolerance | None = None, reference: "bool | MembraneRun" = False,
+                 progress: bool = False, max_steps: int = 500_000) -> MembraneRun:
     """The rotating membrane's ``case`` (``CASES``) at the steady rate ``omega_s`` (default 7 rad/s
     in-plane, 4 rad/s bending-torsion) with the full RNCF model (``'rncf'``, sparse solver above
-    1000 DOFs) or NR-RNCF (``'nr-rncf'``). The NR-RNCF basis defaults to the paper's
-    (``paper_basis``); ``vms`` (mode indices, or a count chosen by MMI) and ``mds`` (index pairs,
-    a count, or ``'auto'``) override it. The basis is the paper's as given: no spinning-state
-    enrichment. With ``reference`` χ_rel and the speed-up are filled in: ``True`` against the full
-    model converged, the error split into its parts (``run_forced``); or against a full
-    ``MembraneRun`` of the same case and output times, as it is. The offline time counts the modal analysis
-    (``membrane_modes``, cached: a second run with the same spec and ``n_modes`` reuses it and
-    counts only the lookup).
+    1000 DOFs) or NR-RNCF (``'nr-rncf'``), run with ``solver`` (default ``GeneralizedAlpha(0.9)``)
+    and ``controller`` (default ``AdaptiveStepSize(1e-5, 1e-7)``, below). With ``reference`` χ_rel
+    and the speed-up are filled in: ``True`` against the full model converged, the error split into
+    its parts (``run_forced``); or against a full ``MembraneRun`` of the same case and output
+    times, as it is. The offline time counts the modal analysis (``membrane_modes``, cached: a
+    second run with the same spec and ``basis.n_modes`` reuses it and counts only the lookup).
+
+    The NR-RNCF basis (``basis``, a ``reduction.Basis``; default ``DEFAULT_BASIS``) defaults to
+    the paper's: a ``vms`` or ``mds`` of ``"auto"`` stands here for the paper's choice
+    (``paper_basis``, found by mode type among the basis's ``n_modes`` candidates), not for the
+    MMI's; a count (chosen by MMI) or explicit indices and pairs override it, e.g.
+    ``dataclasses.replace(DEFAULT_BASIS, mds=[])`` for the paper's VMs alone. The rest of the
+    basis is used as it is: the default's ``spin_state=False`` (the paper's basis as given, no
+    spinning-state enrichment) and ``max_dofs=None`` (no cap on its size).
 
     Tolerances: the step error is measured on the coordinates, whose positions are of the order
     of the radius, while the deflections are 1e-4 to 1e-3 of it; at rtol = 1e-4 the integration
@@ -234,36 +249,37 @@ def run_membrane(case: str = "in-plane", omega_s: float | None = None, formulati
     full model's steps grow from 97 to 348). The default 1e-5 is the compromise.
 
     ``tol``: the basis chosen to a target χ_rel in per cent instead of the paper's (``run_forced``).
-    ``estimate_method``: the NR-RNCF run's error estimate, ``"static"`` or ``"dynamic"``, and
-    ``estimate_samples`` the static one's sampled outputs (``run_forced``)."""
+    ``estimator``: the NR-RNCF run's error estimate (a ``reduction.ErrorEstimator``: static or
+    dynamic, with or without the run's time-integration part; None: none; ``run_forced``)."""
 
     if case not in CASES:
         raise ValueError(f"case must be one of {CASES}, got {case!r}")
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     omega_s = DEFAULT_OMEGA[case] if omega_s is None else omega_s
-    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
+    ts = _validate.output_times(t_end, dt_out)
+    solver, controller = run_integrator(solver, controller, rtol=1e-5, atol=1e-7)
+    check_reduction(basis, estimator)
     membrane = build_membrane(spec)
     full = membrane_model(membrane, case, omega_s, T_s)
     modes, modes_s = None, 0.0
     if formulation == "nr-rncf":
         # One modal analysis serves the choice of the paper's modes by type and the reduction.
         t0 = time.perf_counter()
-        modes = membrane_modes(spec, n_modes)[0]
-        if tol is None and (vms is None or mds is None):
-            paper_vms, paper_mds = paper_basis(case, spec, n_modes)
-            vms = paper_vms if vms is None else vms
-            mds = paper_mds if mds is None else mds
+        modes = membrane_modes(spec, basis.n_modes)[0]
+        auto = [isinstance(x, str) and x == "auto" for x in (basis.vms, basis.mds)]
+        if tol is None and any(auto):
+            paper_vms, paper_mds = paper_basis(case, spec, basis.n_modes)
+            basis = dataclasses.replace(basis, vms=paper_vms if auto[0] else basis.vms,
+                                        mds=paper_mds if auto[1] else basis.mds)
         modes_s = time.perf_counter() - t0
-    run = run_forced(full, formulation, ts, membrane.rim_point, vms=vms, mds=mds, n_modes=n_modes,
-                     spin_state=False, modes=modes, rho_inf=rho_inf, rtol=rtol, atol=atol, progress=progress,
-                     max_steps=max_steps, tol=tol, estimate_method=estimate_method,
-                     estimate_samples=estimate_samples, reference=reference, cls=MembraneRun, case=case,
-                     omega_s=float(omega_s))
+    run = run_forced(full, formulation, ts, membrane.rim_point, basis=basis, modes=modes, solver=solver,
+                     controller=controller, estimator=estimator, tol=tol, reference=reference, progress=progress,
+                     max_steps=max_steps, cls=MembraneRun, case=case, omega_s=float(omega_s))
     if run.offline_s is not None:
         run.offline_s += modes_s
     return run
 
 
-__all__ = ["CASES", "DEFAULT_OMEGA", "Membrane", "MembraneRun", "MembraneSpec", "build_membrane", "membrane_model",
-           "membrane_modes", "membrane_motion", "mode_types", "paper_basis", "run_membrane"]
+__all__ = ["CASES", "DEFAULT_BASIS", "DEFAULT_OMEGA", "Membrane", "MembraneRun", "MembraneSpec", "build_membrane",
+           "membrane_model", "membrane_modes", "membrane_motion", "mode_types", "paper_basis", "run_membrane"]

@@ -16,7 +16,11 @@ from typing import ClassVar
 
 import numpy as np
 
+from .. import _validate
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..post.metrics import chi_rel
+from ..reduction.basis_choice import Basis
+from ..reduction.run_error import ErrorEstimator
 
 
 @dataclasses.dataclass(kw_only=True)
@@ -152,4 +156,32 @@ and over its square; the tighter run is the reference, their distance bounds the
 error."""
 
 
-__all__ = ["REFERENCE_TIGHTENING", "RunRecord"]
+def run_integrator(solver: GeneralizedAlpha | None, controller: AdaptiveStepSize | None, rtol: float = 1e-4,
+                   atol: float = 1e-6) -> tuple[GeneralizedAlpha, AdaptiveStepSize]:
+    """A scenario run's ``(solver, controller)``, each a default where None: ``GeneralizedAlpha(0.9)``
+    and the plain ``AdaptiveStepSize(rtol, atol)`` at the scenario's own tolerances. Checked before
+    anything runs: the solver a ``GeneralizedAlpha`` (the scenarios' bodies have no joints), the
+    controller an ``AdaptiveStepSize`` with rtol < 1 (a converged reference, an estimate's
+    repetition and a basis search rerun the model at its tolerances tightened, which a constant
+    step would not follow)."""
+    solver = GeneralizedAlpha(0.9) if solver is None else solver
+    controller = AdaptiveStepSize(rtol, atol) if controller is None else controller
+    if not isinstance(solver, GeneralizedAlpha):
+        raise ValueError(f"solver must be an integrate.GeneralizedAlpha, got {type(solver).__name__}")
+    if not isinstance(controller, AdaptiveStepSize):
+        raise ValueError(f"controller must be an integrate.AdaptiveStepSize (error-controlled steps), got "
+                         f"{type(controller).__name__}")
+    _validate.tolerances(float(controller.rtol), float(controller.atol))
+    return solver, controller
+
+
+def check_reduction(basis, estimator) -> None:
+    """A reduced run's ``basis`` (a ``reduction.Basis``) and ``estimator`` (a
+    ``reduction.ErrorEstimator`` or None), checked before anything runs."""
+    if not isinstance(basis, Basis):
+        raise ValueError(f"basis must be a reduction.Basis, got {type(basis).__name__}")
+    if estimator is not None and not isinstance(estimator, ErrorEstimator):
+        raise ValueError(f"estimator must be a reduction.ErrorEstimator or None, got {type(estimator).__name__}")
+
+
+__all__ = ["REFERENCE_TIGHTENING", "RunRecord", "check_reduction", "run_integrator"]

@@ -10,17 +10,17 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..integrate import AdaptiveStepSize, GeneralizedAlpha, adaptive_step_size
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha, adaptive_step_size, step_control_name, with_tolerances
 from ..integrate.simulate import simulate, simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
 from ..reduction.basis_choice import Basis
 from ..reduction.basis_to_tolerance import ToTolerance, nr_rncf_to_tolerance
 from ..reduction.pipeline import nr_rncf
-from ..reduction.run_error import TIGHTEN, estimate_own_run, observe_state, run_step_ts
+from ..reduction.run_error import TIGHTEN, ErrorEstimator, observe_state
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
-from .run_record import REFERENCE_TIGHTENING, RunRecord
+from .run_record import REFERENCE_TIGHTENING, RunRecord, check_reduction, run_integrator
 
 PAPER_ELEMENTS = {4.0: 6, 10.0: 10, 20.0: 16, 40.0: 24}
 """Elements per steady spin rate in the paper's Table 2."""
@@ -227,7 +227,14 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
     rotating frame, step counts, and compile/run times (measured apart). ``step_control``: the
     adaptive controller by name (``integrate.STEP_CONTROLS``: ``"plain"`` or ``"pi"``)."""
     ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
-    controller = adaptive_step_size(rtol, atol, step_control)
+    return _run_full(formulation, beam, omega_s, T_s, ts, elements, GeneralizedAlpha(rho_inf),
+                     adaptive_step_size(rtol, atol, step_control), save_displacements, progress, max_steps)
+
+
+def _run_full(formulation, beam, omega_s, T_s, ts, elements, solver, controller, save_displacements, progress,
+              max_steps) -> SpinupResult:
+    """``run_spinup`` on the output times ``ts`` with a ``solver`` and ``controller`` (the
+    converged reference of ``run_nr_rncf_spinup`` runs the reduced run's, tightened)."""
     model = build_spinup_model(formulation, beam, omega_s, T_s, elements)
     body = model.body
     tip = body.n_vectors - body.vectors_per_node
@@ -239,31 +246,34 @@ def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omeg
             out["w"] = w
         return out
 
-    sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), controller,
-                                           jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps)
+    sol, compile_s, run_s = simulate_timed(model, solver, controller, jnp.asarray(ts), observe=observe,
+                                           progress=progress, max_steps=max_steps)
     ys = jax.tree_util.tree_map(np.asarray, sol.ys)
     name = beam if isinstance(beam, str) else beam.name
     return SpinupResult(
         formulation=formulation, beam=name, omega_s=float(omega_s), T_s=float(T_s), elements=body.n_elements,
         dofs=int(np.sum(np.asarray(model.free_mask()))), ts=ts, theta=ys["theta"], tip=ys["tip"],
         steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
-        compile_s=compile_s, run_s=run_s, displacements=ys.get("w"), step_control=step_control,
+        compile_s=compile_s, run_s=run_s, displacements=ys.get("w"), step_control=step_control_name(controller),
     )
 
 
 def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T_s: float = 15.0,
-                       t_end: float = 30.0, elements: int | None = None, basis: Basis | None = None,
-                       rho_inf: float = 0.9, rtol: float = 1e-4,
-                       atol: float = 1e-6, dt_out: float = 0.01, reference: "bool | SpinupResult" = False,
-                       progress: bool = False, max_steps: int = 500_000, estimate: bool = True,
-                       estimate_samples: int = 16, tol: float | None = None,
-                       estimate_method: str = "static", estimate_integration: bool = False,
-                       step_control: str = "plain") -> SpinupResult:
+                       t_end: float = 30.0, elements: int | None = None, basis: Basis = Basis(),
+                       dt_out: float = 0.01, *, solver: GeneralizedAlpha | None = None,
+                       controller: AdaptiveStepSize | None = None,
+                       estimator: ErrorEstimator | None = ErrorEstimator(), tol: float | ToTolerance | None = None,
+                       reference: "bool | SpinupResult" = False, progress: bool = False,
+                       max_steps: int = 500_000) -> SpinupResult:
     """The spin-up of Eq. 43 with the NR-RNCF reduced model (paper Section 4.1).
 
     The basis is built by ``nr_rncf`` as ``basis`` (a ``reduction.Basis``; default ``Basis()``:
     24 candidate modes, VMs and MDs chosen by MMI up to 25 DOFs, the spinning-state check on) says,
-    with the MMI simulation over the output times.
+    with the MMI simulation over the output times. The run goes with ``solver`` (default
+    ``GeneralizedAlpha(0.9)``) and ``controller`` (default ``AdaptiveStepSize(1e-4, 1e-6)``, the
+    plain controller; ``integrate.adaptive_step_size(rtol, atol, "pi")`` is Gustafsson's PI
+    controller), as does the reference run; the estimate's repetition and the basis search take
+    the plain controller at the controller's tolerances.
     Returns a ``SpinupResult`` with ``formulation='nr-rncf'``, the reduced DOFs, the basis and the offline time. With
     ``reference=True`` the full RNCF model runs too, converged: at a tenth and a hundredth of the
     run's tolerances (``REFERENCE_TIGHTENING``), the tighter run the reference and their distance
@@ -276,65 +286,62 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     ``run_spinup(..., save_displacements=True)`` on the same output times to compare against it
     as it is.
 
-    ``estimate``: the run's a-posteriori error estimate from reduced runs alone
-    (``reduction.run_error``; with a reference also the effectivity, estimate / measured).
-    ``estimate_method``: ``"static"`` (the quasi-static correction at ``estimate_samples`` output
-    times: the run ends a step on each, ``run_step_ts``, and the basis's χ_rel is estimated at its
-    own states there) or ``"dynamic"`` (the linearised error equation over every output,
-    ``reduction.error_estimate``, on a repetition of the run ending a step on each).
-    ``estimate_integration``: also estimate the run's own time-integration error, from a
-    repetition at tightened tolerances (``TIGHTEN``), which costs more than the run.
+    ``estimator`` (a ``reduction.ErrorEstimator``; None: no estimate): the run's a-posteriori
+    error estimate from reduced runs alone (``reduction.run_error``; with a reference also the
+    effectivity, estimate / measured). Its ``method``: ``"static"`` (the quasi-static correction
+    at ``samples`` output times: the run ends a step on each, and the basis's χ_rel is estimated
+    at its own states there) or ``"dynamic"`` (the linearised error equation over every output,
+    ``reduction.error_estimate``, on a repetition of the run ending a step on each); its
+    ``integration``: also the run's own time-integration error, from a repetition at tightened
+    tolerances (``TIGHTEN``), which costs more than the run.
 
-    ``tol``: a target χ_rel in per cent. The basis is then the smallest prefix of the MMI ranking
-    whose run has an estimate at or below ``tol`` / 2 (``reduction.nr_rncf_to_tolerance``, the run
-    itself the training manoeuvre, the basis's ``max_dofs`` the largest basis tried; its ``vms``
-    and ``mds`` are not used, its ``spin_state`` governs the check of each basis tried).
-    ``basis_search`` holds every basis tried. The step tolerances are chosen to it as well: starting
-    from ``rtol`` and ``atol``, both shrink until the run's own time-integration error, estimated
-    against its repetition at a tenth of them, is at most ``tol`` / 2 (``STEP_TOLERANCE_ROUNDS``
-    tries; ``step_tolerances`` holds the chosen pair), so that the total error, basis and time
-    integration, meets ``tol``.
-
-    ``step_control``: the run's adaptive controller by name (``integrate.STEP_CONTROLS``), and the
-    reference run's; the estimate's repetition and the basis search keep the plain one.
+    ``tol``: a target χ_rel in per cent (or a ``reduction.ToTolerance``; a number takes the
+    estimator's samples). The basis is then the smallest prefix of the MMI ranking whose run has
+    an estimate at or below ``tol`` / 2 (``reduction.nr_rncf_to_tolerance``, the run itself the
+    training manoeuvre, the basis's ``max_dofs`` the largest basis tried; its ``vms`` and ``mds``
+    are not used, its ``spin_state`` governs the check of each basis tried). ``basis_search``
+    holds every basis tried. With an estimator the step tolerances are chosen to it as well:
+    starting from the controller's, rtol and atol shrink together until the run's own
+    time-integration error, estimated against its repetition at a tenth of them, is at most
+    ``tol`` / 2 (``STEP_TOLERANCE_ROUNDS`` tries; ``step_tolerances`` holds the chosen pair), so
+    that the total error, basis and time integration, meets ``tol``.
     """
 
-    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
-    _validate.boolean("estimate_integration", estimate_integration)
-    stops = run_step_ts(ts, estimate_samples, estimate_method, estimate_integration)  # checks them before anything runs
-    controller = adaptive_step_size(rtol, atol, step_control)
+    ts = _validate.output_times(t_end, dt_out)
+    solver, controller = run_integrator(solver, controller)
+    check_reduction(basis, estimator)
+    if tol is not None and not isinstance(tol, ToTolerance):
+        tol = ToTolerance(tol=tol) if estimator is None else ToTolerance(tol=tol, samples=estimator.samples)
+    stops = None if estimator is None else estimator.step_ts(ts)  # checks them before anything runs
+    rtol, atol = float(controller.rtol), float(controller.atol)
     full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
     body = full.body
     tip_rows = 3 * (body.n_vectors - body.vectors_per_node) + np.arange(3)  # the tip node's position
-    basis = Basis() if basis is None else basis
     red = (nr_rncf(full, jnp.asarray(ts), basis) if tol is None else
-           nr_rncf_to_tolerance(full, jnp.asarray(ts), ToTolerance(tol=tol, samples=estimate_samples), basis,
-                                solver=GeneralizedAlpha(rho_inf), controller=AdaptiveStepSize(rtol, atol),
-                                max_steps=max_steps, output=tip_rows))
+           nr_rncf_to_tolerance(full, jnp.asarray(ts), tol, basis, solver=solver,
+                                controller=AdaptiveStepSize(rtol, atol), max_steps=max_steps, output=tip_rows))
     model = red.model
-    own = estimate and red.search is None
-    sol, compile_s, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), controller,
-                                           jnp.asarray(ts), observe=observe_state, progress=progress,
-                                           max_steps=max_steps,
-                                           step_ts=stops if own else None)
+    own = estimator is not None and red.search is None
+    sol, compile_s, run_s = simulate_timed(model, solver, controller, jnp.asarray(ts), observe=observe_state,
+                                           progress=progress, max_steps=max_steps, step_ts=stops if own else None)
     # Observing (p, ṗ) alone keeps the loop's carry small; displacements are rebuilt afterwards.
     P, V = sol.ys
     chosen = None
-    if tol is not None and estimate:
+    if tol is not None and estimator is not None:
         # The step tolerance to tol too: the run's own time-integration error (estimated against
         # its repetition at rtol / TIGHTEN) at most tol / 2, beside the basis's tol / 2; rtol and
         # atol shrink together, by the rule global error ∝ tolerance^(2/3), until it is.
+        with_integration = dataclasses.replace(estimator, integration=True)
         for attempt in range(STEP_TOLERANCE_ROUNDS):
-            est = estimate_own_run(full, model, ts, P, V, samples=estimate_samples, method=estimate_method,
-                                   integration=True, rho_inf=rho_inf, rtol=rtol, atol=atol, max_steps=max_steps,
-                                   output=tip_rows)
-            if est.integration_percent <= 0.5 * tol or attempt == STEP_TOLERANCE_ROUNDS - 1:
+            est = with_integration.estimate(full, model, ts, P, V, solver, controller, max_steps=max_steps,
+                                            output=tip_rows)
+            if est.integration_percent <= 0.5 * tol.tol or attempt == STEP_TOLERANCE_ROUNDS - 1:
                 break
-            shrink = float(np.clip(0.7 * (0.5 * tol / est.integration_percent) ** 1.5, 1e-2, 0.5))
+            shrink = float(np.clip(0.7 * (0.5 * tol.tol / est.integration_percent) ** 1.5, 1e-2, 0.5))
             rtol, atol = rtol * shrink, atol * shrink
-            controller = adaptive_step_size(rtol, atol, step_control)
-            sol, _, run_s = simulate_timed(model, GeneralizedAlpha(rho_inf), controller, jnp.asarray(ts),
-                                           observe=observe_state, progress=progress, max_steps=max_steps)
+            controller = with_tolerances(controller, rtol, atol)
+            sol, _, run_s = simulate_timed(model, solver, controller, jnp.asarray(ts), observe=observe_state,
+                                           progress=progress, max_steps=max_steps)
             P, V = sol.ys
         chosen = (est, rtol, atol)
     w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(P))
@@ -345,14 +352,12 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         dofs=red.dofs, ts=ts, theta=theta, tip=w[:, body.n_vectors - body.vectors_per_node],
         steps=int(sol.num_steps), rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton),
         compile_s=compile_s, run_s=run_s, displacements=w, vms=red.selection.vms, mds=red.selection.pairs,
-        step_control=step_control,
+        step_control=step_control_name(controller),
         offline_s=dict(red.offline_s), reduction=red, spin=red.spin, basis_search=red.search,
         # With tol, the estimate made as the step tolerance was chosen (the basis's and the run's own
         # integration error); without, the run's own.
         estimate=chosen[0] if chosen is not None else red.search.estimate if red.search is not None else
-        estimate_own_run(full, model, ts, P, V, samples=estimate_samples, method=estimate_method,
-                         integration=estimate_integration, rho_inf=rho_inf, rtol=rtol, atol=atol,
-                         max_steps=max_steps, output=tip_rows)
+        estimator.estimate(full, model, ts, P, V, solver, controller, max_steps=max_steps, output=tip_rows)
         if own else None,
         step_tolerances=None if chosen is None else (rtol, atol),
     )
@@ -363,13 +368,12 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     # A converged reference (``RunRecord.compare_converged``): the full model at a tenth and a
     # hundredth of the run's tolerances, and the reduced model again at the tighter one.
     def full_at(k):
-        return run_spinup("rncf", beam, omega_s, T_s=T_s, t_end=t_end, elements=body.n_elements, rho_inf=rho_inf,
-                          rtol=rtol / k, atol=atol / k, dt_out=dt_out, save_displacements=True, progress=progress,
-                          max_steps=max_steps, step_control=step_control)
+        return _run_full("rncf", beam, omega_s, T_s, ts, body.n_elements, solver,
+                         with_tolerances(controller, rtol / k, atol / k), True, progress, max_steps)
 
     def repeat_at(k):
-        sol = simulate(model, GeneralizedAlpha(rho_inf), adaptive_step_size(rtol / k, atol / k, step_control),
-                       jnp.asarray(ts), observe=observe_state, max_steps=max_steps)
+        sol = simulate(model, solver, with_tolerances(controller, rtol / k, atol / k), jnp.asarray(ts),
+                       observe=observe_state, max_steps=max_steps)
         return np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(sol.ys[0]))
 
     return res.compare_converged(full_at, repeat_at, rtol=rtol)

@@ -39,9 +39,14 @@ from ..bodies.frame import Frame, frame_body
 from ..elements import Bar, C1Beam
 from ..elements.material import Material
 from ..elements.section import TubeSection
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..models import Harmonic, Loads, RotatingFrameModel
 from ..motion import Stationary
-from .forced_run import FORMULATIONS, ForcedRun, run_forced
+from ..reduction.basis_choice import Basis
+from ..reduction.basis_to_tolerance import ToTolerance
+from ..reduction.run_error import ErrorEstimator
+from .forced_run import DEFAULT_BASIS, FORMULATIONS, ForcedRun, run_forced
+from .run_record import check_reduction, run_integrator
 
 
 @dataclasses.dataclass(frozen=True)
@@ -260,35 +265,37 @@ class TrussRun(ForcedRun):
 
 def run_truss(formulation: str = "nr-rncf", spec: TrussSpec = TrussSpec(), F0: float | None = None,
               frequency: float | None = None, deflection: float = 0.05, t_end: float = 10.0, dt_out: float = 0.02,
-              vms: int | str = 4, mds=6, n_modes: int = 12, rho_inf: float = 0.9, rtol: float = 1e-4,
-              atol: float = 1e-6, reference: "bool | TrussRun" = False, progress: bool = False,
-              max_steps: int = 500_000, tol: float | None = None, estimate_method: str = "static",
-              estimate_samples: int = 16) -> TrussRun:
+              basis: Basis = DEFAULT_BASIS, *, solver: GeneralizedAlpha | None = None,
+              controller: AdaptiveStepSize | None = None, estimator: ErrorEstimator | None = ErrorEstimator(),
+              tol: float | ToTolerance | None = None, reference: "bool | TrussRun" = False, progress: bool = False,
+              max_steps: int = 500_000) -> TrussRun:
     """The truss excited at its free end by ``F0 sin(2π f t)`` along y (default: f the first
     bending frequency and F0 from ``resonant_force`` for a tip deflection of ``deflection`` times
     the length at ``t_end``), run with the full RNCF model (``'rncf'``, sparse solver) or NR-RNCF
-    (``'nr-rncf'``: ``vms`` VMs and ``mds`` MDs chosen by MMI among ``n_modes`` candidates over the
-    output times; with ``tol``, the basis chosen to a target χ_rel in per cent instead,
-    ``run_forced``). With ``reference`` χ_rel and the speed-up are filled in: ``True`` against the
-    full model converged, the error split into its parts (``run_forced``); or against a full
-    ``TrussRun`` on the same output times, as it is. ``estimate_method``: the NR-RNCF run's error estimate,
-    ``"static"`` or ``"dynamic"``, and ``estimate_samples`` the static one's sampled outputs
-    (``run_forced``)."""
+    (``'nr-rncf'``: ``basis``, a ``reduction.Basis``, default ``DEFAULT_BASIS``, 4 VMs and 6 MDs
+    chosen by MMI among 12 candidates over the output times; with ``tol``, the basis chosen to a
+    target χ_rel in per cent instead, ``run_forced``), with ``solver`` (default
+    ``GeneralizedAlpha(0.9)``) and ``controller`` (default ``AdaptiveStepSize(1e-4, 1e-6)``). With
+    ``reference`` χ_rel and the speed-up are filled in: ``True`` against the full model converged,
+    the error split into its parts (``run_forced``); or against a full ``TrussRun`` on the same
+    output times, as it is. ``estimator``: the NR-RNCF run's error estimate (a
+    ``reduction.ErrorEstimator``: static or dynamic, with or without the run's time-integration
+    part; None: none; ``run_forced``)."""
 
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
-    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
+    ts = _validate.output_times(t_end, dt_out)
+    solver, controller = run_integrator(solver, controller)
+    check_reduction(basis, estimator)
     truss = build_truss(spec)
     if F0 is None or frequency is None:
         F0_auto, f_auto = resonant_force(truss, deflection * spec.length, t_end)
         F0 = F0_auto if F0 is None else F0
         frequency = f_auto if frequency is None else frequency
-    run = run_forced(truss_model(truss, F0, frequency), formulation, ts, truss.tip_positions, vms=vms, mds=mds,
-                     n_modes=n_modes, rho_inf=rho_inf, rtol=rtol, atol=atol, progress=progress, max_steps=max_steps,
-                     tol=tol, estimate_method=estimate_method, estimate_samples=estimate_samples, reference=reference,
-                     cls=TrussRun)
-    return run
+    return run_forced(truss_model(truss, F0, frequency), formulation, ts, truss.tip_positions, basis=basis,
+                      solver=solver, controller=controller, estimator=estimator, tol=tol, reference=reference,
+                      progress=progress, max_steps=max_steps, cls=TrussRun)
 
 
-__all__ = ["FORMULATIONS", "EquivalentBeam", "Truss", "TrussRun", "TrussSpec", "build_truss", "equivalent_beam",
-           "first_bending", "mode_types", "resonant_force", "run_truss", "truss_model"]
+__all__ = ["DEFAULT_BASIS", "FORMULATIONS", "EquivalentBeam", "Truss", "TrussRun", "TrussSpec", "build_truss",
+           "equivalent_beam", "first_bending", "mode_types", "resonant_force", "run_truss", "truss_model"]

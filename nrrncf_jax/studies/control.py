@@ -21,7 +21,7 @@ import optax
 
 from .. import _validate
 from .._types import Array, Float
-from ..integrate import AbstractSolver, AbstractStepSizeController, AdaptiveStepSize, ConstantStepSize, GeneralizedAlpha
+from ..integrate import AbstractSolver, AbstractStepSizeController, AdaptiveStepSize, GeneralizedAlpha
 from ..integrate.simulate import simulate
 from ..models.observe import TipObserver, tip_observer
 from ..motion import SpinUp
@@ -107,8 +107,8 @@ def peak_acceleration(motion, T_s, n: int = 2001) -> float:
 def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int = 4, steps: int = 20, *,
                    lbfgs_steps: int = 10, tip: int | None = None, dt_out: float = 0.05,
                    learning_rate: float = 0.005, smoothness: float = 0.0, init: FourierSpinUp | None = None,
-                   grad: str = "reverse", rtol: float = 1e-5, atol: float = 1e-8, adaptive: bool = True,
-                   dt0: float | None = None, max_steps: int = 20_000, verbose: bool = False) -> OptimalSpinup:
+                   grad: str = "reverse", controller: AbstractStepSizeController | None = None,
+                   max_steps: int = 20_000, verbose: bool = False) -> OptimalSpinup:
     """Find the spin-up to ``omega_s`` within ``T_s`` with the least residual tip vibration.
 
     ``model`` is a rotating-frame model (typically the NR-RNCF ``Reduction.model``; its own
@@ -127,9 +127,10 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
     nearly linear in θ̈, so J is nearly quadratic in x, where quasi-Newton converges fast.
     ``grad='reverse'`` differentiates the checkpointed loop (``simulate(adjoint='reverse')``;
     memory grows with ``max_steps``), ``'forward'`` pushes 2·n_terms tangents (constant memory,
-    but slower than reverse mode at the default 8 coefficients). ``rtol``, ``atol``, ``adaptive``,
-    ``dt0`` and ``max_steps`` go to ``simulate``; adaptive step sizes are held fixed under
-    differentiation. One
+    but slower than reverse mode at the default 8 coefficients). ``controller`` (default
+    ``AdaptiveStepSize(1e-5, 1e-8)``; a ``ConstantStepSize`` makes the loss a smooth function of
+    the coefficients) and ``max_steps`` go to ``simulate``; adaptive step sizes are held fixed
+    under differentiation. One
     value-and-gradient function is compiled and reused for every evaluation. Returns an
     ``OptimalSpinup`` with the iterate of least loss.
     """
@@ -155,9 +156,10 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
     ts = jnp.asarray(ts_np)
     profile0 = FourierSpinUp(omega_s, T_s, n_terms=n_terms)
     obs = tip_observer(model, tip)
-    if not adaptive and dt0 is None:
-        raise ValueError("adaptive=False needs a step size dt0")
-    controller = AdaptiveStepSize(rtol, atol, dt0=dt0) if adaptive else ConstantStepSize(dt0, rtol=rtol, atol=atol)
+    controller = AdaptiveStepSize(1e-5, 1e-8) if controller is None else controller
+    if not isinstance(controller, AbstractStepSizeController):
+        raise ValueError(f"controller must be an integrate step-size controller (AdaptiveStepSize, "
+                         f"ConstantStepSize), got {type(controller).__name__}")
     sim = dict(controller=controller, max_steps=max_steps)
     scale = float(omega_s) / float(T_s)
     adjoint = "reverse" if grad == "reverse" else "forward"
