@@ -382,8 +382,9 @@ class PendulumRun(RunRecord):
                 "energy_drift": float(np.abs(self.energy - self.energy[0]).max()),
                 "kinetic_max": float(self.kinetic.max()),
                 "tips_final_m": self.tips[-1, :, :2].round(6).tolist(),
-                **({} if self.offline is None else {"offline_s": round(self.offline["offline_s"], 3),
-                                                     "conditions": self.offline.get("conditions")}),
+                **({} if self.offline is None else {"offline_s": round(self.offline["offline_s"], 3)}),
+                **({"conditions": self.offline["conditions"]} if self.offline and "conditions" in self.offline
+                   else {}),
                 **self.comparison(), **self.estimate_summary(),
                 **({} if self.search is None else self.search.summary())}
 
