@@ -33,11 +33,9 @@ import numpy as np  # noqa: E402
 from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax.examples import slider_crank  # noqa: E402
-from nrrncf_jax.multibody import FloatingFrameSystem  # noqa: E402
-from nrrncf_jax.multibody.reduce import reduce  # noqa: E402
 from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.mechanism_file import run_setup  # noqa: E402
-from nrrncf_jax.scenarios.pendulum import PendulumSpec, _joints, build_pendulum, run_chain, run_pendulum  # noqa: E402
+from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, run_chain, run_pendulum  # noqa: E402
 
 CONDITIONS = ("clamped", "pinned", "mean-axis")
 LABEL = {"clamped": "clamped (cantilever)", "pinned": "pinned (chord frame)", "mean-axis": "mean-axis (free-free)"}
@@ -93,17 +91,6 @@ def slider_crank_table(vms_list) -> list[str]:
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|", *rows, ""]
 
 
-def _reduced_pendulum(spec: PendulumSpec, conditions: str, n_vms: int) -> FloatingFrameSystem:
-    """``scenarios.pendulum.build_reduced_pendulum`` with ``conditions``: each beam reduced at its
-    two ends, the one reduction moved along the chain (by its frame's own origin: the centre of
-    mass for mean-axis, the left end otherwise)."""
-    beam = build_pendulum(spec).bodies[0].body
-    body = reduce(beam, [(0.0, 0.0, 0.0), (spec.length, 0.0, 0.0)], vms=n_vms, mds="all", conditions=conditions,
-                  plane_normal=(0.0, 0.0, 1.0))
-    bodies = [body.moved(np.asarray(body.R0) + (k * spec.length, 0.0, 0.0)) for k in range(spec.beams)]
-    return FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
-
-
 def pendulum_table(vms_list, t_end: float) -> list[str]:
     spec, rtol = PendulumSpec(elements=10), 1e-4
     t0 = time.perf_counter()
@@ -113,7 +100,7 @@ def pendulum_table(vms_list, t_end: float) -> list[str]:
     rows = []
     for n in vms_list:
         for conditions in CONDITIONS:
-            system = _reduced_pendulum(spec, conditions, n)
+            system = build_reduced_pendulum(spec, n, "all", conditions=conditions)[0]
             r = run_chain(system, t_end=t_end, dt_out=0.01, rtol=rtol, atol=rtol / 10)
             k = system.bodies[0].k
             rows.append(_row([LABEL[conditions], n, k, r.dofs, f"{r.steps} ({r.rejected})", r.newton_iters,
