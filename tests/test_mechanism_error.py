@@ -84,6 +84,7 @@ def test_an_exact_basis_has_an_estimate_at_round_off():
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("full_swing")  # one worker runs the converged full swing
 def test_the_estimate_tracks_the_measured_error(full_swing):
     """Against the full counterpart's run: a basis of 4 VMs and their MDs, and one of 2 VMs alone
     (an error ~20× larger). The static estimate of each is within a factor of 3 of its measured
@@ -147,6 +148,7 @@ def _from_prefix(prefix) -> FloatingFrameSystem:
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("full_swing")  # one worker runs the converged full swing
 def test_a_basis_chosen_to_a_tolerance_meets_it_measured(full_swing):
     """``mechanism_to_tolerance`` on the swinging beam: the chosen prefix's estimate is reliable
     and within tol / safety, every shorter prefix tried failed, and the chosen basis's χ_rel
