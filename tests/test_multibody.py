@@ -217,6 +217,17 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     assert "--reference-rtol needs --reference ancf" in capsys.readouterr().err
     assert main(["pendulum", "--formulation", "nr-rncf", "--craig-bampton", "--joint-modes"]) == 2
     assert "pass one of --joint-modes, --craig-bampton" in capsys.readouterr().err
+    # the reference conditions: passed on; mean axes with the dynamic estimate only, not with Craig-Bampton
+    calls.clear()
+    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--conditions", "mean-axis", "--estimate-method", "dynamic",
+                             "--json"]) == 0
+    assert calls[0][1]["conditions"] == "mean-axis" and calls[0][1]["estimate_method"] == "dynamic"
+    capsys.readouterr()
+    for extra, message in ((["--formulation", "nr-rncf"], "pass --estimate-method dynamic or --no-estimate"),
+                           (["--formulation", "nr-rncf", "--no-estimate", "--craig-bampton"], "not mean-axis"),
+                           ([], "--conditions, --joint-modes")):
+        assert main(["pendulum", "--conditions", "mean-axis"] + extra) == 2
+        assert message in capsys.readouterr().err
     # the full-order floating-frame model, alone and as the reference
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "rncf", "--json"]) == 0
