@@ -21,7 +21,7 @@ from ..reduction.basis_choice import Basis
 from ..reduction.basis_to_tolerance import ToTolerance, nr_rncf_to_tolerance
 from ..reduction.pipeline import nr_rncf
 from ..reduction.run_error import ErrorEstimator
-from .run_record import RunRecord, check_reduction, run_integrator
+from .run_record import RunRecord, reduction_targets, run_integrator
 
 FORMULATIONS = ("rncf", "nr-rncf")
 
@@ -118,10 +118,7 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     if formulation == "rncf" and reference is not False and reference is not None:
         raise ValueError("reference compares an NR-RNCF run with the full model; formulation 'rncf' is the full model")
     solver, controller = run_integrator(solver, controller)
-    check_reduction(basis, estimator)
-    if tol is not None and not isinstance(tol, ToTolerance):
-        tol = ToTolerance(tol=tol) if estimator is None else ToTolerance(tol=tol, samples=estimator.samples)
-    stops = None if estimator is None else estimator.step_ts(ts)  # checks them before anything runs
+    tol, stops = reduction_targets(basis, estimator, tol, ts)
     pos = np.flatnonzero(np.asarray(full.body.is_position))
     red = None
     if formulation == "rncf":

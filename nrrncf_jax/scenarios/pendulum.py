@@ -407,6 +407,12 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
     ``error_on``: what the step error is measured on (``run_chain``)."""
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
+    if estimate and estimate_method == "static" and conditions == "mean-axis":
+        raise ValueError("the static error estimate holds each beam's frame, which under mean axes no joint holds "
+                         "(multibody.error_estimate): with conditions='mean-axis' use estimate_method='dynamic' or "
+                         "estimate=False")
+    if estimate and formulation != "nr-rncf":
+        raise ValueError("estimate goes with formulation='nr-rncf' (a full model has no reduction error to estimate)")
     info = None
     if formulation == "ancf":
         system = build_pendulum(spec)
@@ -415,12 +421,6 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
     else:
         system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=craig_bampton,
                                               body_pairs=body_pairs, conditions=conditions)
-    if estimate and estimate_method == "static" and conditions == "mean-axis":
-        raise ValueError("the static error estimate holds each beam's frame, which under mean axes no joint holds "
-                         "(multibody.error_estimate): with conditions='mean-axis' use estimate_method='dynamic' or "
-                         "estimate=False")
-    if estimate and formulation != "nr-rncf":
-        raise ValueError("estimate goes with formulation='nr-rncf' (a full model has no reduction error to estimate)")
     run = run_chain(system, t_end, dt_out, rho_inf, rtol, atol, progress, max_steps, newton_tol, estimate=estimate,
                     estimate_samples=estimate_samples, estimate_method=estimate_method, step_control=step_control,
                     error_on=error_on)

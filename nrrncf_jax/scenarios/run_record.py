@@ -20,6 +20,7 @@ from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha
 from ..post.metrics import chi_rel
 from ..reduction.basis_choice import Basis
+from ..reduction.basis_to_tolerance import ToTolerance
 from ..reduction.run_error import ErrorEstimator
 
 
@@ -184,4 +185,15 @@ def check_reduction(basis, estimator) -> None:
         raise ValueError(f"estimator must be a reduction.ErrorEstimator or None, got {type(estimator).__name__}")
 
 
-__all__ = ["REFERENCE_TIGHTENING", "RunRecord", "check_reduction", "run_integrator"]
+def reduction_targets(basis, estimator, tol, ts) -> tuple:
+    """``(tol, step_ts)`` of a reduced run, after ``check_reduction``: ``tol`` as a
+    ``reduction.ToTolerance`` (a number takes the estimator's samples; None stays None), and the
+    output times the run must end a step on for its estimate (``ErrorEstimator.step_ts``; None
+    without an estimator), checked before anything runs."""
+    check_reduction(basis, estimator)
+    if tol is not None and not isinstance(tol, ToTolerance):
+        tol = ToTolerance(tol=tol) if estimator is None else ToTolerance(tol=tol, samples=estimator.samples)
+    return tol, None if estimator is None else estimator.step_ts(ts)
+
+
+__all__ = ["REFERENCE_TIGHTENING", "RunRecord", "check_reduction", "reduction_targets", "run_integrator"]

@@ -20,7 +20,7 @@ from ..reduction.pipeline import nr_rncf
 from ..reduction.run_error import TIGHTEN, ErrorEstimator, observe_state
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
-from .run_record import REFERENCE_TIGHTENING, RunRecord, check_reduction, run_integrator
+from .run_record import REFERENCE_TIGHTENING, RunRecord, reduction_targets, run_integrator
 
 PAPER_ELEMENTS = {4.0: 6, 10.0: 10, 20.0: 16, 40.0: 24}
 """Elements per steady spin rate in the paper's Table 2."""
@@ -309,10 +309,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
 
     ts = _validate.output_times(t_end, dt_out)
     solver, controller = run_integrator(solver, controller)
-    check_reduction(basis, estimator)
-    if tol is not None and not isinstance(tol, ToTolerance):
-        tol = ToTolerance(tol=tol) if estimator is None else ToTolerance(tol=tol, samples=estimator.samples)
-    stops = None if estimator is None else estimator.step_ts(ts)  # checks them before anything runs
+    tol, stops = reduction_targets(basis, estimator, tol, ts)
     rtol, atol = float(controller.rtol), float(controller.atol)
     full = build_spinup_model("rncf", beam, omega_s, T_s, elements)
     body = full.body
