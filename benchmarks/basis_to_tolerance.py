@@ -32,6 +32,7 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
+from nrrncf_jax.integrate import AdaptiveStepSize  # noqa: E402
 from nrrncf_jax.reduction import Basis  # noqa: E402
 from nrrncf_jax.scenarios.spinup import run_nr_rncf_spinup, run_spinup  # noqa: E402
 
@@ -105,8 +106,8 @@ def main():
         ref = run_spinup("rncf", beam, om, t_end=30.0, save_displacements=True)
         res = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements, basis=Basis(max_dofs=args.max_dofs),
                                  tol=tol, reference=ref)
-        converged = run_spinup("rncf", beam, om, t_end=30.0, save_displacements=True, rtol=TIGHT, atol=TIGHT / 100,
-                               max_steps=10**6)
+        converged = run_spinup("rncf", beam, om, t_end=30.0, save_displacements=True,
+                               controller=AdaptiveStepSize(TIGHT, TIGHT / 100), max_steps=10**6)
         rows.append(_row(beam, om, tol, res, PAPER_DOFS.get((beam, om)), _basis_error(res, converged)))
         print(rows[-1], flush=True)
     lines = [

@@ -37,8 +37,8 @@ effectivity (total estimate / measured total) and whether it lies in [0.5, 2].
 - ``slider_crank``, ``rotor``: ``nrrncf run MODEL --param formulation=nr-rncf --reference full``
   (the model's defaults); its reference runs (``cli/run.py``'s ``_reference_errors``) with each
   body's nodes recorded. ``run_setup`` makes no estimate: the run here is ``run_setup``'s with its
-  steps ending on the estimate's 16 samples, as ``run_pendulum(estimate=True)`` runs, and the
-  estimate is ``multibody.error_estimate.estimate_mechanism_error`` (static), whose χ_rel runs
+  steps ending on the estimate's 16 samples, as ``run_pendulum(estimator=ErrorEstimator())``
+  runs, and the estimate is ``multibody.error_estimate.estimate_mechanism_error`` (static), whose χ_rel runs
   over the flexible bodies' position vectors; the measured figures of the main table are in that
   norm, and the per-sensor ones (``nrrncf run``'s) in a table of their own. The integration
   part as for the pendulum.
@@ -133,17 +133,22 @@ def truss(bays, longeron, batten):
 
 def pendulum():
     from nrrncf_jax.cli.pendulum import DEFAULTS
-    from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum
+    from nrrncf_jax.integrate import GeneralizedAlphaIndex3, adaptive_step_size
+    from nrrncf_jax.reduction import ErrorEstimator
+    from nrrncf_jax.scenarios.pendulum import PendulumBasis, PendulumSpec, run_pendulum
 
     rtol, control = DEFAULTS["nr-rncf"]
     atol = rtol / 10
     spec = PendulumSpec(elements=10)
-    kw = dict(t_end=2.0, dt_out=0.001, rho_inf=0.9, step_control=control)
-    basis = dict(formulation="nr-rncf", n_vms=5, pairs="all")
+    solver = GeneralizedAlphaIndex3(0.9)
+
+    def at(rtol, atol):  # the run's options at these tolerances
+        return dict(t_end=2.0, dt_out=0.001, solver=solver, controller=adaptive_step_size(rtol, atol, control))
 
     def chain_at(k, estimate):
-        return run_pendulum(spec, **basis, estimate=estimate, estimate_samples=SAMPLES, **kw,
-                            rtol=rtol / k, atol=atol / k)
+        return run_pendulum(spec, formulation="nr-rncf", basis=PendulumBasis(5, "all"),
+                            estimator=ErrorEstimator(samples=SAMPLES) if estimate else None,
+                            **at(rtol / k, atol / k))
 
     run = chain_at(1.0, True)
     # cli/pendulum.py's converged reference: the full model (ANCF) at a hundredth of its own default
@@ -153,7 +158,7 @@ def pendulum():
 
     def full_at(k):
         r = base / k
-        return run_pendulum(spec, **kw, rtol=r, atol=atol * r / rtol)
+        return run_pendulum(spec, **at(r, atol * r / rtol))
 
     run.compare_converged(full_at, lambda k: chain_at(k, False).displacement_series(), rtol=base)
     # the integration part, by reduction.run_error's rule: the run against its repetition at rtol/10

@@ -36,6 +36,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
+from nrrncf_jax.integrate import AdaptiveStepSize  # noqa: E402
 from nrrncf_jax.reduction import Basis  # noqa: E402
 from nrrncf_jax.reduction.error_estimate import estimate_error  # noqa: E402
 from nrrncf_jax.reduction.run_error import estimate_run_error, estimate_times  # noqa: E402
@@ -124,8 +125,8 @@ def main():
             continue
         beam, om = case.split(":")[0], float(case.split(":")[1])
         ref = run_spinup("rncf", beam, om, t_end=30.0, save_displacements=True)
-        converged = run_spinup("rncf", beam, om, t_end=30.0, save_displacements=True, rtol=TIGHT, atol=TIGHT / 100,
-                               max_steps=10**6)
+        converged = run_spinup("rncf", beam, om, t_end=30.0, save_displacements=True,
+                               controller=AdaptiveStepSize(TIGHT, TIGHT / 100), max_steps=10**6)
         full = build_spinup_model("rncf", beam, om, 15.0, ref.elements)
         default = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements, reference=ref, estimator=None)
         vm_only = run_nr_rncf_spinup(beam, om, t_end=30.0, elements=ref.elements,

@@ -7,7 +7,7 @@ measured with the full run: the paper's three-beam pendulum.
 The pendulum on the paper's 10-element mesh, rtol 1e-4, outputs every 0.01 s: the ANCF run (the
 reference, as in ``pendulum.md``) and the NR-RNCF runs with the paper's basis (5 VMs + 15 MDs a
 beam), the VMs alone, the joint's static modes added, and the extended Craig-Bampton basis; each
-reduced run's estimate (``run_pendulum(estimate=True)``) over 0-t_end for each t_end: the static
+reduced run's estimate (``run_pendulum(estimator=...)``) over 0-t_end for each t_end: the static
 correction at each number of samples, and the linearised error equation integrated over every
 output (``method="dynamic"``), whose χ_rel runs over the outputs up to where its linearisation
 held (``valid_until``). Columns: DOFs, the window the estimate covers, χ_rel measured over that
@@ -28,16 +28,17 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
-from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum  # noqa: E402
+from nrrncf_jax.reduction import ErrorEstimator  # noqa: E402
+from nrrncf_jax.scenarios.pendulum import PendulumBasis, PendulumSpec, run_pendulum  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 
 BASES = {
-    "5 VMs + 15 MDs (the paper's)": dict(pairs="all"),
-    "5 VMs alone": dict(pairs=[]),
-    "5 VMs + 15 MDs + 2 joint modes": dict(pairs="all", joint_modes=True),
-    "extended Craig-Bampton (2 boundary + 5 VMs + 15 MDs)": dict(pairs="all", craig_bampton=True),
+    "5 VMs + 15 MDs (the paper's)": PendulumBasis(pairs="all"),
+    "5 VMs alone": PendulumBasis(pairs=()),
+    "5 VMs + 15 MDs + 2 joint modes": PendulumBasis(pairs="all", joint_modes=True),
+    "extended Craig-Bampton (2 boundary + 5 VMs + 15 MDs)": PendulumBasis(pairs="all", craig_bampton=True),
 }
 
 
@@ -52,10 +53,10 @@ def main() -> None:
     rows, profile = [], {}
     for t_end in args.t_ends:
         ref = run_pendulum(spec, t_end=t_end, dt_out=0.01)
-        for name, kw in BASES.items():
+        for name, basis in BASES.items():
             for method, n in [("static", n) for n in args.samples] + [("dynamic", None)]:
-                red = run_pendulum(spec, t_end=t_end, dt_out=0.01, formulation="nr-rncf", estimate=True,
-                                   estimate_samples=n or 2, estimate_method=method, **kw)
+                red = run_pendulum(spec, t_end=t_end, dt_out=0.01, formulation="nr-rncf", basis=basis,
+                                   estimator=ErrorEstimator(method=method, samples=n or 2))
                 e = red.estimate
                 k = len(red.ts) if e.valid_until is None else int(np.searchsorted(red.ts, e.valid_until)) + 1
                 measured = float(chi_rel(ref.nodes[:k] - ref.nodes[0], red.nodes[:k] - red.nodes[0]))
@@ -64,7 +65,7 @@ def main() -> None:
                             f"{e.chi_rel_percent:.3f} | {e.chi_rel_percent / measured:.2f} | {e.run_s:.3f} | "
                             f"{red.run_s:.3f} | {e.run_s / red.run_s:.2f} |")
                 print(rows[-1], flush=True)
-                if t_end == max(args.t_ends) and kw == BASES[next(iter(BASES))] and n in (None, max(args.samples)):
+                if t_end == max(args.t_ends) and basis == BASES[next(iter(BASES))] and n in (None, max(args.samples)):
                     d = np.linalg.norm((red.nodes - ref.nodes).reshape(len(red.ts), -1), axis=1)
                     profile[method] = (e, d, red.ts)
     lines = []

@@ -41,6 +41,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
+from nrrncf_jax.integrate import AdaptiveStepSize, adaptive_step_size  # noqa: E402
 from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum  # noqa: E402
 
@@ -116,7 +117,8 @@ def ancf_run(elements: int, rtol: float, cache: str | None) -> dict:
     if path and os.path.exists(path):
         with np.load(path) as f:
             return {k: f[k] for k in keys} | {"cached": True}
-    run = run_pendulum(PendulumSpec(elements=elements), t_end=T_END, dt_out=DT_OUT, rtol=rtol, atol=rtol / 10)
+    run = run_pendulum(PendulumSpec(elements=elements), t_end=T_END, dt_out=DT_OUT,
+                       controller=AdaptiveStepSize(rtol, rtol / 10))
     out = {k: getattr(run, k) for k in keys} | {"cached": False}
     if path:
         os.makedirs(cache, exist_ok=True)
@@ -205,9 +207,9 @@ def main():
           f"{' (cached)' if ref['cached'] else ''}", flush=True)
     fine = ancf_run(a.fine_ancf, 3e-5, a.cache) if a.fine_ancf else None
     ours = [("NR-RNCF, the CLI's default: 5 VMs + 15 MDs a beam, rtol 1e-3, PI", "rtol 1e-3",
-             dict(rtol=1e-3, atol=1e-4, step_control="pi")),
+             dict(controller=adaptive_step_size(1e-3, 1e-4, "pi"))),
             ("NR-RNCF, the old default: 5 VMs + 15 MDs a beam, rtol 1e-4, plain", "rtol 1e-4",
-             dict(rtol=1e-4, atol=1e-5, step_control="plain"))]
+             dict(controller=AdaptiveStepSize(1e-4, 1e-5)))]
     lib = []
     for label, tol, kw in ours:
         runs = [run_pendulum(SPEC, t_end=T_END, dt_out=DT_OUT, formulation="nr-rncf", **kw)
@@ -252,7 +254,8 @@ def main():
              "reduced to 5 VMs + 15 MDs (the paper's basis), in floating frames; index-3 generalized-α "
              f"(ρ∞ = {RHO_INF:g}), adaptive steps, without the run's error estimate. wall: the record's `run_s` "
              f"(compilation apart, in its own column), the best of {a.repeats} (each compiled anew). The ANCF "
-             "reference: `run_pendulum(PendulumSpec(), rtol=1e-6, atol=1e-7)`, the full model on the same mesh"
+             "reference: `run_pendulum(PendulumSpec(), controller=AdaptiveStepSize(1e-6, 1e-7))`, the full model on "
+             "the same mesh"
              + (" (read back from the cache, written by an earlier invocation of this script)" if ref["cached"]
                 else " (run in this invocation)") + ". χ_rel: every node's displacement against the ANCF "
              "reference's, over every output (Eq. 40, as `PendulumRun.compare`).", "",

@@ -33,8 +33,10 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 
+from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlphaIndex3  # noqa: E402
 from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import (  # noqa: E402
+    PendulumBasis,
     PendulumSpec,
     build_reduced_pendulum,
     mmi_per_body,
@@ -84,7 +86,8 @@ def main(argv=None):
     saved = dict(np.load(a.tips)) if a.tips and os.path.exists(a.tips) else {}
     for ne in a.elements:
         rtol = TOLERANCES.get(ne, 1e-5)
-        r = run_pendulum(PendulumSpec(elements=ne), t_end=a.t_end, dt_out=0.01, rtol=rtol, atol=rtol / 10)
+        r = run_pendulum(PendulumSpec(elements=ne), t_end=a.t_end, dt_out=0.01,
+                         controller=AdaptiveStepSize(rtol, rtol / 10))
         runs[ne] = r
         at_end = "; ".join(f"({x:.4f}, {y:.4f})" for x, y in r.tips[-1, :, :2])
         lines.append(f"| {ne} | {r.dofs} | {rtol:g} | {r.steps} ({r.rejected}) | {r.newton_iters} | "
@@ -116,8 +119,8 @@ def main(argv=None):
         return
     coarse = min(runs)
     rtol = TOLERANCES.get(coarse, 1e-5)
-    rncf = run_pendulum(PendulumSpec(elements=coarse), t_end=a.t_end, dt_out=0.01, rtol=rtol, atol=rtol / 10,
-                        formulation="rncf")
+    rncf = run_pendulum(PendulumSpec(elements=coarse), t_end=a.t_end, dt_out=0.01,
+                        controller=AdaptiveStepSize(rtol, rtol / 10), formulation="rncf")
     full = runs[coarse]
     lines += ["", f"The full-order RNCF model on the {coarse}-element mesh (`--formulation rncf`, "
               "`multibody.full_order_frame`): each beam in the floating frame of its left end (Euler parameters; "
@@ -164,11 +167,11 @@ def main(argv=None):
                                      (f"5 VMs + 15 MDs, rtol {3 * rtol:g}", "all", "cantilever", 3 * rtol),
                                      (f"5 VMs + 15 MDs, rtol {10 * rtol:g}", "all", "cantilever", 10 * rtol)):
         try:  # a cap on the steps, in case the step size collapses
-            system, info = build_reduced_pendulum(PendulumSpec(elements=coarse), 5, pairs, basis == "joint modes",
-                                                  craig_bampton=basis == "craig-bampton",
-                                                  body_pairs=[sel.pairs for sel in selections] if basis == "mmi"
-                                                  else None)
-            runs = [run_chain(system, a.t_end, 0.01, 0.9, tol, tol / 10, max_steps=40_000)
+            system, info = build_reduced_pendulum(PendulumSpec(elements=coarse), PendulumBasis(
+                5, pairs, joint_modes=basis == "joint modes", craig_bampton=basis == "craig-bampton",
+                body_pairs=[sel.pairs for sel in selections] if basis == "mmi" else None))
+            runs = [run_chain(system, a.t_end, 0.01, solver=GeneralizedAlphaIndex3(0.9),
+                              controller=AdaptiveStepSize(tol, tol / 10), max_steps=40_000)
                     for _ in range(a.repeats)]
             r = runs[0]
             r.offline, r.run_s = info, float(np.median([x.run_s for x in runs]))
@@ -192,8 +195,9 @@ def main(argv=None):
               + "; ".join(f"beam {b + 1}: " + " ".join(f"θ{i + 1}{j + 1}" for i, j in sel.pairs)
                           for b, sel in enumerate(selections)) + "."]
     if reduced:
-        fine = run_pendulum(PendulumSpec(elements=coarse), t_end=a.t_end, dt_out=0.01, rtol=rtol / 10,
-                            atol=rtol / 100, formulation="nr-rncf", max_steps=200_000)
+        fine = run_pendulum(PendulumSpec(elements=coarse), t_end=a.t_end, dt_out=0.01,
+                            controller=AdaptiveStepSize(rtol / 10, rtol / 100), formulation="nr-rncf",
+                            max_steps=200_000)
         errs = ", ".join(f"{float(chi_rel(fine.nodes - fine.nodes[0], r.nodes - r.nodes[0])):.3f} % at rtol {tol:g}"
                          for tol, r in sorted(reduced.items()))
         lines += ["", f"The reduced model's own time-integration error: χ_rel of its runs against its run at rtol "
@@ -201,8 +205,8 @@ def main(argv=None):
                   f"{reduced[min(reduced)].chi_rel_percent:.2f} %."]
         sys.stdout.write(lines[-1] + "\n")
     if not a.no_energy:
-        r1 = run_pendulum(PendulumSpec(elements=coarse), t_end=a.t_end, dt_out=0.01, rho_inf=1.0, rtol=1e-5,
-                          atol=1e-6)
+        r1 = run_pendulum(PendulumSpec(elements=coarse), t_end=a.t_end, dt_out=0.01,
+                          solver=GeneralizedAlphaIndex3(1.0), controller=AdaptiveStepSize(1e-5, 1e-6))
         drift = float(np.abs(r1.energy - r1.energy[0]).max())
         lines += ["", f"Energy with ρ∞ = 1 ({coarse} elements, rtol 1e-5, atol 1e-6): largest drift {drift:.2e} J over "
                   f"0-{a.t_end:g} s, {drift / r1.kinetic.max():.1e} of the peak kinetic energy "
@@ -211,8 +215,9 @@ def main(argv=None):
         lines += ["", "The NR-RNCF model's energy (5 VMs + 15 MDs, rtol 1e-5, atol 1e-6):", ""]
         for rho in (1.0, 0.98):
             try:
-                r2 = run_pendulum(PendulumSpec(elements=coarse), t_end=a.t_end, dt_out=0.01, rho_inf=rho, rtol=1e-5,
-                                  atol=1e-6, formulation="nr-rncf", max_steps=200_000)
+                r2 = run_pendulum(PendulumSpec(elements=coarse), t_end=a.t_end, dt_out=0.01,
+                                  solver=GeneralizedAlphaIndex3(rho), controller=AdaptiveStepSize(1e-5, 1e-6),
+                                  formulation="nr-rncf", max_steps=200_000)
             except Exception as e:  # noqa: BLE001 - reported
                 lines.append(f"- ρ∞ = {rho:g}: failed: {str(e).splitlines()[0][:120]}")
                 continue

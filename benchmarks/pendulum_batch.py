@@ -31,7 +31,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
-from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, release_sweep  # noqa: E402
+from nrrncf_jax.scenarios.pendulum import PendulumBasis, PendulumSpec, build_reduced_pendulum, release_sweep  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
 from _machine import machine, pin_to_one_core, report  # noqa: E402
@@ -52,7 +52,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if not a.all_cores:
         pin_to_one_core()
-    system, info = build_reduced_pendulum(PendulumSpec(elements=a.elements), 5)
+    system, info = build_reduced_pendulum(PendulumSpec(elements=a.elements), PendulumBasis(5))
     lines = ["# NR-RNCF pendulums released at different angles, one batched run", "",
              f"Produced by `benchmarks/pendulum_batch.py --sizes {' '.join(map(str, a.sizes))} --range "
              f"{a.range[0]:g} {a.range[1]:g} --elements {a.elements} --t-end {a.t_end:g}`. Machine: {machine()}.", "",

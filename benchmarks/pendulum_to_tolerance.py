@@ -25,6 +25,7 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 from nrrncf_jax.multibody.basis_to_tolerance import TRAINING_TIGHTEN  # noqa: E402
+from nrrncf_jax.reduction import ErrorEstimator  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, pendulum_to_tolerance, run_chain, run_pendulum  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -53,7 +54,7 @@ def main():
         search = pendulum_to_tolerance(spec, tol, n_vms=args.vms, t_train=args.t_train, t_end=args.t_end)
         seconds = time.perf_counter() - t0
         print(search.describe(), flush=True)
-        runs = {m: run_chain(search.system, args.t_end, DT_OUT, estimate=True, estimate_method=m).compare(ref)
+        runs = {m: run_chain(search.system, args.t_end, DT_OUT, estimator=ErrorEstimator(method=m)).compare(ref)
                 for m in ("static", "dynamic")}
         run = runs["dynamic"]
         est = {m: r.estimate for m, r in runs.items()}

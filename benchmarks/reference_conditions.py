@@ -33,9 +33,16 @@ import numpy as np  # noqa: E402
 from _machine import machine, report  # noqa: E402
 
 from nrrncf_jax.examples import slider_crank  # noqa: E402
+from nrrncf_jax.integrate import AdaptiveStepSize  # noqa: E402
 from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.mechanism_file import run_setup  # noqa: E402
-from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, run_chain, run_pendulum  # noqa: E402
+from nrrncf_jax.scenarios.pendulum import (  # noqa: E402
+    PendulumBasis,
+    PendulumSpec,
+    build_reduced_pendulum,
+    run_chain,
+    run_pendulum,
+)
 
 CONDITIONS = ("clamped", "pinned", "mean-axis")
 LABEL = {"clamped": "clamped (cantilever)", "pinned": "pinned (chord frame)", "mean-axis": "mean-axis (free-free)"}
@@ -94,14 +101,14 @@ def slider_crank_table(vms_list) -> list[str]:
 def pendulum_table(vms_list, t_end: float) -> list[str]:
     spec, rtol = PendulumSpec(elements=10), 1e-4
     t0 = time.perf_counter()
-    full = run_pendulum(spec, t_end=t_end, dt_out=0.01, rtol=rtol, atol=rtol / 10)
+    full = run_pendulum(spec, t_end=t_end, dt_out=0.01, controller=AdaptiveStepSize(rtol, rtol / 10))
     print(f"full pendulum: {full.steps} steps, {time.perf_counter() - t0:.0f} s", flush=True)
     d_full = full.nodes - full.nodes[0]
     rows = []
     for n in vms_list:
         for conditions in CONDITIONS:
-            system = build_reduced_pendulum(spec, n, "all", conditions=conditions)[0]
-            r = run_chain(system, t_end=t_end, dt_out=0.01, rtol=rtol, atol=rtol / 10)
+            system = build_reduced_pendulum(spec, PendulumBasis(n, "all", conditions=conditions))[0]
+            r = run_chain(system, t_end=t_end, dt_out=0.01, controller=AdaptiveStepSize(rtol, rtol / 10))
             k = system.bodies[0].k
             rows.append(_row([LABEL[conditions], n, k, r.dofs, f"{r.steps} ({r.rejected})", r.newton_iters,
                               f"{r.compile_s:.1f}", f"{r.run_s:.2f}",

@@ -17,6 +17,7 @@ jax.config.update("jax_enable_x64", True)
 from _machine import machine  # noqa: E402
 
 from nrrncf_jax import chi_rel  # noqa: E402
+from nrrncf_jax.integrate import AdaptiveStepSize  # noqa: E402
 from nrrncf_jax.scenarios import run_spinup  # noqa: E402
 from nrrncf_jax.scenarios.spinup import default_elements  # noqa: E402
 
@@ -35,8 +36,8 @@ def main(argv=None):
         res = {}
         for form in ("rncf", "ancf"):
             print(f"omega_s = {w:g}: {form.upper()} ({n_el} elements) ...", file=sys.stderr, flush=True)
-            res[form] = run_spinup(form, "paper", w, T_s=15.0, t_end=a.t_end, elements=n_el, rtol=a.rtol,
-                                   save_displacements=True, progress=True)
+            res[form] = run_spinup(form, "paper", w, T_s=15.0, t_end=a.t_end, elements=n_el,
+                                   controller=AdaptiveStepSize(a.rtol, 1e-6), save_displacements=True, progress=True)
         r, an = res["rncf"], res["ancf"]
         chi_tip = float(chi_rel(r.tip, an.tip))
         chi_all = float(chi_rel(r.displacements, an.displacements))

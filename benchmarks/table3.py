@@ -79,28 +79,28 @@ def _basis_line(case, beam, omega, x, vm_only=None):
 
 
 def _case(beam, omega, n_el, args, fig_dir, with_ancf, with_vm_only, max_dofs=25):
-    common = dict(T_s=15.0, t_end=args.t_end, elements=n_el, progress=not args.no_progress)
-    reduced = dict(common, controller=AdaptiveStepSize(args.rtol, 1e-6))
+    common = dict(T_s=15.0, t_end=args.t_end, elements=n_el, progress=not args.no_progress,
+                  controller=AdaptiveStepSize(args.rtol, 1e-6))
     case = f"{beam}, ωs = {omega:g}"
     _log(f"{case}: RNCF ({n_el} elements) ...")
-    rncf = run_spinup("rncf", beam, omega, rtol=args.rtol, save_displacements=True, **common)
+    rncf = run_spinup("rncf", beam, omega, save_displacements=True, **common)
     ancf = None
     if with_ancf:
         _log(f"{case}: ANCF ...")
-        ancf = run_spinup("ancf", beam, omega, rtol=args.rtol, save_displacements=True, **common)
+        ancf = run_spinup("ancf", beam, omega, save_displacements=True, **common)
     _log(f"{case}: NR-RNCF (automatic selection from {args.modes} modes) ...")
     nr = run_nr_rncf_spinup(beam, omega, basis=Basis(n_modes=args.modes, max_dofs=max_dofs), reference=rncf,
-                            **reduced)
+                            **common)
     paper = None
     if nr.spin is not None and nr.spin.enriched:
         _log(f"{case}: NR-RNCF with the paper's basis alone (no spinning-state enrichment) ...")
         paper = run_nr_rncf_spinup(beam, omega, basis=Basis(n_modes=args.modes, max_dofs=max_dofs, spin_state=False),
-                                   reference=rncf, **reduced)
+                                   reference=rncf, **common)
     vm = None
     if with_vm_only:
         _log(f"{case}: VM-only basis of {nr.dofs} modes ...")
         vm = run_nr_rncf_spinup(beam, omega, basis=Basis(n_modes=args.modes, vms=nr.dofs, mds=0), reference=rncf,
-                                **reduced)
+                                **common)
 
     rows = [_row(case, "RNCF", rncf, rncf, ancf, None)]
     if ancf is not None:

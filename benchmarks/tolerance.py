@@ -57,8 +57,8 @@ def main(argv=None):
         return w, int(sol.num_steps), run_s
 
     def rncf(rtol):
-        r = run_spinup("rncf", "paper", a.omega, t_end=a.t_end, elements=n_el, rtol=rtol, atol=1e-2 * rtol,
-                       save_displacements=True)
+        r = run_spinup("rncf", "paper", a.omega, t_end=a.t_end, elements=n_el,
+                       controller=AdaptiveStepSize(rtol, 1e-2 * rtol), save_displacements=True)
         return r.displacements, r.steps, r.run_s
 
     _log(f"RNCF reference at rtol = {a.reference_rtol:g} ...")

@@ -36,14 +36,14 @@ FULL_TOLERANCES = [(1e-3, 1e-5)] + TOLERANCES[:3]
 
 def main():
     pin_to_one_core()
-    ref = run_spinup("rncf", **CASE, rtol=1e-8, atol=1e-10, save_displacements=True)
-    check = run_spinup("rncf", **CASE, rtol=1e-7, atol=1e-9, save_displacements=True)
+    ref = run_spinup("rncf", **CASE, controller=AdaptiveStepSize(1e-8, 1e-10), save_displacements=True)
+    check = run_spinup("rncf", **CASE, controller=AdaptiveStepSize(1e-7, 1e-9), save_displacements=True)
     w_ref = ref.displacement_series()
     own = float(chi_rel(w_ref, check.displacement_series()))
     print(f"reference: {ref.steps} steps, {ref.run_s:.1f} s; its distance to rtol 1e-7: {own:.4f} %", flush=True)
     rows, full_curve = [], []
     for rtol, atol in FULL_TOLERANCES:
-        run = run_spinup("rncf", **CASE, rtol=rtol, atol=atol, save_displacements=True)
+        run = run_spinup("rncf", **CASE, controller=AdaptiveStepSize(rtol, atol), save_displacements=True)
         err = float(chi_rel(w_ref, run.displacement_series()))
         full_curve.append((err, run.run_s))
         rows.append(("full RNCF", run.dofs, rtol, atol, run.steps, run.rejected, run.run_s, err))

@@ -103,7 +103,16 @@ def pendulum_run():
     which pytest 9.2's ``nodeid`` no longer reads, and grouped tests landed on both workers.)"""
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum
 
-    return run_pendulum(PendulumSpec(elements=2), **PENDULUM_RUN)
+    return run_pendulum(PendulumSpec(elements=2), **pendulum_run_options(PENDULUM_RUN))
+
+
+def pendulum_run_options(options: dict) -> dict:
+    """``PENDULUM_RUN``'s settings as ``run_pendulum``'s keywords: the output times, the solver
+    (ρ∞) and the step-size controller (rtol, atol)."""
+    from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlphaIndex3
+
+    return dict(t_end=options["t_end"], dt_out=options["dt_out"], solver=GeneralizedAlphaIndex3(options["rho_inf"]),
+                controller=AdaptiveStepSize(options["rtol"], options["atol"]))
 
 
 def pytest_collection_modifyitems(config, items):

@@ -156,13 +156,14 @@ def test_offline_family_map_reproduces_the_reduction_basis(curved):
 def test_pendulum_beam_bases_are_the_direct_construction():
     """``build_reduced_pendulum``'s beams (2 elements, reduced by ``multibody.reduce`` and moved
     along the chain): deflate([Φ, Θ_pairs, joint static modes]) of the in-plane cantilever modes,
-    the same pairs for all beams or one list a beam (``body_pairs``)."""
+    the same pairs for all beams or one list a beam (``PendulumBasis.body_pairs``)."""
     from nrrncf_jax.elements.beam import mirror_even
     from nrrncf_jax.motion import Stationary
     from nrrncf_jax.reduction import static_modes
     from nrrncf_jax.scenarios.pendulum import (
         _PER_NODE,
         REFERENCE_CONDITIONS,
+        PendulumBasis,
         PendulumSpec,
         _beam,
         build_reduced_pendulum,
@@ -181,12 +182,12 @@ def test_pendulum_beam_bases_are_the_direct_construction():
         return deflate(np.concatenate([np.asarray(modes.phi)] + mds + extra, axis=1))
 
     pairs = [(0, 0), (0, 2), (1, 1)]
-    system, info = build_reduced_pendulum(spec, n_vms=3, pairs=pairs, joint_modes=True)
+    system, info = build_reduced_pendulum(spec, PendulumBasis(3, pairs, joint_modes=True))
     expected = direct(pairs, [tip])
     assert info["k"] == expected.shape[1]
     for b in system.bodies:
         np.testing.assert_allclose(b.basis, expected, rtol=0, atol=ATOL)
     body_pairs = [[(0, 0)], [(0, 1), (2, 2)], []]
-    system, info = build_reduced_pendulum(spec, n_vms=3, body_pairs=body_pairs)
+    system, info = build_reduced_pendulum(spec, PendulumBasis(3, body_pairs=body_pairs))
     for b, bp in zip(system.bodies, body_pairs):
         np.testing.assert_allclose(b.basis, direct(bp, []), rtol=0, atol=ATOL)

@@ -46,7 +46,7 @@ from nrrncf_jax.motion import Stationary
 from nrrncf_jax.multibody import FloatingBody, FloatingFrameSystem, Marker, Spherical, hinge
 from nrrncf_jax.multibody.floating import euler_parameters, rotation
 from nrrncf_jax.reduction import elastic_tensors, excited_modes, plane_loads, vibration_modes
-from nrrncf_jax.scenarios.pendulum import REFERENCE_CONDITIONS
+from nrrncf_jax.scenarios.pendulum import REFERENCE_CONDITIONS, PendulumBasis
 
 G = 9.81
 
@@ -173,12 +173,12 @@ def test_mmi_per_body_ranks_each_beams_pairs():
         assert W.shape == (3, 3) and np.allclose(W, W.T) and W.min() >= 0.0 and sel.vms == (0, 1, 2)
         assert list(sel.pairs) == sorted(cand, key=lambda p: -W[p])[:2]
     assert not np.allclose(sels[0].W, sels[2].W, rtol=1e-2)
-    system, info = build_reduced_pendulum(spec, 3, body_pairs=[s.pairs for s in sels])
+    system, info = build_reduced_pendulum(spec, PendulumBasis(3, body_pairs=[s.pairs for s in sels]))
     assert [b.k for b in system.bodies] == info["k"] and all(3 < k <= 5 for k in info["k"])
     with pytest.raises(ValueError, match="one list of MD pairs"):
-        build_reduced_pendulum(spec, 3, body_pairs=[[(0, 0)]])
+        build_reduced_pendulum(spec, PendulumBasis(3, body_pairs=[[(0, 0)]]))
     with pytest.raises(ValueError, match="0 <= i <= j < vms"):
-        build_reduced_pendulum(spec, 3, body_pairs=[[(0, 3)], [], []])
+        build_reduced_pendulum(spec, PendulumBasis(3, body_pairs=[[(0, 3)], [], []]))
     # the candidates of a basis chosen to a tolerance: W summed over the beams ranks them, the
     # joint's static modes right after the first VM (the same run: compiled once)
     from nrrncf_jax.reduction.basis_to_tolerance import greedy_order
@@ -304,7 +304,7 @@ def test_closed_form_kinematics_are_the_maps_derivatives():
     bodies against the loop over them."""
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum
 
-    system, _ = build_reduced_pendulum(PendulumSpec(elements=2), n_vms=2, pairs=[(0, 0)])
+    system, _ = build_reduced_pendulum(PendulumSpec(elements=2), PendulumBasis(2, pairs=[(0, 0)]))
     # equal beams: their basis and tensors kept once (not mapped), their frames' origins stacked
     assert system.stacked.basis.ndim == 2 and system.stacked.tensors.N3.ndim == 2
     assert system.stacked.R0.shape == (3, 3)
@@ -383,7 +383,7 @@ def test_joint_modes_give_the_cantilevers_tip_flexibility():
     # in the in-plane pendulum the out-of-plane force's mode is zero and left out: 2 VMs + 2 joint modes
     from nrrncf_jax.scenarios.pendulum import build_reduced_pendulum
 
-    _, info = build_reduced_pendulum(spec, n_vms=2, pairs=[], joint_modes=True)
+    _, info = build_reduced_pendulum(spec, PendulumBasis(2, pairs=(), joint_modes=True))
     assert info["k"] == 4
 
 
@@ -448,7 +448,7 @@ def test_turned_systems_keep_their_joints_and_turn_every_vector():
 
     axis, angle = np.array([1.0, 2.0, 2.0]) / 3.0, 0.7
     A = np.asarray(rotation_about(jnp.asarray(axis), angle))
-    floating, _ = build_reduced_pendulum(PendulumSpec(elements=2), n_vms=2, pairs=[(0, 0)])
+    floating, _ = build_reduced_pendulum(PendulumSpec(elements=2), PendulumBasis(2, pairs=[(0, 0)]))
     ancf = build_pendulum(PendulumSpec(elements=2))
     beam = ancf.bodies[0].body
     clamped = MultibodySystem([beam], [Fixed(0, [0, 1, 2], values=np.asarray(beam.q_hat)[:3])])
@@ -484,7 +484,7 @@ def test_release_sweep_runs_each_angle_as_its_own_run():
     atol (1e-6 m). Bad angles are refused before tracing."""
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, release_sweep
 
-    system, _ = build_reduced_pendulum(PendulumSpec(elements=2), n_vms=2, pairs=[(0, 0)])
+    system, _ = build_reduced_pendulum(PendulumSpec(elements=2), PendulumBasis(2, pairs=[(0, 0)]))
     theta, kw = 0.3, dict(t_end=0.3, dt_out=0.01, rho_inf=1.0, rtol=1e-5, atol=1e-6)
     angles = [-0.2, theta, np.pi - theta]
     sweep = release_sweep(system, angles, **kw)
@@ -519,7 +519,7 @@ def test_a_system_mixes_full_order_and_reduced_bodies():
 
     spec = PendulumSpec(elements=2)
     full = build_rncf_pendulum(spec)
-    reduced, _ = build_reduced_pendulum(spec, n_vms=3, pairs="all")
+    reduced, _ = build_reduced_pendulum(spec, PendulumBasis(3))
     mixed = FloatingFrameSystem((full.bodies[0],) + reduced.bodies[1:], full.joints, gravity=full.gravity)
     assert mixed.stacked is None and mixed.formulation == "nr-rncf"
     assert mixed.runs == ((0, 1), (1, 2)) and mixed.stacks[1] is not None  # the two reduced beams vmapped
@@ -548,7 +548,8 @@ def test_a_system_mixes_full_order_and_reduced_bodies():
         np.testing.assert_array_equal(x_mixed, x_own)
     np.testing.assert_allclose(mixed.constraints(z)[:mixed.n_joint_equations], mixed.joint_equations(xs),
                                rtol=0, atol=RTOL_RESIDUAL)
-    run = run_chain(mixed, t_end=0.2, dt_out=0.01, rho_inf=1.0, rtol=1e-5, atol=1e-6)
+    run = run_chain(mixed, t_end=0.2, dt_out=0.01, solver=GeneralizedAlphaIndex3(1.0),
+                    controller=AdaptiveStepSize(1e-5, 1e-6))
     assert run.constraint_max < 1e-8
     assert np.abs(run.energy - run.energy[0]).max() < 1e-3 * run.kinetic.max()
     assert run.kinetic[-1] > 0.1 * run.kinetic.max()  # it swings

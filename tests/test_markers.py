@@ -21,6 +21,7 @@ from nrrncf_jax.multibody import (
     placed,
 )
 from nrrncf_jax.scenarios.pendulum import (
+    PendulumBasis,
     PendulumSpec,
     _beam,
     build_pendulum,
@@ -44,7 +45,8 @@ def test_pendulum_hinges_on_markers_read_the_section_vectors():
     end = 6 * spec.elements
     expected = [{(0, R), (0, RY), (0, RZ)}] + [{(k, end + R), (k, end + RY), (k, end + RZ), (k + 1, R), (k + 1, RY),
                                                (k + 1, RZ)} for k in range(2)]
-    for system in (build_pendulum(spec), build_rncf_pendulum(spec), build_reduced_pendulum(spec, 2, pairs=[])[0]):
+    reduced = build_reduced_pendulum(spec, PendulumBasis(2, pairs=()))[0]
+    for system in (build_pendulum(spec), build_rncf_pendulum(spec), reduced):
         assert all(isinstance(j, Revolute) for j in system.joints), type(system).__name__
         assert [set(j.references()) for j in system.joints] == expected, type(system).__name__
         assert np.abs(_reference_equations(system)).max() < 1e-14

@@ -270,11 +270,12 @@ def test_mean_axis_refuses_what_it_cannot_build(spatial):
     zs = np.tile(np.asarray(system.reference()), (2, 1))
     with pytest.raises(ValueError, match="method='dynamic'"):
         estimate_mechanism_error(full_counterpart(system), system, [0.0, 1.0], zs, 0 * zs)
-    from nrrncf_jax.scenarios.pendulum import PendulumSpec, run_pendulum
+    from nrrncf_jax.reduction import ErrorEstimator
+    from nrrncf_jax.scenarios.pendulum import PendulumBasis, PendulumSpec, run_pendulum
 
-    with pytest.raises(ValueError, match="estimate_method='dynamic'"):
-        run_pendulum(PendulumSpec(elements=2), formulation="nr-rncf", n_vms=1, estimate=True,
-                     conditions="mean-axis")
+    with pytest.raises(ValueError, match=r"estimator=ErrorEstimator\(method='dynamic'\)"):
+        run_pendulum(PendulumSpec(elements=2), formulation="nr-rncf", basis=PendulumBasis(1, conditions="mean-axis"),
+                     estimator=ErrorEstimator())
     clamped_free = np.ones((beam.n_vectors, 3), bool)
     clamped_free[[0, 2, 4]] = False  # the first node's position and section vectors
     with pytest.raises(ValueError, match="not free-free"):

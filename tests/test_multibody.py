@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import EPS, PENDULUM_RUN, RTOL_ROUNDOFF
+from conftest import EPS, PENDULUM_RUN, RTOL_ROUNDOFF, pendulum_run_options
 from scipy.special import ellipk
 
 from nrrncf_jax.bodies.body import beam_body
@@ -28,7 +28,8 @@ from nrrncf_jax.integrate import (
     simulate,
 )
 from nrrncf_jax.multibody import Fixed, Marker, MultibodySystem, Spherical, hinge, placed
-from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum
+from nrrncf_jax.reduction import ErrorEstimator
+from nrrncf_jax.scenarios.pendulum import PendulumBasis, PendulumSpec, build_pendulum
 
 G = 9.81
 
@@ -56,6 +57,20 @@ def test_stiff_hinged_beam_has_the_compound_pendulums_exact_period():
     T = 2.0 * (crossings[1] - crossings[0])
     T_exact = 4.0 * np.sqrt(2.0 * 1.0 / (3.0 * G)) * ellipk(0.5)
     assert len(crossings) == 2 and abs(T / T_exact - 1.0) < 2e-4, (T, T_exact)
+
+
+def _as_flags(kw: dict) -> dict:
+    """``run_pendulum``'s keywords as the command's flags gave them: the solver's ρ∞, the
+    controller's tolerances and name (``integrate.step_control_name``) in place of the objects."""
+    from nrrncf_jax.integrate import step_control_name
+
+    out = {k: v for k, v in kw.items() if k not in ("solver", "controller")}
+    if "solver" in kw:
+        out["rho_inf"] = float(kw["solver"].rho_inf)
+    if "controller" in kw:
+        c = kw["controller"]
+        out |= {"rtol": float(c.rtol), "atol": float(c.atol), "step_control": step_control_name(c)}
+    return out
 
 
 @pytest.mark.slow
@@ -116,7 +131,7 @@ def test_floating_frame_pendulum_runs_with_the_ancf_one(pendulum_run):
 
     with pytest.raises(ValueError, match="six distinct"):
         build_rncf_pendulum(PendulumSpec(elements=2), frame=LEFT_END_FRAME[:5] + LEFT_END_FRAME[:1])
-    run = run_pendulum(PendulumSpec(elements=2), formulation="rncf", **PENDULUM_RUN)
+    run = run_pendulum(PendulumSpec(elements=2), formulation="rncf", **pendulum_run_options(PENDULUM_RUN))
     assert run.formulation == "rncf" and run.dofs == 3 * (7 + 54 - 6)
     assert np.abs(run.tips - pendulum_run.tips).max() < 1e-4
     assert np.abs(run.energy - run.energy[0]).max() < 1e-4 * run.kinetic.max()
@@ -170,7 +185,7 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     assert main(argv) == 0
     (spec, kw), = calls
     assert spec == PendulumSpec(elements=2)
-    assert kw == dict(PENDULUM_RUN, progress=False, step_control="plain", error_on="nodes")
+    assert _as_flags(kw) == dict(PENDULUM_RUN, progress=False, step_control="plain", error_on="nodes")
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     for key in ("dofs", "steps", "newton_iters", "compile_s", "run_s"):
         assert d[key] == pendulum_run.summary()[key]
@@ -187,10 +202,10 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     # the run, the full model converged (at a tenth and a hundredth of the tighter of its default
     # rtol and the run's), and the reduced chain again at a hundredth of its rtol
     assert [kw.get("formulation", "ancf") for _, kw in calls] == ["nr-rncf", "ancf", "ancf", "nr-rncf"]
-    np.testing.assert_allclose([kw["rtol"] for _, kw in calls], [1e-5, 1e-6, 1e-7, 1e-7], rtol=1e-12)
-    assert calls[0][1]["n_vms"] == 3 and calls[0][1]["pairs"] == [] and calls[0][1]["joint_modes"] is True
-    assert calls[0][1]["estimate"] is True and calls[0][1]["estimate_method"] == "static"  # by default
-    assert calls[3][1]["estimate"] is False and calls[3][1]["n_vms"] == 3
+    np.testing.assert_allclose([_as_flags(kw)["rtol"] for _, kw in calls], [1e-5, 1e-6, 1e-7, 1e-7], rtol=1e-12)
+    assert calls[0][1]["basis"] == PendulumBasis(3, pairs=(), joint_modes=True)
+    assert calls[0][1]["estimator"] == ErrorEstimator(method="static")  # by default
+    assert calls[3][1]["estimator"] is None and calls[3][1]["basis"].n_vms == 3
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert d["chi_rel_percent"] == pytest.approx(50.0, rel=RTOL_ROUNDOFF) and d["speedup"] == pytest.approx(2.0)
     assert d["reference_dofs"] == pendulum_run.dofs and d["reference_converged"]
@@ -200,16 +215,16 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "nr-rncf", "--craig-bampton", "--reference", "ancf",
                              "--reference-rtol", "1e-6", "--json"]) == 0
-    assert calls[0][1]["craig_bampton"] is True and calls[0][1]["joint_modes"] is False
-    np.testing.assert_allclose([(kw["rtol"], kw["atol"]) for _, kw in calls[:3]],
+    assert calls[0][1]["basis"].craig_bampton is True and calls[0][1]["basis"].joint_modes is False
+    np.testing.assert_allclose([(_as_flags(kw)["rtol"], _as_flags(kw)["atol"]) for _, kw in calls[:3]],
                                [(1e-5, 1e-6), (1e-5, 1e-6), (1e-6, 1e-7)], rtol=1e-12)
     assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["reference_rtol"] == pytest.approx(1e-6)
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "nr-rncf", "--estimate-method", "dynamic", "--json"]) == 0
-    assert calls[0][1]["estimate"] is True and calls[0][1]["estimate_method"] == "dynamic"
+    assert calls[0][1]["estimator"] == ErrorEstimator(method="dynamic")
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "nr-rncf", "--no-estimate", "--json"]) == 0
-    assert calls[0][1]["estimate"] is False
+    assert calls[0][1]["estimator"] is None
     capsys.readouterr()
     assert main(["pendulum", "--no-estimate"]) == 2
     assert "--no-estimate go with --formulation nr-rncf" in capsys.readouterr().err
@@ -221,7 +236,7 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "nr-rncf", "--conditions", "mean-axis", "--estimate-method", "dynamic",
                              "--json"]) == 0
-    assert calls[0][1]["conditions"] == "mean-axis" and calls[0][1]["estimate_method"] == "dynamic"
+    assert calls[0][1]["basis"].conditions == "mean-axis" and calls[0][1]["estimator"].method == "dynamic"
     capsys.readouterr()
     for extra, message in ((["--formulation", "nr-rncf"], "pass --estimate-method dynamic or --no-estimate"),
                            (["--formulation", "nr-rncf", "--no-estimate", "--craig-bampton"], "not mean-axis"),
@@ -264,7 +279,7 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     (spec, tol, kw), = searches
     assert tol == 0.5 and kw["n_vms"] == 4 and kw["t_train"] == 0.3 and kw["t_end"] == 0.4
     assert chains[0][0] == "the chosen system" and [c[1].get("formulation", "ancf") for c in calls] == ["ancf"] * 2
-    assert len(chains) == 2 and chains[1][0] == "the chosen system" and chains[1][2]["estimate"] is False
+    assert len(chains) == 2 and chains[1][0] == "the chosen system" and chains[1][2]["estimator"] is None
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert d["tol_met"] and d["basis_chosen"] == ["φ0", "joint modes"] and d["basis_trials"][0]["dofs"] == 30
     assert "chi_rel_percent" in d

@@ -67,6 +67,7 @@ def test_a_chain_measures_its_step_error_on_its_tips():
     chain's nodes there), the run records what it measured, and it follows the run measured on
     every nodal vector to the two runs' tolerances (rtol 1e-5 on tips of 1-3 m: the local errors
     add up over ~50 steps to well under the 1e-3 m asked); a name it does not know is refused."""
+    from nrrncf_jax.integrate import AdaptiveStepSize
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum, run_chain, tip_sensors
 
     system = build_pendulum(PendulumSpec(elements=1))
@@ -75,7 +76,7 @@ def test_a_chain_measures_its_step_error_on_its_tips():
     assert [float(s.resolve(system)(system, 0.0, z, None)[0]) for s in sensors.values()] == [1.0, 2.0, 3.0]
     with pytest.raises(ValueError, match="error_on must be one of"):
         run_chain(system, t_end=0.05, error_on="tip")
-    kw = dict(t_end=0.1, dt_out=0.01, rtol=1e-5, atol=1e-6)
+    kw = dict(t_end=0.1, dt_out=0.01, controller=AdaptiveStepSize(1e-5, 1e-6))
     tips, nodes = run_chain(system, error_on="tips", **kw), run_chain(system, **kw)
     assert tips.summary()["error_on"] == "tips" and "error_on" not in nodes.summary()
     assert np.abs(tips.tips - nodes.tips).max() < 1e-3

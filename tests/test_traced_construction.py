@@ -14,7 +14,7 @@ from nrrncf_jax.bodies import beam_body, straight_reference
 from nrrncf_jax.elements import Material, TubeSection
 from nrrncf_jax.multibody import FloatingFrameSystem, MultibodySystem
 from nrrncf_jax.reduction import reduce_rotating_model
-from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_pendulum, build_reduced_pendulum
+from nrrncf_jax.scenarios.pendulum import PendulumBasis, PendulumSpec, build_pendulum, build_reduced_pendulum
 
 TS = jnp.linspace(0.0, 0.2, 3)
 
@@ -93,7 +93,7 @@ def test_reduced_model_built_in_jit_grad_vmap(body):
 def pendulum_parts():
     spec = PendulumSpec(elements=2)
     ancf = build_pendulum(spec)
-    floating, _ = build_reduced_pendulum(spec, n_vms=2, pairs=[])
+    floating, _ = build_reduced_pendulum(spec, PendulumBasis(2, pairs=()))
     return ancf, floating
 
 

@@ -3,6 +3,7 @@
 import pytest
 
 from nrrncf_jax import Loads, Material, SpinUp, TubeSection, straight_reference
+from nrrncf_jax.integrate import ConstantStepSize, GeneralizedAlpha, GeneralizedAlphaIndex3
 from nrrncf_jax.scenarios import BeamPreset, run_spinup
 
 
@@ -62,7 +63,11 @@ def test_bad_spinup_arguments():
     with pytest.raises(ValueError, match="unknown beam preset"):
         run_spinup("rncf", "steel", 4.0)
     with pytest.raises(ValueError, match="rho_inf"):
-        run_spinup("rncf", "paper", 4.0, rho_inf=2.0)
+        run_spinup("rncf", "paper", 4.0, solver=GeneralizedAlpha(2.0))
+    with pytest.raises(ValueError, match="solver must be an integrate.GeneralizedAlpha"):
+        run_spinup("rncf", "paper", 4.0, solver=GeneralizedAlphaIndex3(0.9))
+    with pytest.raises(ValueError, match="controller must be an integrate.AdaptiveStepSize"):
+        run_spinup("rncf", "paper", 4.0, controller=ConstantStepSize(0.01))
 
 
 def test_bad_loads():

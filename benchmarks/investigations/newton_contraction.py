@@ -32,6 +32,7 @@ from nrrncf_jax.integrate.simulate import simulate  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import (  # noqa: E402
     LEFT_END_FRAME,
     LEFT_SECTION_FRAME,
+    PendulumBasis,
     PendulumSpec,
     build_reduced_pendulum,
     build_rncf_pendulum,
@@ -85,7 +86,7 @@ def main(argv=None):
     models = [("full RNCF, left ends' tangents (LEFT_END_FRAME)", build_rncf_pendulum(spec, LEFT_END_FRAME)),
               ("full RNCF, left ends' section vectors (LEFT_SECTION_FRAME)",
                build_rncf_pendulum(spec, LEFT_SECTION_FRAME)),
-              ("NR-RNCF, 5 VMs + 15 MDs a beam", build_reduced_pendulum(spec, 5)[0])]
+              ("NR-RNCF, 5 VMs + 15 MDs a beam", build_reduced_pendulum(spec, PendulumBasis(5))[0])]
     times = sorted(a.times)
     lines = ["# Modified Newton's contraction in the pendulum's index-3 step", "",
              f"Produced by `benchmarks/investigations/newton_contraction.py --elements {a.elements} --times "

@@ -46,7 +46,13 @@ sys.path[:0] = [os.path.dirname(__file__), os.path.dirname(os.path.dirname(os.pa
 from _machine import machine, pin_to_one_core, report  # noqa: E402
 from hlo_ops import computations, counts, loop_bodies  # noqa: E402
 
-from nrrncf_jax.integrate import GeneralizedAlphaIndex3, Newton, adaptive_step_size, simulate  # noqa: E402
+from nrrncf_jax.integrate import (  # noqa: E402
+    AdaptiveStepSize,
+    GeneralizedAlphaIndex3,
+    Newton,
+    adaptive_step_size,
+    simulate,
+)
 from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, run_pendulum  # noqa: E402
 
@@ -151,12 +157,13 @@ def accuracy(spec, cases) -> dict:
     def displacements(r):
         return r.nodes - r.nodes[0]
 
-    full = displacements(run_pendulum(spec, dt_out=0.01, rtol=1e-4, atol=1e-5))
-    fine = displacements(run_pendulum(spec, dt_out=0.01, rtol=1e-6, atol=1e-7, formulation="nr-rncf"))
+    full = displacements(run_pendulum(spec, dt_out=0.01, controller=AdaptiveStepSize(1e-4, 1e-5)))
+    fine = displacements(run_pendulum(spec, dt_out=0.01, controller=AdaptiveStepSize(1e-6, 1e-7),
+                                      formulation="nr-rncf"))
     out = {}
     for rtol, control in cases:
-        w = displacements(run_pendulum(spec, dt_out=0.01, rtol=rtol, atol=rtol / 10, formulation="nr-rncf",
-                                       step_control=control))
+        w = displacements(run_pendulum(spec, dt_out=0.01, controller=adaptive_step_size(rtol, rtol / 10, control),
+                                       formulation="nr-rncf"))
         out[rtol, control] = (float(chi_rel(full, w)), float(chi_rel(fine, w)))
         print(rtol, control, out[rtol, control], flush=True)
     return out

@@ -52,9 +52,9 @@ VARIANTS = {
 def _case(name: str):
     """``(description, model, t_end, (solver, controller, newton))``."""
     if name == "nr_pendulum":
-        from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum
+        from nrrncf_jax.scenarios.pendulum import PendulumBasis, PendulumSpec, build_reduced_pendulum
 
-        model, _ = build_reduced_pendulum(PendulumSpec(elements=10), 5, "all")
+        model, _ = build_reduced_pendulum(PendulumSpec(elements=10), PendulumBasis(5, "all"))
         return ("NR-RNCF pendulum, 5 VMs + 15 MDs a beam", model, 2.0,
                 (GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(1e-4, 1e-5), Newton(1e-2)))
     if name == "ancf_pendulum":

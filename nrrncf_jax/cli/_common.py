@@ -109,7 +109,8 @@ def add_step_control(parser, default: str | None = "plain", default_help: str = 
 def add_estimate_options(parser, method_help: str) -> None:
     """``--estimate-method`` (``ESTIMATE_METHODS``, help ``method_help``: what each costs on the
     command's model) and ``--estimate-samples N``, the static estimate's sampled outputs (the
-    scenario runners' ``estimate_samples``; default theirs, 16; checked by ``estimate_samples``)."""
+    ``samples`` of the runners' ``reduction.ErrorEstimator``; default 16; checked by
+    ``estimate_samples``)."""
     parser.add_argument("--estimate-method", choices=ESTIMATE_METHODS, default="static", help=method_help)
     parser.add_argument("--estimate-samples", type=int, default=None, metavar="N",
                         help="nr-rncf: output times at which the static error estimate factors the full tangent, "
@@ -140,12 +141,14 @@ def estimate_integration(args, reduced: bool, default: bool) -> None:
 def estimator(args):
     """The scenario runners' ``reduction.ErrorEstimator`` from ``--estimate-method``,
     ``--estimate-samples`` (not given: the estimator's default, 16) and
-    ``--estimate-integration``, after the checks (``estimate_samples``, ``estimate_integration``).
-    Imports the library: call it when the run starts."""
+    ``--estimate-integration`` (off where the command has no such flag), after the checks
+    (``estimate_samples``, ``estimate_integration``). Imports the library: call it when the run
+    starts."""
     from ..reduction import ErrorEstimator
 
     samples = {} if args.estimate_samples is None else {"samples": args.estimate_samples}
-    return ErrorEstimator(method=args.estimate_method, integration=bool(args.estimate_integration), **samples)
+    integration = bool(getattr(args, "estimate_integration", False))  # a command without the flag: off
+    return ErrorEstimator(method=args.estimate_method, integration=integration, **samples)
 
 
 def add_tol_and_reference_options(parser, scope: str) -> None:
@@ -162,19 +165,17 @@ def add_tol_and_reference_options(parser, scope: str) -> None:
                              "into its time-integration and basis parts")
 
 
-def estimate_samples(args, reduced: bool) -> dict:
-    """The runner's keyword for ``--estimate-samples`` (empty when not given: the runner's
-    default), after its checks: at least 2, a reduced run's, and the static estimate's (the
-    dynamic one runs over every output)."""
+def estimate_samples(args, reduced: bool) -> None:
+    """Check ``--estimate-samples`` where given (``estimator`` passes it on): at least 2, a
+    reduced run's, and the static estimate's (the dynamic one runs over every output)."""
     if args.estimate_samples is None:
-        return {}
+        return
     at_least("--estimate-samples", args.estimate_samples, 2)
     if not reduced:
         raise ValueError("--estimate-samples goes with --formulation nr-rncf")
     if args.estimate_method != "static":
         raise ValueError("--estimate-samples sets the static estimate's samples; the dynamic estimate runs over "
                          "every output")
-    return {"estimate_samples": args.estimate_samples}
 
 
 def model_parser(sub, name: str, help: str, description: str):

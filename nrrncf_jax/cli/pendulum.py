@@ -58,14 +58,20 @@ error equation holds (``scenarios.pendulum.pendulum_to_tolerance``)."""
 def _run(args) -> int:
     import numpy as np
 
-    from ..scenarios.pendulum import SHAPE_TIMES, PendulumSpec, run_pendulum
+    from ..integrate import GeneralizedAlphaIndex3, adaptive_step_size, with_tolerances
+    from ..scenarios.pendulum import SHAPE_TIMES, PendulumBasis, PendulumSpec, run_pendulum
     from ..scenarios.run_record import REFERENCE_TIGHTENING
 
     spec = PendulumSpec(elements=args.elements)
     _common.say(args, f"three-beam pendulum, {spec.elements} elements a beam, {args.formulation}, "
                       f"0-{args.t_end:g} s ...")
-    kw = dict(t_end=args.t_end, dt_out=args.dt_out, rho_inf=args.rho_inf, rtol=args.rtol, atol=args.atol,
-              progress=not (args.json or args.no_progress), step_control=args.step_control)
+    controller = adaptive_step_size(args.rtol, args.atol, args.step_control)
+    kw = dict(t_end=args.t_end, dt_out=args.dt_out, solver=GeneralizedAlphaIndex3(args.rho_inf), controller=controller,
+              progress=not (args.json or args.no_progress))
+
+    def at(rtol, atol):  # the run's options at other tolerances, the same step control
+        return kw | dict(controller=with_tolerances(controller, rtol, atol))
+
     full = args.formulation in ("ancf", "rncf")
     if full:
         run = run_pendulum(spec, **kw, error_on=args.error_on,
@@ -79,22 +85,19 @@ def _run(args) -> int:
         _common.say(args, search.describe())
 
         def chain_at(k, estimate):
-            return run_chain(search.system, args.t_end, args.dt_out, args.rho_inf, args.rtol / k, args.atol / k,
-                             kw["progress"], estimate=estimate, estimate_method=args.estimate_method,
-                             step_control=args.step_control, error_on=args.error_on,
-                             **(_common.estimate_samples(args, True) if estimate else {}))
+            return run_chain(search.system, estimator=_common.estimator(args) if estimate else None,
+                             error_on=args.error_on, **at(args.rtol / k, args.atol / k))
 
         run = chain_at(1.0, not args.no_estimate)
         run.search = search
     else:
-        basis = dict(formulation="nr-rncf", n_vms=args.vms, pairs="all" if args.mds == "all" else [],
-                     joint_modes=args.joint_modes, craig_bampton=args.craig_bampton, error_on=args.error_on,
-                     conditions=args.conditions)
+        basis = PendulumBasis(args.vms, "all" if args.mds == "all" else (), joint_modes=args.joint_modes,
+                              craig_bampton=args.craig_bampton, conditions=args.conditions or "clamped")
 
         def chain_at(k, estimate):
-            return run_pendulum(spec, **basis, estimate=estimate, estimate_method=args.estimate_method,
-                                **(_common.estimate_samples(args, True) if estimate else {}),
-                                **(kw | dict(rtol=args.rtol / k, atol=args.atol / k)))
+            return run_pendulum(spec, formulation="nr-rncf", basis=basis, error_on=args.error_on,
+                                estimator=_common.estimator(args) if estimate else None,
+                                **at(args.rtol / k, args.atol / k))
 
         run = chain_at(1.0, not args.no_estimate)
     if args.reference is not None:
@@ -106,7 +109,7 @@ def _run(args) -> int:
 
         def full_at(k):
             rtol = base / k
-            return run_pendulum(spec, **(kw | dict(rtol=rtol, atol=args.atol * rtol / args.rtol)),
+            return run_pendulum(spec, **at(rtol, args.atol * rtol / args.rtol),
                                 **({} if args.reference == "ancf" else {"formulation": "rncf"}))
 
         run.compare_converged(full_at, lambda k: chain_at(k, False).displacement_series(), rtol=base)

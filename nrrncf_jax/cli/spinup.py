@@ -47,21 +47,20 @@ def _spinup(args) -> int:
                  + (f", reference {args.reference.upper()}" if args.reference else "")) if reduced else ""
         print(f"nrrncf spinup: {args.formulation.upper()} {args.beam} beam, omega_s = {args.omega:g} rad/s, "
               f"T_s = {args.ts:g} s, t = 0..{args.t_end:g} s, {args.elements} elements{basis}", flush=True)
+    from ..integrate import GeneralizedAlpha, adaptive_step_size
+
     common = dict(T_s=args.ts, t_end=args.t_end, elements=args.elements, dt_out=args.dt_out,
-                  progress=not args.no_progress)
+                  solver=GeneralizedAlpha(args.rho_inf),
+                  controller=adaptive_step_size(args.rtol, 1e-6, args.step_control), progress=not args.no_progress)
     if reduced:
-        from ..integrate import GeneralizedAlpha, adaptive_step_size
         from ..reduction import Basis
 
         basis = Basis(n_modes=args.modes, vms=args.vms, mds=args.mds, max_dofs=args.max_dofs,
                       spin_state={"auto": "auto", "on": True, "off": False}[args.spin_state])
-        res = run_nr_rncf_spinup(args.beam, args.omega, basis=basis, solver=GeneralizedAlpha(args.rho_inf),
-                                 controller=adaptive_step_size(args.rtol, 1e-6, args.step_control),
-                                 estimator=_common.estimator(args), tol=args.tol,
+        res = run_nr_rncf_spinup(args.beam, args.omega, basis=basis, estimator=_common.estimator(args), tol=args.tol,
                                  reference=args.reference == "rncf", **common)
     else:
-        res = run_spinup(args.formulation, args.beam, args.omega, rho_inf=args.rho_inf, rtol=args.rtol,
-                         step_control=args.step_control, **common)
+        res = run_spinup(args.formulation, args.beam, args.omega, **common)
     if args.out:
         res.to_csv(args.out)
     if args.plot:

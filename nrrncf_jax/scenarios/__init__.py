@@ -21,18 +21,20 @@
   modes and mode types, the equivalent-beam closed forms, and the resonant tip excitation, full RNCF against NR-RNCF.
 - ``pendulum``: the three-beam pendulum of Sec. 4.4: full order as ANCF bodies (``build_pendulum``)
   or as the paper's full RNCF (``build_rncf_pendulum``), NR-RNCF in floating frames
-  (``build_reduced_pendulum``: modes and modal derivatives, the joints' static modes, or the
-  extended Craig-Bampton basis; ``mmi_per_body`` picks each beam's MDs by MMI), and
+  (``build_reduced_pendulum``, its basis a ``PendulumBasis``: modes and modal derivatives, the
+  joints' static modes, or the extended Craig-Bampton basis; ``mmi_per_body`` picks each beam's MDs
+  by MMI), and
   ``release_sweep`` for a batch of release angles in one compiled loop.
 - ``forced_run``: a large body's full or NR-RNCF run and its χ_rel against a full one, shared by
   the truss and the membrane.
 
-The NR-RNCF runners (``run_nr_rncf_spinup``, ``run_membrane``, ``run_truss``, ``run_forced``) take
-their options as objects, as ``integrate.simulate`` and ``reduction.nr_rncf`` do: the basis a
-``reduction.Basis``, the time integration a ``solver`` (``integrate.GeneralizedAlpha``) and a step-size
-``controller`` (``integrate.AdaptiveStepSize``, plain or PI), the a-posteriori error estimate a
-``reduction.ErrorEstimator`` (None: none), and a basis chosen to a tolerance ``tol`` (per cent, or a
-``reduction.ToTolerance``). Their defaults are each scenario's own.
+The runners (``run_spinup``, ``run_nr_rncf_spinup``, ``run_membrane``, ``run_truss``, ``run_forced``,
+``run_pendulum``, ``run_chain``) take their options as objects, as ``integrate.simulate`` and
+``reduction.nr_rncf`` do: the basis a ``reduction.Basis`` (the pendulum's a ``PendulumBasis``), the
+time integration a ``solver`` (``integrate.GeneralizedAlpha``; ``GeneralizedAlphaIndex3`` for the
+jointed pendulum) and a step-size ``controller`` (``integrate.AdaptiveStepSize``, plain or PI), the
+a-posteriori error estimate a ``reduction.ErrorEstimator`` (None: none), and a basis chosen to a
+tolerance ``tol`` (per cent, or a ``reduction.ToTolerance``). Their defaults are each scenario's own.
 
 Each example has its ``nrrncf`` subcommand, its notebook and its benchmark; the measured figures
 are on the documentation's Benchmark results page, summed up in the README's results table.

@@ -39,10 +39,10 @@ from ..integrate import (
     AdaptiveStepSize,
     GeneralizedAlphaIndex3,
     Newton,
-    adaptive_step_size,
     batch_lanes,
     simulate,
     simulate_batch,
+    step_control_name,
 )
 from ..integrate.simulate import kernel_options, simulate_timed
 from ..models.constrained import AbstractConstrainedModel
@@ -55,8 +55,8 @@ from ..multibody import (
     hinge,
     placed,
 )
-from ..reduction.run_error import estimate_times
-from .run_record import RunRecord
+from ..reduction.run_error import ErrorEstimator, estimate_times
+from .run_record import RunRecord, run_integrator
 
 # The C1 beam's nodal vectors at a node: r, r_x, r_y, r_xy, r_z, r_xz
 _R, _RX, _RY, _RZ, _PER_NODE = 0, 1, 2, 4, 6
@@ -152,11 +152,64 @@ def build_rncf_pendulum(spec: PendulumSpec = PendulumSpec(), frame=LEFT_END_FRAM
     return FloatingFrameSystem(bodies, _joints(spec), gravity=(0.0, -spec.gravity, 0.0))
 
 
-def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, pairs="all", joint_modes: bool = False,
-                           in_plane: bool = True, craig_bampton: bool = False,
-                           body_pairs=None, conditions: str | None = None) -> tuple[FloatingFrameSystem, dict]:
-    """NR-RNCF of the pendulum: each beam reduced by ``multibody.reduce`` at its two joints, in
-    the reference ``conditions`` (``reduce``'s): ``"clamped"``, the default (the frame at the left
+CONDITIONS = ("clamped", "pinned", "mean-axis")
+"""The reference conditions a pendulum beam's basis may take (``PendulumBasis.conditions``)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PendulumBasis:
+    """What each beam of the NR-RNCF pendulum keeps (``build_reduced_pendulum``, which says what
+    each option does; ``run_pendulum(formulation="nr-rncf", basis=...)``): ``n_vms`` vibration
+    modes and the modal derivatives of ``pairs`` (``"all"``: the k(k+1)/2 pairs i ≤ j, the
+    paper's 5 VMs + 15 MDs; or (i, j) pairs; or none, ``()``); ``joint_modes``: the joints' static
+    modes too; ``craig_bampton``: the extended Craig-Bampton basis instead; ``body_pairs``: one
+    sequence of MD pairs a beam instead of ``pairs`` (``mmi_per_body``'s selection); the reference
+    ``conditions`` (``CONDITIONS``); ``in_plane``: the beam's in-plane modes only. The default is
+    the paper's basis. Frozen (the pairs kept as tuples): ``dataclasses.replace(basis, n_vms=3)``
+    is a variant. Checked as it is made; ``build_reduced_pendulum`` checks ``body_pairs`` against
+    the pendulum's beams."""
+
+    n_vms: int = 5
+    pairs: str | tuple = "all"
+    joint_modes: bool = False
+    craig_bampton: bool = False
+    body_pairs: tuple | None = None
+    conditions: str = "clamped"
+    in_plane: bool = True
+
+    def __post_init__(self):
+        positive_int("n_vms", self.n_vms)
+        for name in ("joint_modes", "craig_bampton", "in_plane"):
+            _validate.boolean(name, getattr(self, name))
+        if isinstance(self.pairs, str):
+            if self.pairs != "all":
+                raise ValueError(f"pairs must be 'all' or a sequence of (i, j) pairs, got {self.pairs!r}")
+        else:
+            object.__setattr__(self, "pairs", tuple(tuple(p) for p in self.pairs))
+        if self.body_pairs is not None:
+            object.__setattr__(self, "body_pairs", tuple(tuple(tuple(int(i) for i in pair) for pair in b)
+                                                         for b in self.body_pairs))
+        if self.conditions not in CONDITIONS:
+            raise ValueError(f"conditions must be 'clamped', 'pinned' or 'mean-axis', got {self.conditions!r}")
+        if self.craig_bampton and self.conditions == "mean-axis":
+            raise ValueError("craig_bampton holds the beams' boundary coordinates: it goes with conditions='clamped' "
+                             "or 'pinned', not 'mean-axis'")
+        if self.craig_bampton and self.joint_modes:
+            raise ValueError("craig_bampton already holds the joint's static modes: pass one of craig_bampton, "
+                             "joint_modes")
+
+    @property
+    def md_pairs(self) -> list:
+        """The MD pairs of ``pairs`` as a list of (i, j) (``"all"`` spelled out)."""
+        n = self.n_vms
+        return [(i, j) for i in range(n) for j in range(i, n)] if self.pairs == "all" else list(self.pairs)
+
+
+def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(),
+                           basis: PendulumBasis = PendulumBasis()) -> tuple[FloatingFrameSystem, dict]:
+    """NR-RNCF of the pendulum, each beam reduced as ``basis`` (a ``PendulumBasis``; default the
+    paper's) says; below, its options. Each beam reduced by ``multibody.reduce`` at its two
+    joints, in the reference ``conditions`` (``reduce``'s): ``"clamped"``, the default (the frame at the left
     end, a cantilever: the paper's choice, and Craig-Bampton's), ``"mean-axis"`` (free-free modes,
     the frame at the beam's centre of mass and its deformation without momentum relative to it,
     Buckens' conditions) or ``"pinned"``. Each beam of the chain hangs from hinges that carry no
@@ -165,7 +218,7 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     estimate, the pendulum's default, cannot hold a frame that no joint holds
     (``multibody.error_estimate``: a mean-axis chain is estimated by the dynamic method). To ``n_vms``
     vibration modes and their modal derivatives (``pairs``: ``"all"``, the k(k+1)/2 pairs i ≤ j,
-    the paper's 5 VMs + 15 MDs; or a list of (i, j); or ``[]``), with ``joint_modes`` the static
+    the paper's 5 VMs + 15 MDs; or a sequence of (i, j); or ``()``), with ``joint_modes`` the static
     modes of the joints too (``reduce``'s ``interface_modes``: under clamped conditions the right
     end's, the span of the extended Craig-Bampton's static constraint modes; under mean axes both
     ends' inertia-relief modes), deflated by SVD (ϑ = 1e-6). ``craig_bampton``: the
@@ -173,7 +226,7 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     position (its in-plane components) kept as boundary coordinates with their static constraint
     modes, and ``n_vms`` fixed-interface modes (both ends held) and their MDs; every beam gets
     the same kind of basis (the last beam's right end is free, and its boundary coordinates are
-    two more coordinates), so the three are evaluated in one ``vmap``. ``body_pairs``: one list of
+    two more coordinates), so the three are evaluated in one ``vmap``. ``body_pairs``: one sequence of
     MD pairs a beam (``mmi_per_body``'s selection). Returns the system and the offline record:
     ``frequencies_hz`` (of the vibration modes; None with ``craig_bampton``), ``pairs``, ``k``
     (coordinates a body after deflation; with ``body_pairs`` a list), ``phi`` (the VMs),
@@ -192,18 +245,12 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
 
     from ..multibody.reduce import reduce
 
-    positive_int("n_vms", n_vms)
-    conditions = conditions or "clamped"
-    if conditions not in ("clamped", "pinned", "mean-axis"):
-        raise ValueError(f"conditions must be 'clamped', 'pinned' or 'mean-axis', got {conditions!r}")
-    if craig_bampton and conditions == "mean-axis":
-        raise ValueError("craig_bampton holds the beams' boundary coordinates: it goes with conditions='clamped' "
-                         "or 'pinned', not 'mean-axis'")
-    if craig_bampton and joint_modes:
-        raise ValueError("craig_bampton already holds the joint's static modes: pass one of craig_bampton, joint_modes")
-    pairs = [(i, j) for i in range(n_vms) for j in range(i, n_vms)] if pairs == "all" else [tuple(p) for p in pairs]
+    if not isinstance(basis, PendulumBasis):
+        raise ValueError(f"basis must be a PendulumBasis, got {type(basis).__name__}")
+    n_vms, pairs, body_pairs, conditions = basis.n_vms, basis.md_pairs, basis.body_pairs, basis.conditions
+    joint_modes, craig_bampton = basis.joint_modes, basis.craig_bampton
     if body_pairs is not None:
-        body_pairs = [[tuple(int(i) for i in pair) for pair in b] for b in body_pairs]
+        body_pairs = [list(b) for b in body_pairs]
         if len(body_pairs) != spec.beams or craig_bampton or joint_modes:
             raise ValueError(f"body_pairs takes one list of MD pairs for each of the {spec.beams} beams, with the "
                              "vibration modes alone (neither craig_bampton nor joint_modes)")
@@ -213,7 +260,7 @@ def build_reduced_pendulum(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, 
     def reduced(mds):  # the beam at the origin, its joints at its ends (the first interface the left end)
         return reduce(beam, [(0.0, 0.0, 0.0), (spec.length, 0.0, 0.0)], vms=n_vms, mds=mds,
                       basis="craig-bampton" if craig_bampton else "free", interface_modes=joint_modes,
-                      plane_normal=(0.0, 0.0, 1.0) if in_plane else None, conditions=conditions)
+                      plane_normal=(0.0, 0.0, 1.0) if basis.in_plane else None, conditions=conditions)
 
     # equal beams share one reduction, moved along the chain (one offline computation, one vmap);
     # each by its own frame's origin (the left end, or the centre of mass for mean axes)
@@ -243,12 +290,12 @@ def mmi_per_body(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, n_mds: int
     with its ``n_vms`` VMs alone run over 0-``t_end`` (its own nonlinear motion, frames and
     joints included, at a loose ``rtol``: W ranks the pairs, it need not be accurate), and each
     beam's ``n_mds`` pairs (i ≤ j) of largest W_b,ij (``multibody.modal_interaction``): one
-    ``reduction.Selection`` a beam, for ``build_reduced_pendulum(body_pairs=[s.pairs for s in
-    selections])``."""
+    ``reduction.Selection`` a beam, for ``build_reduced_pendulum(spec, PendulumBasis(n_vms,
+    body_pairs=[s.pairs for s in selections]))``."""
     from ..multibody.modal_interaction import modal_interaction
 
     positive_int("n_mds", n_mds)
-    system, _ = build_reduced_pendulum(spec, n_vms, pairs=[])
+    system, _ = build_reduced_pendulum(spec, PendulumBasis(n_vms, pairs=()))
     ts = np.linspace(0.0, t_end, n_samples)
     sol = simulate(system, GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(rtol, rtol / 10), ts,
                    observe=lambda t, z, v: z)
@@ -257,7 +304,7 @@ def mmi_per_body(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, n_mds: int
 
 JOINT_MODES = "joint modes"
 """The candidate of ``candidate_order`` that stands for each beam's right-end joint's static modes
-(``build_reduced_pendulum(joint_modes=True)``)."""
+(``PendulumBasis(joint_modes=True)``)."""
 
 
 def candidate_order(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, t_end: float = 2.0, rtol: float = 1e-3,
@@ -286,7 +333,7 @@ def build_from_candidates(spec: PendulumSpec, prefix) -> FloatingFrameSystem:
     if not vms:
         raise ValueError("a pendulum basis needs at least one vibration mode among its candidates")
     pairs = [tuple(c) for c in prefix if isinstance(c, tuple)]
-    system, _ = build_reduced_pendulum(spec, max(vms) + 1, pairs, joint_modes=JOINT_MODES in prefix)
+    system, _ = build_reduced_pendulum(spec, PendulumBasis(max(vms) + 1, pairs, joint_modes=JOINT_MODES in prefix))
     return system
 
 
@@ -392,40 +439,55 @@ class PendulumRun(RunRecord):
 FORMULATIONS = ("ancf", "rncf", "nr-rncf")
 
 
-def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out: float = 0.001,
-                 rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
-                 max_steps: int = 500_000, formulation: str = "ancf", n_vms: int = 5, pairs="all",
-                 joint_modes: bool = False, newton_tol: float = 1e-2, craig_bampton: bool = False,
-                 body_pairs=None, estimate: bool = False, estimate_samples: int = 16,
-                 estimate_method: str = "static", step_control: str = "plain", error_on: str = "nodes",
-                 conditions: str | None = None) -> PendulumRun:
+def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out: float = 0.001, *,
+                 formulation: str = "ancf", basis: PendulumBasis | None = None,
+                 solver: GeneralizedAlphaIndex3 | None = None, controller: AdaptiveStepSize | None = None,
+                 newton: Newton | None = None, estimator: ErrorEstimator | None = None, error_on: str = "nodes",
+                 progress: bool = False, max_steps: int = 500_000) -> PendulumRun:
     """The pendulum released from rest: full order (``"ancf"``: ANCF bodies, ``build_pendulum``;
     ``"rncf"``: floating frames, ``build_rncf_pendulum``) or NR-RNCF (``"nr-rncf"``:
-    ``build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=...,
-    body_pairs=..., conditions=...)``), index-3 generalized-α. ``estimate`` (NR-RNCF): the run's error estimate
-    from the run alone (``run_chain``). ``step_control``: the adaptive controller by name,
-    ``error_on``: what the step error is measured on (``run_chain``)."""
+    ``build_reduced_pendulum(spec, basis)``, ``basis`` a ``PendulumBasis``, default the paper's;
+    only with ``"nr-rncf"``), index-3 generalized-α. ``solver``, ``controller``, ``newton``,
+    ``estimator`` (NR-RNCF: the run's error estimate from the run alone; None, the default: none),
+    ``error_on``: ``run_chain``'s."""
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
-    if estimate and estimate_method == "static" and conditions == "mean-axis":
+    if basis is not None and formulation != "nr-rncf":
+        raise ValueError("basis goes with formulation='nr-rncf' (a full model keeps every coordinate)")
+    basis = PendulumBasis() if basis is None else basis
+    if not isinstance(basis, PendulumBasis):
+        raise ValueError(f"basis must be a PendulumBasis, got {type(basis).__name__}")
+    _check_estimator(estimator)
+    if estimator is not None and estimator.method == "static" and basis.conditions == "mean-axis":
         raise ValueError("the static error estimate holds each beam's frame, which under mean axes no joint holds "
-                         "(multibody.error_estimate): with conditions='mean-axis' use estimate_method='dynamic' or "
-                         "estimate=False")
-    if estimate and formulation != "nr-rncf":
-        raise ValueError("estimate goes with formulation='nr-rncf' (a full model has no reduction error to estimate)")
+                         "(multibody.error_estimate): with conditions='mean-axis' use "
+                         "estimator=ErrorEstimator(method='dynamic') or estimator=None")
+    if estimator is not None and formulation != "nr-rncf":
+        raise ValueError("estimator goes with formulation='nr-rncf' (a full model has no reduction error to "
+                         "estimate)")
     info = None
     if formulation == "ancf":
         system = build_pendulum(spec)
     elif formulation == "rncf":
         system = build_rncf_pendulum(spec)
     else:
-        system, info = build_reduced_pendulum(spec, n_vms, pairs, joint_modes, craig_bampton=craig_bampton,
-                                              body_pairs=body_pairs, conditions=conditions)
-    run = run_chain(system, t_end, dt_out, rho_inf, rtol, atol, progress, max_steps, newton_tol, estimate=estimate,
-                    estimate_samples=estimate_samples, estimate_method=estimate_method, step_control=step_control,
-                    error_on=error_on)
+        system, info = build_reduced_pendulum(spec, basis)
+    run = run_chain(system, t_end, dt_out, solver=solver, controller=controller, newton=newton, estimator=estimator,
+                    error_on=error_on, progress=progress, max_steps=max_steps)
     run.offline = info
     return run
+
+
+def _check_estimator(estimator) -> None:
+    """A chain's ``estimator``: a ``reduction.ErrorEstimator`` or None, without ``integration``
+    (``run_chain``)."""
+    if estimator is None:
+        return
+    if not isinstance(estimator, ErrorEstimator):
+        raise ValueError(f"estimator must be a reduction.ErrorEstimator or None, got {type(estimator).__name__}")
+    if estimator.integration:
+        raise ValueError("a chain's error estimate is its basis's (multibody.error_estimate), without the run's own "
+                         "time-integration error: pass an ErrorEstimator with integration=False")
 
 
 ERROR_ON = ("nodes", "tips")
@@ -456,11 +518,18 @@ def _chain(system: AbstractConstrainedModel) -> tuple[str, object, np.ndarray]:
     return system.formulation, system.nodal_vectors, _PER_NODE * np.arange(n_vectors // _PER_NODE) + _R
 
 
-def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0, dt_out: float = 0.001,
-              rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, progress: bool = False,
-              max_steps: int = 500_000, newton_tol: float = 1e-2, estimate: bool = False,
-              estimate_samples: int = 16, estimate_method: str = "static", step_control: str = "plain",
-              error_on: str = "nodes") -> PendulumRun:
+NEWTON_TOL = 1e-2
+"""``run_chain``'s default Newton tolerance (``Newton(NEWTON_TOL)``), a fraction of the step's error
+tolerance: 1 % here, against ``simulate``'s 0.1 %. The reduced pendulum's modified Newton
+converges linearly (its iteration matrix leaves out the inertia terms' derivatives), so a tighter
+stop costs iterations without changing χ_rel. The full model's Newton stops after its second
+correction either way."""
+
+
+def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0, dt_out: float = 0.001, *,
+              solver: GeneralizedAlphaIndex3 | None = None, controller: AdaptiveStepSize | None = None,
+              newton: Newton | None = None, estimator: ErrorEstimator | None = None, error_on: str = "nodes",
+              progress: bool = False, max_steps: int = 500_000) -> PendulumRun:
     """Any chain of C1 beams joined into a ``MultibodySystem`` (``"ancf"``) or a
     ``FloatingFrameSystem`` (``"rncf"`` with full-order bodies, else ``"nr-rncf"``), from its
     reference state at rest, index-3 generalized-α: the ``PendulumRun`` record (every node's
@@ -468,23 +537,21 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     ``run_pendulum`` is this for the paper's pendulum; a notebook builds its own system and runs
     it here.
 
-    ``newton_tol``: Newton stops when its correction, or the error it leaves, is below this
-    fraction of the step's error tolerance. 1 % here, against ``simulate``'s 0.1 %: the reduced
-    pendulum's modified Newton converges linearly (its iteration matrix leaves out the inertia
-    terms' derivatives), so a tighter stop costs iterations without changing χ_rel. The full
-    model's Newton stops after its second correction either way.
+    ``solver``: an ``integrate.GeneralizedAlphaIndex3`` (default ρ∞ = 0.9); ``controller``: an
+    ``integrate.AdaptiveStepSize`` (default the plain controller at rtol 1e-4, atol 1e-5;
+    ``integrate.adaptive_step_size(rtol, atol, "pi")`` is Gustafsson's PI controller, whose runs
+    are more accurate at the same tolerance and reject fewer steps, so that it can be run at a
+    looser one); ``newton``: an ``integrate.Newton`` (default ``Newton(NEWTON_TOL)``, which says
+    why 1 %).
 
-    ``estimate`` (a reduced system): the run's a-posteriori error estimate from the run alone, at
-    ``estimate_samples`` output times (``multibody.error_estimate``, against the system's
-    full-order counterpart), in ``PendulumRun.estimate``; the run then also records its
-    coordinates and velocities at the output times, and ends a step on each of the estimate's
+    ``estimator`` (a ``reduction.ErrorEstimator``, for a reduced system; None, the default: no
+    estimate): the run's a-posteriori error estimate from the run alone, by its ``method`` at its
+    ``samples`` output times (``multibody.error_estimate``, against the system's full-order
+    counterpart; not its ``integration``), in ``PendulumRun.estimate``; the run then also records
+    its coordinates and velocities at the output times, and ends a step on each of the estimate's
     times (``reduction.run_error.estimate_times``: the estimate evaluates the equations there;
     every output for ``"dynamic"``, a few more steps where the chain's own steps are shorter than
     the output interval).
-
-    ``step_control``: the adaptive controller by name (``integrate.STEP_CONTROLS``): ``"plain"``, or
-    ``"pi"``, whose runs are more accurate at the same tolerance and reject fewer steps, so that it
-    can be run at a looser one.
 
     ``error_on``: what the step error is measured on: ``"nodes"``, every nodal vector (of the
     full-order counterpart, for a reduced body), or ``"tips"``, the beams' right ends, the run's
@@ -492,8 +559,13 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     tips a reduced chain leaves its modal derivatives' stiff axial vibration to the integrator's
     damping (ρ∞ < 1) instead of resolving it."""
 
-    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
-    controller = adaptive_step_size(rtol, atol, step_control)
+    ts = _validate.output_times(t_end, dt_out)
+    solver, controller = run_integrator(solver, controller, 1e-4, 1e-5, solver_type=GeneralizedAlphaIndex3)
+    newton = Newton(NEWTON_TOL) if newton is None else newton
+    if not isinstance(newton, Newton):
+        raise ValueError(f"newton must be an integrate.Newton, got {type(newton).__name__}")
+    _check_estimator(estimator)
+    estimate = estimator is not None
     formulation, vectors, nodes = _chain(system)
     if error_on not in ERROR_ON:
         raise ValueError(f"error_on must be one of {ERROR_ON}, got {error_on!r}")
@@ -512,20 +584,19 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
 
         full = full_counterpart(system)  # checks that the system has reduced bodies, before the run
         # The estimate evaluates the equations at its states: the run ends steps there (``run_error``).
-        step_ts = estimate_times(ts, estimate_samples, estimate_method)
-    sol, compile_s, run_s = simulate_timed(system, GeneralizedAlphaIndex3(rho_inf), controller,
-                                           jnp.asarray(ts), observe=observe, progress=progress, max_steps=max_steps,
-                                           newton=Newton(newton_tol), step_ts=step_ts)
+        step_ts = estimate_times(ts, estimator.samples, estimator.method)
+    sol, compile_s, run_s = simulate_timed(system, solver, controller, jnp.asarray(ts), observe=observe,
+                                           progress=progress, max_steps=max_steps, newton=newton, step_ts=step_ts)
     pos, slopes, energy, kinetic, cmax, *state = (np.asarray(y) for y in jax.device_get(sol.ys))
     run = PendulumRun(formulation=formulation, dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes,
                       energy=energy, kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
                       rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton), compile_s=compile_s,
-                      run_s=run_s, step_control=step_control, error_on=error_on)
+                      run_s=run_s, step_control=step_control_name(controller), error_on=error_on)
     if estimate:
         from ..multibody.error_estimate import estimate_mechanism_error
 
-        run.estimate = estimate_mechanism_error(full, system, ts, *state, samples=estimate_samples,
-                                                method=estimate_method)
+        run.estimate = estimate_mechanism_error(full, system, ts, *state, samples=estimator.samples,
+                                                method=estimator.method)
     return run
 
 
@@ -607,6 +678,7 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
                         ok=in_given_order(sol.succeeded), compile_s=t1 - t0, run_s=t2 - t1, lanes=int(lanes))
 
 
-__all__ = ["FORMULATIONS", "LEFT_END_FRAME", "LEFT_SECTION_FRAME", "REFERENCE_CONDITIONS", "SHAPE_TIMES",
-           "PendulumRun", "PendulumSpec", "ReleaseSweep", "build_pendulum", "build_reduced_pendulum",
-           "build_rncf_pendulum", "mmi_per_body", "release_sweep", "run_chain", "run_pendulum", "tip_vectors"]
+__all__ = ["CONDITIONS", "FORMULATIONS", "LEFT_END_FRAME", "LEFT_SECTION_FRAME", "NEWTON_TOL", "REFERENCE_CONDITIONS",
+           "SHAPE_TIMES", "PendulumBasis", "PendulumRun", "PendulumSpec", "ReleaseSweep", "build_pendulum",
+           "build_reduced_pendulum", "build_rncf_pendulum", "mmi_per_body", "release_sweep", "run_chain",
+           "run_pendulum", "tip_vectors"]

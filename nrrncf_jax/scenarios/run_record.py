@@ -24,6 +24,26 @@ from ..reduction.basis_to_tolerance import ToTolerance
 from ..reduction.run_error import ErrorEstimator
 
 
+def estimate_fields(e, **after_times) -> dict:
+    """A run's error estimate (a ``reduction.ErrorEstimate``) as the summary's fields, in their
+    order: the estimated total χ_rel (the basis part, plus the run's own time-integration part
+    where it was estimated: their sum bounds the norm of the summed errors), the basis part alone,
+    whether it is in its reliable range, its samples and run time, then ``after_times`` (a
+    scenario's own, e.g. the effectivity), where the dynamic estimate stopped being valid, the
+    integration part, each reduced body's estimate on its deformation and, for a mechanism's
+    sensors, each one's integration part."""
+    total = e.chi_rel_percent + (e.integration_percent or 0.0)
+    return {"chi_rel_estimate_percent": total, "basis_error_estimate_percent": e.chi_rel_percent,
+            "estimate_reliable": e.reliable, "estimate_samples": int(len(e.ts)), "estimate_run_s": e.run_s,
+            **after_times,
+            **({} if e.valid_until is None else {"estimate_valid_until_s": e.valid_until}),
+            **({} if e.integration_percent is None else {"integration_error_estimate_percent": e.integration_percent}),
+            **({} if not e.body_chi_percent else
+               {f"chi_rel_estimate_body_{b}_percent": c for b, c in e.body_chi_percent.items()}),
+            **({} if not e.sensor_integration_percent else
+               {f"integration_error_estimate_percent_{k}": c for k, c in e.sensor_integration_percent.items()})}
+
+
 @dataclasses.dataclass(kw_only=True)
 class RunRecord(abc.ABC):
     """One run: its ``formulation`` (e.g. ``"rncf"``, ``"nr-rncf"``), coordinates ``dofs``, output
@@ -134,20 +154,10 @@ class RunRecord(abc.ABC):
         e = self.estimate
         if e is None:
             return {}
-        # the total: the basis part, and the run's own time-integration part where it was estimated
-        # (their sum bounds the norm of the summed errors)
-        total = e.chi_rel_percent + (e.integration_percent or 0.0)
+        total = estimate_fields(e)["chi_rel_estimate_percent"]
         eff = None if not self.chi_rel_percent else total / self.chi_rel_percent
         search = getattr(getattr(self, "reduction", None), "search", None)
-        return {"chi_rel_estimate_percent": total, "basis_error_estimate_percent": e.chi_rel_percent,
-                "estimate_reliable": e.reliable,
-                "estimate_samples": int(len(e.ts)), "estimate_run_s": e.run_s, "effectivity": eff,
-                **({} if e.valid_until is None else {"estimate_valid_until_s": e.valid_until}),
-                **({} if e.integration_percent is None else
-                   {"integration_error_estimate_percent": e.integration_percent}),
-                **({} if not e.body_chi_percent else
-                   {f"chi_rel_estimate_body_{b}_percent": c for b, c in e.body_chi_percent.items()}),
-                **({} if search is None else search.summary())}
+        return estimate_fields(e, effectivity=eff) | ({} if search is None else search.summary())
 
 
 REFERENCE_TIGHTENING = 10.0
@@ -157,18 +167,20 @@ and over its square; the tighter run is the reference, their distance bounds the
 error."""
 
 
-def run_integrator(solver: GeneralizedAlpha | None, controller: AdaptiveStepSize | None, rtol: float = 1e-4,
-                   atol: float = 1e-6) -> tuple[GeneralizedAlpha, AdaptiveStepSize]:
-    """A scenario run's ``(solver, controller)``, each a default where None: ``GeneralizedAlpha(0.9)``
-    and the plain ``AdaptiveStepSize(rtol, atol)`` at the scenario's own tolerances. Checked before
-    anything runs: the solver a ``GeneralizedAlpha`` (the scenarios' bodies have no joints), the
-    controller an ``AdaptiveStepSize`` with rtol < 1 (a converged reference, an estimate's
-    repetition and a basis search rerun the model at its tolerances tightened, which a constant
-    step would not follow)."""
-    solver = GeneralizedAlpha(0.9) if solver is None else solver
+def run_integrator(solver, controller: AdaptiveStepSize | None, rtol: float = 1e-4, atol: float = 1e-6, *,
+                   solver_type: type = GeneralizedAlpha) -> tuple:
+    """A scenario run's ``(solver, controller)``, each a default where None: ``solver_type(0.9)``
+    and the plain ``AdaptiveStepSize(rtol, atol)`` at the scenario's own tolerances (built here, at
+    the call, so that they take the float precision JAX is set to then). Checked before anything
+    runs: the solver a ``solver_type`` (``GeneralizedAlpha``: the large bodies' scenarios have no
+    joints; ``GeneralizedAlphaIndex3`` for a jointed chain), the controller an
+    ``AdaptiveStepSize`` with rtol < 1 (a converged reference, an estimate's repetition and a
+    basis search rerun the model at its tolerances tightened, which a constant step would not
+    follow)."""
+    solver = solver_type(0.9) if solver is None else solver
     controller = AdaptiveStepSize(rtol, atol) if controller is None else controller
-    if not isinstance(solver, GeneralizedAlpha):
-        raise ValueError(f"solver must be an integrate.GeneralizedAlpha, got {type(solver).__name__}")
+    if not isinstance(solver, solver_type):
+        raise ValueError(f"solver must be an integrate.{solver_type.__name__}, got {type(solver).__name__}")
     if not isinstance(controller, AdaptiveStepSize):
         raise ValueError(f"controller must be an integrate.AdaptiveStepSize (error-controlled steps), got "
                          f"{type(controller).__name__}")
@@ -196,4 +208,5 @@ def reduction_targets(basis, estimator, tol, ts) -> tuple:
     return tol, None if estimator is None else estimator.step_ts(ts)
 
 
-__all__ = ["REFERENCE_TIGHTENING", "RunRecord", "check_reduction", "reduction_targets", "run_integrator"]
+__all__ = ["REFERENCE_TIGHTENING", "RunRecord", "check_reduction", "estimate_fields", "reduction_targets",
+           "run_integrator"]

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..integrate import AdaptiveStepSize, GeneralizedAlpha, adaptive_step_size, step_control_name, with_tolerances
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha, step_control_name, with_tolerances
 from ..integrate.simulate import simulate, simulate_timed
 from ..models import InertialFrameModel, RotatingFrameModel
 from ..motion import SpinUp
@@ -220,15 +220,20 @@ output_times = _validate.output_times  # the scenarios' and the CLI's name for i
 
 
 def run_spinup(formulation: str = "rncf", beam: str | BeamPreset = "paper", omega_s: float = 4.0,
-               T_s: float = 15.0, t_end: float = 30.0, elements: int | None = None, rho_inf: float = 0.9,
-               rtol: float = 1e-4, atol: float = 1e-6, dt_out: float = 0.01, save_displacements: bool = False,
-               progress: bool = False, max_steps: int = 500_000, step_control: str = "plain") -> SpinupResult:
+               T_s: float = 15.0, t_end: float = 30.0, elements: int | None = None, dt_out: float = 0.01, *,
+               solver: GeneralizedAlpha | None = None, controller: AdaptiveStepSize | None = None,
+               save_displacements: bool = False, progress: bool = False, max_steps: int = 500_000) -> SpinupResult:
     """Run the spin-up of Eq. 43 with the full-order ``formulation`` and report tip motion in the
-    rotating frame, step counts, and compile/run times (measured apart). ``step_control``: the
-    adaptive controller by name (``integrate.STEP_CONTROLS``: ``"plain"`` or ``"pi"``)."""
-    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
-    return _run_full(formulation, beam, omega_s, T_s, ts, elements, GeneralizedAlpha(rho_inf),
-                     adaptive_step_size(rtol, atol, step_control), save_displacements, progress, max_steps)
+    rotating frame, step counts, and compile/run times (measured apart). The run goes with
+    ``solver`` (default ``GeneralizedAlpha(0.9)``) and ``controller`` (default
+    ``AdaptiveStepSize(1e-4, 1e-6)``, the plain controller; ``integrate.adaptive_step_size(rtol,
+    atol, "pi")`` is Gustafsson's PI controller), as ``run_nr_rncf_spinup``'s.
+    ``save_displacements``: keep every nodal displacement (``SpinupResult.displacements``), as a
+    reference for χ_rel."""
+    ts = _validate.output_times(t_end, dt_out)
+    solver, controller = run_integrator(solver, controller)
+    return _run_full(formulation, beam, omega_s, T_s, ts, elements, solver, controller, save_displacements, progress,
+                     max_steps)
 
 
 def _run_full(formulation, beam, omega_s, T_s, ts, elements, solver, controller, save_displacements, progress,
