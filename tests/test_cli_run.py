@@ -63,6 +63,11 @@ def test_run_refuses_bad_arguments(tmp_path, capsys):
     # a parameter the model refuses: its ValueError as one line, not a traceback
     assert main(["run", "slider_crank", "--param", "formulation=nr-rncf", "--param", "mds=0"]) == 2
     assert "mds must be" in capsys.readouterr().err
+    # the estimate's settings without the estimate, and an estimate of a model without reduced bodies
+    assert main(["run", "slider_crank", "--estimate-method", "dynamic"]) == 2
+    assert "add --estimate" in capsys.readouterr().err
+    assert main(["run", "slider_crank", "--param", "formulation=rigid", "--estimate", "--no-progress"]) == 2
+    assert "no NR-RNCF body" in capsys.readouterr().err
 
 
 @pytest.mark.slow
@@ -71,9 +76,16 @@ def test_reference_full_reports_the_error_against_a_converged_reference_and_its_
     tolerance, split into the run's time-integration error and the basis's. The parts bound the
     total by the triangle inequality (χ_rel normalised by the converged reduced run in the first
     part, by the reference in the others: hence the factor 1 + basis), and the reference's own
-    error is a small part of what it measures."""
+    error is a small part of what it measures.
+
+    With ``--estimate-integration`` the same run also estimates its error from reduced runs alone:
+    its total is the sum of its parts, and each compared sensor's time-integration part, from a
+    repetition at a tenth of the tolerance, is the one measured against the run at a hundredth to
+    within the factor 2 an error bar allows (the repetition's own error, a tenth of the run's,
+    and the two repetitions' different step-error norms: the model's sensors against every nodal
+    vector)."""
     assert main(["run", "slider_crank", "--param", "formulation=nr-rncf", "--param", "elements=2", "--t-end", "0.02",
-                 "--reference", "full", "--json", "--no-progress"]) == 0
+                 "--reference", "full", "--estimate-integration", "--json", "--no-progress"]) == 0
     out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     total, integration, basis = (out[k] for k in ("chi_rel_percent", "integration_error_percent",
                                                    "basis_error_percent"))
@@ -83,6 +95,26 @@ def test_reference_full_reports_the_error_against_a_converged_reference_and_its_
     assert basis <= (total + integration * (1 + basis / 100)) * (1 + 1e-9)
     assert out["reference_error_percent"] < 0.1 * total
     assert set(out) >= {"chi_rel_percent_w_mid", "integration_error_percent_x_B", "basis_error_percent_w_mid"}
+    assert out["chi_rel_estimate_percent"] == pytest.approx(out["basis_error_estimate_percent"]
+                                                            + out["integration_error_estimate_percent"], rel=1e-12)
+    # on the rod's deformation, which is far smaller than the mechanism's motion, the same error reads larger
+    assert out["chi_rel_estimate_body_1_percent"] > out["basis_error_estimate_percent"]
+    for name in ("w_mid", "x_B"):
+        ratio = out[f"integration_error_estimate_percent_{name}"] / out[f"integration_error_percent_{name}"]
+        assert 0.5 <= ratio <= 2.0, (name, ratio)
+
+
+def test_the_integration_repetition_is_ten_times_as_accurate():
+    """The repetition that measures a run's time-integration error: tolerances a tenth, and a fixed
+    step divided by √10 (generalized-α's error is second order in the step)."""
+    from nrrncf_jax.integrate import AdaptiveStepSize, ConstantStepSize
+    from nrrncf_jax.scenarios.mechanism_file import _tightened
+
+    adaptive = _tightened(AdaptiveStepSize(1e-4, 1e-5))
+    assert (float(adaptive.rtol), float(adaptive.atol)) == pytest.approx((1e-5, 1e-6), rel=1e-15)
+    fixed = _tightened(ConstantStepSize(1e-3, rtol=1e-4, atol=1e-5))
+    assert float(fixed.dt) == pytest.approx(1e-3 / np.sqrt(10.0), rel=1e-15)
+    assert float(fixed.rtol) == pytest.approx(1e-5, rel=1e-15)
 
 
 def test_params_are_python_literals():

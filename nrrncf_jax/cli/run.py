@@ -4,7 +4,8 @@
     nrrncf run MODEL [--param KEY=VALUE ...] [--t-end T] [--rtol R] [--dt H] [--error-on NAMES]
                      [--step-control plain|pi] [--rho-inf 0.9] [--n-out 201]
                      [--out F.csv] [--vtk DIR] [--animate F.gif] [--json] [--reference full]
-                     [--no-progress]
+                     [--estimate] [--estimate-method static|dynamic] [--estimate-samples N]
+                     [--estimate-integration] [--no-progress]
 
 ``MODEL``: a Python file defining ``mechanism(**params) -> MechanismSetup``, or the name of a
 bundled example (``nrrncf_jax/examples/``: ``slider_crank``, ``rotor``, ``two_link_arm``,
@@ -22,6 +23,15 @@ newton_iters, compile_s, run_s``; with ``--reference full`` (the model run again
 ``chi_rel_percent`` (Eq. 40, of each compared sensor's change from its initial value: the model's
 ``compare``, e.g. positions and deflections, not reactions, whose high-frequency content differs
 between the models; the largest, and per sensor as ``chi_rel_percent_<name>``).
+
+``--estimate`` (a model with reduced bodies) estimates the run's error from reduced runs alone
+(``run_setup``'s ``estimator``): ``basis_error_estimate_percent`` over the reduced bodies' position
+vectors, ``chi_rel_estimate_body_<b>_percent`` each one's on its deformation; with
+``--estimate-integration`` also the run's own time-integration error, on those positions
+(``integration_error_estimate_percent``, and ``chi_rel_estimate_percent`` the sum of the two parts)
+and on each compared sensor (``integration_error_estimate_percent_<name>``, the estimate of what
+``--reference full`` measures as ``integration_error_percent_<name>``). The basis part is not
+estimated per sensor.
 """
 
 import ast
@@ -54,7 +64,8 @@ def _run(args) -> int:
                       f"0-{args.t_end or setup.t_end:g} s ...")
     kw = dict(t_end=args.t_end, rtol=args.rtol, n_out=args.n_out, rho_inf=args.rho_inf, dt=args.dt,
               error_on=args.error_on, step_control=args.step_control)
-    run = run_setup(setup, **kw, positions=bool(args.vtk or args.animate))
+    estimator = _common.estimator(args) if args.estimate else None
+    run = run_setup(setup, **kw, positions=bool(args.vtk or args.animate), estimator=estimator)
     out = run.summary() | {"model": args.model, "params": params}
     if args.out:
         names, table = run.table()
@@ -72,22 +83,6 @@ def _run(args) -> int:
     return _common.emit(args, out)
 
 
-def _compared(setup, run, other) -> dict:
-    """χ_rel (Eq. 40, %) of ``run``'s compared sensors against ``other``'s, each sensor's change from
-    its initial value (the model's ``compare``; every sensor without one), by sensor name."""
-    import numpy as np
-
-    from ..post.metrics import chi_rel
-
-    chis = {}
-    for name in setup.compare or tuple(run.series):
-        y, yr = run.series[name], other.series[name]
-        dy, dyr = y - y[:1], yr - yr[:1]
-        if np.abs(dyr).max() > 0:
-            chis[name] = float(chi_rel(dyr, dy))
-    return chis
-
-
 def _reference_errors(args, setup, params, run, kw) -> dict:
     """``--reference full``: the run's error against a converged full-order reference, and its parts.
 
@@ -101,7 +96,7 @@ def _reference_errors(args, setup, params, run, kw) -> dict:
     (the model's) error (``basis_error_percent``). ``chi_rel_percent`` is the run's total error
     against the reference, what a user of its output gets: with a reference at the run's own
     tolerance it would be the difference of two runs' integration errors instead."""
-    from ..scenarios.mechanism_file import load_setup, run_setup
+    from ..scenarios.mechanism_file import compare_sensors, load_setup, run_setup
     from ..scenarios.run_record import REFERENCE_TIGHTENING
 
     rtol = setup.rtol if args.rtol is None else float(args.rtol)
@@ -114,8 +109,9 @@ def _reference_errors(args, setup, params, run, kw) -> dict:
     ref = run_setup(ref_setup, **(adaptive | {"rtol": tight}))
     _common.say(args, f"the model again at rtol {tight:g} (its time-integration error) ...")
     converged = run_setup(setup, **(adaptive | {"rtol": tight}))
-    total, own = _compared(setup, run, ref), _compared(setup, ref_loose, ref)
-    integration, basis = _compared(setup, run, converged), _compared(setup, converged, ref)
+    total, own = compare_sensors(setup, run.series, ref.series), compare_sensors(setup, ref_loose.series, ref.series)
+    integration = compare_sensors(setup, run.series, converged.series)
+    basis = compare_sensors(setup, converged.series, ref.series)
 
     def largest(chis):
         return max(chis.values()) if chis else 0.0
@@ -146,6 +142,13 @@ def _check(args) -> None:
     _common.output_path("--out", args.out)
     _common.output_path("--animate", args.animate)
     _common.output_folder("--vtk", args.vtk)
+    if args.estimate_integration is None:
+        args.estimate_integration = False
+    args.estimate = bool(args.estimate or args.estimate_integration)
+    if not args.estimate and (args.estimate_method != "static" or args.estimate_samples is not None):
+        raise ValueError("--estimate-method and --estimate-samples set the error estimate: add --estimate (or "
+                         "--estimate-integration)")
+    _common.estimate_samples(args, True)
 
 
 def register(sub) -> None:
@@ -172,6 +175,16 @@ def register(sub) -> None:
     t.add_argument("--reference", choices=("full",), default=None,
                    help="also run the full model (formulation=ancf) to a converged reference and report the run's "
                         "error against it, split into time integration and basis, and the speed-up")
+    t.add_argument("--estimate", action="store_true",
+                   help="a model with reduced (nr-rncf) bodies: estimate the run's error from reduced runs alone "
+                        "(multibody.error_estimate, against the bodies' full-order counterparts): over the reduced "
+                        "bodies' positions (basis_error_estimate_percent) and each one's on its deformation")
+    _common.add_estimate_options(t, method_help=(
+        "with --estimate: the quasi-static correction at sampled outputs (static: the run ends a step on each) or "
+        "the linearised error equation over every output (dynamic: a repetition of the run, and a factorisation of "
+        "the full model an output)"))
+    _common.add_estimate_integration(t, "with a reduced model (implies --estimate)",
+                                     "; also each compared sensor's (integration_error_estimate_percent_<name>)")
     t.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     t.add_argument("--no-progress", action="store_true", help="no progress messages on stderr")
     t.set_defaults(func=_run, check=_check)

@@ -301,4 +301,31 @@ def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, sa
                          valid_until=valid_until, body_chi_percent=bodies)
 
 
-__all__ = ["estimate_mechanism_error", "full_counterpart"]
+
+def flexible_bodies(system: Mechanism) -> tuple[int, ...]:
+    """The indices of ``system``'s reduced (NR-RNCF) bodies: those whose error the estimate measures."""
+    return tuple(b for b, body in enumerate(system.bodies) if _reduced(body))
+
+
+def integration_error_percent(system: Mechanism, zs, zs_tight) -> float:
+    """The time-integration error of a reduced mechanism's run whose coordinates ``zs`` were
+    recorded at its output times, against a repetition at tightened tolerances (``zs_tight``, the
+    same times): χ_rel in per cent over the flexible bodies' position vectors and every output,
+    the norm of ``estimate_mechanism_error``'s χ_rel (the displacement from the first output of the
+    repetition), so that the two parts of a run's error add on one norm (the triangle inequality).
+    The repetition's own error is about ``reduction.run_error.TIGHTEN`` times smaller than the
+    run's, which this then measures."""
+    zs, zs_tight = np.asarray(zs, float), np.asarray(zs_tight, float)
+    if zs.shape != zs_tight.shape or zs.ndim != 2 or zs.shape[1] != system.n_dof:
+        raise ValueError(f"zs and zs_tight must both be (outputs, {system.n_dof}), got {zs.shape} and "
+                         f"{zs_tight.shape}")
+    flexible = flexible_bodies(system)
+    if not flexible:
+        raise ValueError("the system has no reduced (NR-RNCF) body whose error this would measure")
+    x = jax.vmap(lambda z: _positions(system, z, flexible))
+    run, rep = np.asarray(x(jnp.asarray(zs))), np.asarray(x(jnp.asarray(zs_tight)))
+    den = float(np.linalg.norm(rep - rep[:1]))
+    return 100.0 * float(np.linalg.norm(run - rep)) / den if den > 0 else 0.0
+
+
+__all__ = ["estimate_mechanism_error", "flexible_bodies", "full_counterpart", "integration_error_percent"]

@@ -187,7 +187,10 @@ class ErrorEstimate:
     the estimate was made on a repetition of the run at tightened tolerances
     (``reduction.run_error``; None otherwise). ``body_chi_percent``: for a mechanism, each
     reduced body's estimated χ_rel relative to its own deformation ({body index: per cent};
-    ``multibody.error_estimate``; None otherwise)."""
+    ``multibody.error_estimate``; None otherwise). ``sensor_integration_percent``: for a mechanism's
+    run with its sensors, each compared sensor's time-integration error, χ_rel of its change from
+    its initial value against the tightened repetition's ({name: per cent};
+    ``scenarios.mechanism_file.run_setup``; None otherwise)."""
 
     ts: np.ndarray
     error_norm: np.ndarray
@@ -199,6 +202,7 @@ class ErrorEstimate:
     valid_until: float | None = None  # where an integrated error equation stopped being valid (None: throughout)
     integration_percent: float | None = None  # the run's own time-integration error (reduction.run_error)
     body_chi_percent: dict | None = None  # a mechanism's: {body: estimated χ_rel on its deformation}
+    sensor_integration_percent: dict | None = None  # a mechanism's: {sensor: its integration error's χ_rel}
 
     @property
     def reliable(self) -> bool:

@@ -27,12 +27,16 @@ from ..integrate import (
     Newton,
     simulate_timed,
 )
-from ..integrate.step_size import STEP_CONTROLS, adaptive_step_size
+from ..integrate.step_size import STEP_CONTROLS, adaptive_step_size, with_tolerances
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody.sensors import Observer, observe
+from ..post.metrics import chi_rel
 from ..post.outline import mechanism_outline
+from ..reduction.run_error import TIGHTEN, ErrorEstimator, estimate_times
+from .run_record import estimate_fields
 
 _POINTS = "__points__"  # the recorded nodes' key among the observed outputs
+_STATE = "__state__"  # the recorded coordinates' and velocities' key, for the error estimate
 
 
 @dataclasses.dataclass
@@ -100,6 +104,7 @@ class MechanismRun:
     lines: np.ndarray | None = None  # their edges (l × 2, ``post.outline``)
     bodies: tuple[str, ...] = ()  # each body described (``Mechanism.describe``): its kind and basis
     settings: dict = dataclasses.field(default_factory=dict)  # the run's integrator settings, as chosen
+    estimate: object = None  # the run's error estimate (``run_setup``'s ``estimator``): a reduction.ErrorEstimate
 
     def table(self) -> tuple[list[str], np.ndarray]:
         """CSV columns ``t`` and each sensor (a vector sensor as ``name_0, name_1, ...``)."""
@@ -115,9 +120,27 @@ class MechanismRun:
         return names, np.stack(cols, axis=1)
 
     def summary(self) -> dict:
-        return {"formulation": self.formulation, "dofs": self.dofs, "steps": self.steps, "rejected": self.rejected,
-                "newton_iters": self.newton_iters, "compile_s": self.compile_s, "run_s": self.run_s,
-                "bodies": list(self.bodies), **self.settings}
+        """The run's statistics, bodies and settings, and its error estimate's fields where it has one
+        (``run_record.estimate_fields``, with the estimate's method)."""
+        out = {"formulation": self.formulation, "dofs": self.dofs, "steps": self.steps, "rejected": self.rejected,
+               "newton_iters": self.newton_iters, "compile_s": self.compile_s, "run_s": self.run_s,
+               "bodies": list(self.bodies), **self.settings}
+        return out if self.estimate is None else out | estimate_fields(self.estimate)
+
+
+def compare_sensors(setup: MechanismSetup, series: dict, other: dict) -> dict:
+    """χ_rel (Eq. 40, %) of the sensors' histories ``series`` against ``other``'s ({name: array}
+    at the same output times), each sensor's change from its initial value: the model's
+    ``compare`` (positions and deflections, say, not reactions, whose high-frequency content
+    differs between models), every sensor without one; a sensor that does not change in
+    ``other`` is left out."""
+    chis = {}
+    for name in setup.compare or tuple(series):
+        y, yr = np.asarray(series[name]), np.asarray(other[name])
+        dy, dyr = y - y[:1], yr - yr[:1]
+        if np.abs(dyr).max() > 0:
+            chis[name] = float(chi_rel(dyr, dy))
+    return chis
 
 
 def load_setup(source: str, params: dict | None = None) -> MechanismSetup:
@@ -158,6 +181,16 @@ def examples() -> list[str]:
     return sorted(p.stem for p in folder.glob("*.py") if not p.stem.startswith("_"))
 
 
+class _WithState(eqx.Module):
+    """An observer's outputs and the state (z, ż) at each output, which the error estimate reads
+    (``run_setup``'s ``estimator``)."""
+
+    outputs: eqx.Module
+
+    def __call__(self, t, z, v):
+        return self.outputs(t, z, v) | {_STATE: (z, v)}
+
+
 class _WithOutline(eqx.Module):
     """The sensors (``multibody.sensors.Observer``) and every body's nodes (``positions=True``) as
     one observer module, so that the system stays an argument of the compiled run."""
@@ -174,7 +207,7 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
               rho_inf: float | None = None, progress: bool = False, positions: bool = False,
               dt: float | None = None, error_on=None, step_control: str | None = None, *,
               solver: AbstractSolver | None = None, controller: AbstractStepSizeController | None = None,
-              newton: Newton | None = None) -> MechanismRun:
+              newton: Newton | None = None, estimator: ErrorEstimator | None = None) -> MechanismRun:
     """Run ``setup`` to ``t_end`` (its default) at ``rtol`` (atol = rtol/10 of the nodal vectors'
     metres) with ``GeneralizedAlphaIndex3(rho_inf)``, the sensors at ``n_out`` equal output times;
     compile and run timed apart (ahead-of-time compilation, then a blocked run). ``rho_inf``: the
@@ -189,7 +222,22 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     Or, as ``simulate`` takes them, objects: ``solver`` (instead of ``rho_inf``: an index-3 solver,
     ``GeneralizedAlphaIndex3``), ``controller`` (instead of ``rtol``, ``dt`` and ``step_control``:
     ``AdaptiveStepSize``, ``ConstantStepSize``, or one of the user's own) and ``newton`` (each
-    step's ``Newton``; ``simulate``'s default otherwise)."""
+    step's ``Newton``; ``simulate``'s default otherwise).
+
+    ``estimator`` (a ``reduction.ErrorEstimator``; a system with reduced bodies): the run's error
+    from reduced runs alone, in ``MechanismRun.estimate`` (``run_record.estimate_fields`` in its
+    summary). Its basis part: ``multibody.error_estimate.estimate_mechanism_error`` against the
+    system's full-order counterpart, over the reduced bodies' position vectors and each one's on
+    its deformation, at states that end the run's steps (``reduction.run_error``: the run itself
+    stops on the static estimate's samples; the dynamic estimate, or ``integration``, repeats it).
+    With ``integration``, the repetition is at the tolerances divided by ``TIGHTEN`` (fixed steps:
+    the step divided by √``TIGHTEN``, the same factor for a second-order method), and the run's
+    distance to it is its own time-integration error: on the same positions
+    (``multibody.error_estimate.integration_error_percent``, so that the two parts add up to the
+    total's estimate) and on each compared sensor (``compare_sensors``), what
+    ``nrrncf run --reference full`` measures as ``integration_error_percent_<name>``."""
+    if estimator is not None and not isinstance(estimator, ErrorEstimator):
+        raise ValueError(f"estimator must be a reduction.ErrorEstimator (or None), got {type(estimator).__name__}")
     if controller is not None and (rtol is not None or dt is not None or step_control is not None):
         raise ValueError("run_setup takes a controller or rtol/dt/step_control, not both (the controller holds "
                          "its tolerances and step)")
@@ -218,11 +266,18 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
                          "chosen: call multibody.modal_interaction.select_modal_derivatives(system, ts) in the model "
                          "file (or reduce with mds='all', a list of pairs, or [] for vibration modes alone)")
     ts = np.linspace(0.0, t_end, int(n_out))
+    full = None
+    if estimator is not None:
+        from ..multibody.error_estimate import full_counterpart
+
+        full = full_counterpart(system)  # refuses a system without reduced bodies, before the run
     fn = observe(system, setup.sensors)
     lines = None
     if positions:
         nodes, lines = mechanism_outline(system)
         fn = _WithOutline(fn, tuple(nodes))
+    if estimator is not None:
+        fn = _WithState(fn)
     y0 = setup.y0 if setup.y0 is not None else (system.reference(), 0.0 * system.reference())
 
     step_control = setup.step_control if step_control is None else step_control
@@ -246,13 +301,61 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     # XLA does not fold its arrays, and a reduced mechanism compiles with ``simulate``'s small-kernel
     # options, which a program of the user's own ``jax.jit`` around ``simulate`` would not get; a
     # run that stops early raises ``integrate.SimulationError`` with the time and the reason
+    step_ts = None if estimator is None else _run_step_ts(estimator, ts)
     sol, compile_s, run_s = simulate_timed(system, solver, controller, ts, observe=fn, y0=y0, progress=progress,
-                                           newton=newton)
+                                           newton=newton, step_ts=step_ts)
     series = {k: np.asarray(sol.ys[k]) for k in setup.sensors}  # in the setup's order (a dict pytree is sorted)
-    return MechanismRun(ts, series, system.n_dof, int(sol.num_steps), int(sol.num_rejected), int(sol.num_newton),
-                        compile_s, run_s, system.formulation,
-                        np.asarray(sol.ys[_POINTS]) if positions else None, lines,
-                        tuple(system.describe()) if hasattr(system, "describe") else (), settings)
+    run = MechanismRun(ts, series, system.n_dof, int(sol.num_steps), int(sol.num_rejected), int(sol.num_newton),
+                       compile_s, run_s, system.formulation,
+                       np.asarray(sol.ys[_POINTS]) if positions else None, lines,
+                       tuple(system.describe()) if hasattr(system, "describe") else (), settings)
+    if estimator is not None:
+        states = tuple(np.asarray(y) for y in sol.ys[_STATE])
+        run.estimate = _estimate(setup, system, full, estimator, run, states, solver, controller, newton, fn, y0)
+    return run
 
 
-__all__ = ["MechanismRun", "MechanismSetup", "examples", "load_setup", "run_setup"]
+def _run_step_ts(estimator: ErrorEstimator, ts):
+    """Where the estimated run ends steps: the static estimate's samples, also where the estimate
+    repeats the run for its ``integration`` part (``ErrorEstimator.step_ts`` would leave the run's
+    steps free there): the repetition then has the run's shapes and reuses its compiled program,
+    which for a mechanism costs far more than either run. The dynamic estimate's repetition ends
+    a step on every output, which the run does not (it would bound its steps by the outputs'
+    interval)."""
+    return estimate_times(ts, estimator.samples, estimator.method) if estimator.method == "static" else None
+
+
+def _tightened(controller: AbstractStepSizeController) -> AbstractStepSizeController:
+    """``controller`` for the repetition that measures a run's time-integration error: tolerances
+    divided by ``TIGHTEN``, and a fixed step by √``TIGHTEN`` (generalized-α is second order, so its
+    error then falls by about ``TIGHTEN`` too)."""
+    tight = with_tolerances(controller, controller.rtol / TIGHTEN, controller.atol / TIGHTEN)
+    if isinstance(controller, ConstantStepSize):
+        tight = eqx.tree_at(lambda c: c.dt, tight, controller.dt / np.sqrt(TIGHTEN))
+    return tight
+
+
+def _estimate(setup, system, full, estimator, run, states, solver, controller, newton, fn, y0):
+    """``run_setup``'s error estimate of ``run`` (its docstring), ``states`` the run's (z, ż) at
+    its output times."""
+    from ..multibody.error_estimate import estimate_mechanism_error, integration_error_percent
+
+    ts, (zs, vs) = run.ts, states
+    extra_compile_s = extra_run_s = 0.0
+    integration = sensors = None
+    if estimator.integration or estimator.method == "dynamic":  # a repetition that ends its steps on its times
+        again = _tightened(controller) if estimator.integration else controller
+        rep, compile_s, run_s = simulate_timed(system, solver, again, ts, observe=fn, y0=y0, newton=newton,
+                                               step_ts=estimate_times(ts, estimator.samples, estimator.method))
+        extra_compile_s, extra_run_s = compile_s, run_s
+        rep_zs, rep_vs = (np.asarray(y) for y in rep.ys[_STATE])
+        if estimator.integration:
+            integration = integration_error_percent(system, zs, rep_zs)
+            sensors = compare_sensors(setup, run.series, {k: np.asarray(rep.ys[k]) for k in setup.sensors})
+        zs, vs = rep_zs, rep_vs
+    est = estimate_mechanism_error(full, system, ts, zs, vs, samples=estimator.samples, method=estimator.method)
+    return dataclasses.replace(est, integration_percent=integration, sensor_integration_percent=sensors,
+                               compile_s=est.compile_s + extra_compile_s, run_s=est.run_s + extra_run_s)
+
+
+__all__ = ["MechanismRun", "MechanismSetup", "compare_sensors", "examples", "load_setup", "run_setup"]
