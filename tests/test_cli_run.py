@@ -107,12 +107,11 @@ def test_reference_full_reports_the_error_against_a_converged_reference_and_its_
 def test_the_integration_repetition_is_ten_times_as_accurate():
     """The repetition that measures a run's time-integration error: tolerances a tenth, and a fixed
     step divided by √10 (generalized-α's error is second order in the step)."""
-    from nrrncf_jax.integrate import AdaptiveStepSize, ConstantStepSize
-    from nrrncf_jax.scenarios.mechanism_file import _tightened
+    from nrrncf_jax.integrate import AdaptiveStepSize, ConstantStepSize, tightened
 
-    adaptive = _tightened(AdaptiveStepSize(1e-4, 1e-5))
+    adaptive = tightened(AdaptiveStepSize(1e-4, 1e-5), 10.0)
     assert (float(adaptive.rtol), float(adaptive.atol)) == pytest.approx((1e-5, 1e-6), rel=1e-15)
-    fixed = _tightened(ConstantStepSize(1e-3, rtol=1e-4, atol=1e-5))
+    fixed = tightened(ConstantStepSize(1e-3, rtol=1e-4, atol=1e-5), 10.0)
     assert float(fixed.dt) == pytest.approx(1e-3 / np.sqrt(10.0), rel=1e-15)
     assert float(fixed.rtol) == pytest.approx(1e-5, rel=1e-15)
 

@@ -5,7 +5,8 @@
   Lagrange multipliers in the state);
 - step-size controllers (``step_size``): ``AdaptiveStepSize`` (error control; plain or PI,
   ``adaptive_step_size`` by name, ``step_control_name`` the name back), ``ConstantStepSize``;
-  ``with_tolerances``, a controller at other tolerances (a run repeated tighter);
+  ``with_tolerances``, a controller at other tolerances (a run repeated tighter), and ``tightened``,
+  one whose integration error is a given factor smaller (tolerances, or a fixed step);
 - ``Newton``: each step's implicit solve (modified or full Newton, ``newton``; ``reuse=True`` keeps
   the iteration matrix across steps, ``base.IterationMatrix``);
 - ``simulate``, ``simulate_batch`` (a batch of models in one loop, each with its own steps;
@@ -62,4 +63,5 @@ from .step_size import AdaptiveStepSize as AdaptiveStepSize
 from .step_size import ConstantStepSize as ConstantStepSize
 from .step_size import adaptive_step_size as adaptive_step_size
 from .step_size import step_control_name as step_control_name
+from .step_size import tightened as tightened
 from .step_size import with_tolerances as with_tolerances

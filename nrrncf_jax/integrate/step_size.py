@@ -151,6 +151,17 @@ def with_tolerances(controller: AbstractStepSizeController, rtol, atol) -> Abstr
     return eqx.tree_at(lambda c: (c.rtol, c.atol), controller, (_positive("rtol", rtol), _positive("atol", atol)))
 
 
+
+def tightened(controller: AbstractStepSizeController, factor) -> AbstractStepSizeController:
+    """``controller`` for a repetition whose time-integration error is about ``factor`` times
+    smaller (which measures a run's own): its tolerances divided by ``factor``, and a fixed step
+    (``ConstantStepSize``) by √``factor``, generalized-α being second order in the step."""
+    factor = float(_positive("factor", factor))
+    tight = with_tolerances(controller, controller.rtol / factor, controller.atol / factor)
+    if isinstance(controller, ConstantStepSize):
+        tight = eqx.tree_at(lambda c: c.dt, tight, controller.dt / np.sqrt(factor))
+    return tight
+
 class ConstantStepSize(AbstractStepSizeController):
     """Steps of size ``dt``. ``rtol``/``atol`` scale Newton's stopping test only. A run whose
     Newton converges in every step is a smooth function of its parameters; ``num_rejected > 0``

@@ -27,7 +27,7 @@ from ..integrate import (
     Newton,
     simulate_timed,
 )
-from ..integrate.step_size import STEP_CONTROLS, adaptive_step_size, with_tolerances
+from ..integrate.step_size import STEP_CONTROLS, adaptive_step_size, tightened
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody.sensors import Observer, observe
 from ..post.metrics import chi_rel
@@ -231,7 +231,7 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     its deformation, at states that end the run's steps (``reduction.run_error``: the run itself
     stops on the static estimate's samples; the dynamic estimate, or ``integration``, repeats it).
     With ``integration``, the repetition is at the tolerances divided by ``TIGHTEN`` (fixed steps:
-    the step divided by √``TIGHTEN``, the same factor for a second-order method), and the run's
+    the step divided by √``TIGHTEN``: ``integrate.tightened``), and the run's
     distance to it is its own time-integration error: on the same positions
     (``multibody.error_estimate.integration_error_percent``, so that the two parts add up to the
     total's estimate) and on each compared sensor (``compare_sensors``), what
@@ -325,16 +325,6 @@ def _run_step_ts(estimator: ErrorEstimator, ts):
     return estimate_times(ts, estimator.samples, estimator.method) if estimator.method == "static" else None
 
 
-def _tightened(controller: AbstractStepSizeController) -> AbstractStepSizeController:
-    """``controller`` for the repetition that measures a run's time-integration error: tolerances
-    divided by ``TIGHTEN``, and a fixed step by √``TIGHTEN`` (generalized-α is second order, so its
-    error then falls by about ``TIGHTEN`` too)."""
-    tight = with_tolerances(controller, controller.rtol / TIGHTEN, controller.atol / TIGHTEN)
-    if isinstance(controller, ConstantStepSize):
-        tight = eqx.tree_at(lambda c: c.dt, tight, controller.dt / np.sqrt(TIGHTEN))
-    return tight
-
-
 def _estimate(setup, system, full, estimator, run, states, solver, controller, newton, fn, y0):
     """``run_setup``'s error estimate of ``run`` (its docstring), ``states`` the run's (z, ż) at
     its output times."""
@@ -344,7 +334,7 @@ def _estimate(setup, system, full, estimator, run, states, solver, controller, n
     extra_compile_s = extra_run_s = 0.0
     integration = sensors = None
     if estimator.integration or estimator.method == "dynamic":  # a repetition that ends its steps on its times
-        again = _tightened(controller) if estimator.integration else controller
+        again = tightened(controller, TIGHTEN) if estimator.integration else controller
         rep, compile_s, run_s = simulate_timed(system, solver, again, ts, observe=fn, y0=y0, newton=newton,
                                                step_ts=estimate_times(ts, estimator.samples, estimator.method))
         extra_compile_s, extra_run_s = compile_s, run_s
