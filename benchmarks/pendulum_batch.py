@@ -31,6 +31,7 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
+from nrrncf_jax.integrate import AdaptiveStepSize  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumBasis, PendulumSpec, build_reduced_pendulum, release_sweep  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -69,8 +70,8 @@ def main(argv=None):
     for n in a.sizes:
         angles = np.deg2rad(np.linspace(*a.range, n)) if n > 1 else np.zeros(1)
         for lanes in a.lanes:
-            sweep = release_sweep(system, angles, t_end=a.t_end, dt_out=0.01, rtol=a.rtol, atol=a.rtol / 10,
-                                  lanes=lanes)
+            sweep = release_sweep(system, angles, t_end=a.t_end, dt_out=0.01,
+                                  controller=AdaptiveStepSize(a.rtol, a.rtol / 10), lanes=lanes)
             tried = sweep.steps + sweep.rejected  # what the loop computes, accepted or not
             lines.append(f"| {device} | {n} | {sweep.lanes} | {sweep.compile_s:.1f} | {sweep.run_s:.2f} | "
                          f"{sweep.run_s / n:.3f} | {sweep.steps.mean():.0f} | {sweep.steps.max()} | "

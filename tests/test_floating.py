@@ -485,20 +485,21 @@ def test_release_sweep_runs_each_angle_as_its_own_run():
     from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum, release_sweep
 
     system, _ = build_reduced_pendulum(PendulumSpec(elements=2), PendulumBasis(2, pairs=[(0, 0)]))
-    theta, kw = 0.3, dict(t_end=0.3, dt_out=0.01, rho_inf=1.0, rtol=1e-5, atol=1e-6)
+    theta, atol = 0.3, 1e-6
+    kw = dict(t_end=0.3, dt_out=0.01, solver=GeneralizedAlphaIndex3(1.0), controller=AdaptiveStepSize(1e-5, atol))
     angles = [-0.2, theta, np.pi - theta]
     sweep = release_sweep(system, angles, **kw)
     assert sweep.ok.all() and sweep.tips.shape == (3, 31, 3, 3)
     for tips, a in zip(sweep.tips, angles):
         np.testing.assert_allclose(tips[0, :, :2], np.outer([1.0, 2.0, 3.0], [np.cos(a), np.sin(a)]), atol=1e-14)
     mirror = sweep.tips[2] * np.array([-1.0, 1.0, 1.0])
-    assert np.abs(mirror - sweep.tips[1]).max() < kw["atol"]
+    assert np.abs(mirror - sweep.tips[1]).max() < atol
     assert np.ptp(sweep.tips[1, :, 2, 1]) > 0.2  # it swings: the tip falls by decimetres
     tip = system.bodies[0].body.n_vectors - 6
     single = simulate(system.turned((0.0, 0.0, 1.0), theta), GeneralizedAlphaIndex3(1.0),
                       AdaptiveStepSize(1e-5, 1e-6), jnp.asarray(sweep.ts), newton=Newton(1e-2),
                       observe=lambda t, x, v: jnp.stack([xb[tip] for xb in system.nodal_vectors(x)]))
-    assert np.abs(np.asarray(single.ys) - sweep.tips[1]).max() < kw["atol"]
+    assert np.abs(np.asarray(single.ys) - sweep.tips[1]).max() < atol
     # the same steps but for a decision that round-off might flip (306 here, equal)
     assert abs(int(single.num_steps) - int(sweep.steps[1])) <= 0.02 * int(single.num_steps)
     for bad in ([], [0.1, np.nan]):

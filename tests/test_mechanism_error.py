@@ -159,7 +159,7 @@ def test_a_basis_chosen_to_a_tolerance_meets_it_measured(full_swing):
     full, x_full, _ = full_swing
     order = ["2 VMs", "their MDs", "VM 3 and its MDs", "VM 4 and its MDs", "VM 5 and its MDs"]
     tol = 0.5
-    search = mechanism_to_tolerance(_from_prefix, order, TS, tol, rtol=1e-5, atol=1e-7, start=3)
+    search = mechanism_to_tolerance(_from_prefix, order, TS, tol, controller=AdaptiveStepSize(1e-5, 1e-7), start=3)
     chosen = search.chosen
     assert search.met and chosen.reliable and chosen.chi_rel_estimate_percent <= tol / search.safety
     assert chosen.columns > 3 and any(t.columns == chosen.columns - 1 for t in search.trials)  # it grew, then bisected
@@ -172,7 +172,7 @@ def test_a_basis_chosen_to_a_tolerance_meets_it_measured(full_swing):
     summary = search.summary()
     assert summary["tol_met"] and summary["basis_chosen"] == order[:chosen.columns]
 
-    unreachable = mechanism_to_tolerance(_from_prefix, order[:1], TS, 1e-9, rtol=1e-5, atol=1e-7)
+    unreachable = mechanism_to_tolerance(_from_prefix, order[:1], TS, 1e-9, controller=AdaptiveStepSize(1e-5, 1e-7))
     assert not unreachable.met and unreachable.chosen.columns == 1 and "NOT MET" in unreachable.describe()
     with pytest.raises(ValueError, match="candidate"):
         mechanism_to_tolerance(_from_prefix, [], TS, 1.0)

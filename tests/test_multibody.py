@@ -138,6 +138,40 @@ def test_floating_frame_pendulum_runs_with_the_ancf_one(pendulum_run):
     assert run.constraint_max < 1e-8
 
 
+@pytest.mark.slow
+def test_the_reduced_chains_integration_error_estimate_meets_the_measured_one():
+    """``run_pendulum(estimator=ErrorEstimator(integration=True))`` (issue 61), the coarse chain
+    (``PENDULUM_RUN``: 2 elements a beam, 0-0.4 s, ρ∞ = 1, rtol 1e-5) with 3 VMs and their MDs a
+    beam: the run repeated at rtol/10 (``TIGHTEN``) estimates its own time-integration error,
+    and the summary's total estimate is the basis part plus it. Measured against the chain at
+    rtol/100, over every node (the reduced bodies' position vectors, the norm of
+    ``integration_error_percent``): the estimate is within a factor 2 of it (measured 2.9e-3 %,
+    estimated 2.4e-3 %: the repetition's own error, a tenth of the run's, is left in it), and so
+    is each beam's right end's (``integration_error_estimate_percent_tip<k>``)."""
+    from nrrncf_jax.integrate import tightened
+    from nrrncf_jax.post.metrics import chi_rel
+    from nrrncf_jax.scenarios.pendulum import run_pendulum
+
+    options = pendulum_run_options(PENDULUM_RUN)
+    kw = dict(formulation="nr-rncf", basis=PendulumBasis(3))
+    run = run_pendulum(PendulumSpec(elements=2), estimator=ErrorEstimator(integration=True), **kw, **options)
+    s = run.summary()
+    assert s["chi_rel_estimate_percent"] == pytest.approx(
+        s["basis_error_estimate_percent"] + s["integration_error_estimate_percent"], rel=1e-12, abs=0)
+    assert s["integration_error_estimate_percent"] > 0 and s["estimate_reliable"]
+    converged = run_pendulum(PendulumSpec(elements=2), **kw,
+                             **options | dict(controller=tightened(options["controller"], 100)))
+
+    def measured(w, w_ref):  # χ_rel of the displacements from the first output (the same state in both)
+        return float(chi_rel(w_ref - w_ref[:1], w - w[:1]))
+
+    ratio = s["integration_error_estimate_percent"] / measured(run.nodes, converged.nodes)
+    assert 0.5 < ratio < 2, ratio
+    for k in range(3):
+        ratio = s[f"integration_error_estimate_percent_tip{k + 1}"] / measured(run.tips[:, k], converged.tips[:, k])
+        assert 0.5 < ratio < 2, (k, ratio)
+
+
 def _swinging_run():
     """A made-up run of the pendulum's shape (3 straight beams of 2 elements, 0-0.4 s every
     0.01 s): the chain turning about the hinge, with made-up statistics."""
@@ -225,6 +259,16 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "nr-rncf", "--no-estimate", "--json"]) == 0
     assert calls[0][1]["estimator"] is None
+    # --estimate-integration: off by default (above), passed on; a reduced run's estimate's
+    calls.clear()
+    assert main(argv[:-9] + ["--formulation", "nr-rncf", "--estimate-integration", "--json"]) == 0
+    assert calls[0][1]["estimator"] == ErrorEstimator(method="static", integration=True)
+    capsys.readouterr()
+    for bad, says in ((["--estimate-integration"], "use it with --formulation nr-rncf"),
+                      (["--formulation", "nr-rncf", "--no-estimate", "--estimate-integration"],
+                       "leave out --no-estimate")):
+        assert main(["pendulum"] + bad) == 2
+        assert says in capsys.readouterr().err
     capsys.readouterr()
     assert main(["pendulum", "--no-estimate"]) == 2
     assert "--no-estimate go with --formulation nr-rncf" in capsys.readouterr().err
@@ -278,6 +322,8 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
                              "--reference", "ancf", "--json"]) == 0
     (spec, tol, kw), = searches
     assert tol == 0.5 and kw["n_vms"] == 4 and kw["t_train"] == 0.3 and kw["t_end"] == 0.4
+    assert _as_flags(kw) == dict(n_vms=4, t_train=0.3, t_end=0.4, rho_inf=1.0, rtol=1e-5, atol=1e-6,
+                                 step_control="plain")  # the training runs' integrator
     assert chains[0][0] == "the chosen system" and [c[1].get("formulation", "ancf") for c in calls] == ["ancf"] * 2
     assert len(chains) == 2 and chains[1][0] == "the chosen system" and chains[1][2]["estimator"] is None
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])

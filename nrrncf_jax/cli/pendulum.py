@@ -4,7 +4,7 @@
     nrrncf pendulum [--formulation {ancf,rncf,nr-rncf}] [--elements 10] [--vms 5] [--mds all|none]
                     [--conditions {mean-axis,clamped,pinned}]
                     [--joint-modes | --craig-bampton | --tol P [--train-t 0.5]]
-                    [--no-estimate | --estimate-method {static,dynamic}]
+                    [--no-estimate | --estimate-method {static,dynamic} [--estimate-integration]]
                     [--reference {ancf,rncf}] [--reference-rtol R] [--t-end 2] [--dt-out 0.001]
                     [--out tips.csv] [--plot F] [--animate F.gif] [--vtk DIR] [--json] [--no-progress]
 
@@ -32,7 +32,11 @@ estimate from the run alone (``chi_rel_estimate_percent``, ``multibody.error_est
 (the default) sees each beam's deformation error, not the drift of the chain's swing that error
 causes over time, and reads low where that drift dominates; ``dynamic`` integrates the
 linearised error equation and follows the drift until its linearisation fails
-(``estimate_valid_until_s``).
+(``estimate_valid_until_s``). ``--estimate-integration`` adds the run's own time-integration error
+(off by default): the run repeated at rtol/10, its distance to the run over every node
+(``integration_error_estimate_percent``; ``chi_rel_estimate_percent`` is then the total estimate,
+``basis_error_estimate_percent`` its basis part) and at each beam's right end
+(``integration_error_estimate_percent_tip<k>``).
 
 ``--out`` writes the columns ``t, x1, y1, x2, y2, x3, y3``: each beam's right end, global (the
 hinge at the origin, the beams initially along +x). ``--plot`` draws the shapes at 0, 0.5, 1, 1.5
@@ -58,7 +62,7 @@ error equation holds (``scenarios.pendulum.pendulum_to_tolerance``)."""
 def _run(args) -> int:
     import numpy as np
 
-    from ..integrate import GeneralizedAlphaIndex3, adaptive_step_size, with_tolerances
+    from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, adaptive_step_size, with_tolerances
     from ..scenarios.pendulum import SHAPE_TIMES, PendulumBasis, PendulumSpec, run_pendulum
     from ..scenarios.run_record import REFERENCE_TIGHTENING
 
@@ -80,8 +84,9 @@ def _run(args) -> int:
         from ..scenarios.pendulum import pendulum_to_tolerance, run_chain
 
         _common.say(args, f"basis to chi_rel <= {args.tol:g} %: trials over 0-{args.train_t:g} s ...")
+        # the training runs: the plain controller at the run's tolerances (tightened by the search)
         search = pendulum_to_tolerance(spec, args.tol, n_vms=args.vms, t_train=args.train_t, t_end=args.t_end,
-                                       rho_inf=args.rho_inf, rtol=args.rtol, atol=args.atol)
+                                       solver=kw["solver"], controller=AdaptiveStepSize(args.rtol, args.atol))
         _common.say(args, search.describe())
 
         def chain_at(k, estimate):
@@ -146,6 +151,10 @@ def _check(args) -> None:
                                        or args.conditions is not None):
         raise ValueError("--reference, --vms, --mds, --conditions, --joint-modes, --craig-bampton and --no-estimate "
                          "go with --formulation nr-rncf")
+    _common.estimate_integration(args, args.formulation == "nr-rncf", default=False)
+    if args.no_estimate and args.estimate_integration:
+        raise ValueError("--estimate-integration adds the run's time-integration part to its error estimate; leave "
+                         "out --no-estimate")
     if args.conditions == "mean-axis" and not args.no_estimate and args.estimate_method == "static":
         raise ValueError("--conditions mean-axis: the static error estimate holds each beam's frame, which no joint "
                          "holds under mean axes; pass --estimate-method dynamic or --no-estimate")
@@ -229,6 +238,8 @@ def register(sub) -> None:
         "the drift of the chain's swing) or dynamic (the linearised error equation over every "
         "output: tracks the drift while its linearisation holds, reports where it stopped holding "
         "as estimate_valid_until_s; costs a few full-model steps an output)"))
+    _common.add_estimate_integration(t, "nr-rncf", " (default: off); also each beam's right end's "
+                                               "(integration_error_estimate_percent_tip<k>)")
     t.add_argument("--reference-rtol", type=float, default=None,
                    help="the converged reference's relative tolerance (default: a hundredth of the full model's "
                         "default, 1e-4, or of --rtol where tighter; its atol scaled alike); the full model runs at it "

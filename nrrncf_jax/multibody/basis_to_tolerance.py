@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate
+from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate, tightened
 from ..reduction.basis_to_tolerance import candidate_name, shortest_passing
 from ..reduction.error_estimate import ErrorEstimate
 from ..reduction.run_error import estimate_times
@@ -102,26 +102,36 @@ so their estimates barely depend on it, and a tighter factor costs steps for not
 
 
 def mechanism_to_tolerance(build: Callable[[list], Mechanism], order: Sequence, ts, tol: float, *, y0=None,
-                           rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5,
-                           tighten: float = TRAINING_TIGHTEN, safety: float = 2.0, start: int = 1,
-                           method: str = "dynamic", samples: int = 16,
-                           newton_tol: float = 1e-2, max_steps: int = 500_000) -> MechanismSearch:
+                           solver: GeneralizedAlphaIndex3 | None = None, controller: AdaptiveStepSize | None = None,
+                           newton: Newton | None = None, tighten: float = TRAINING_TIGHTEN, safety: float = 2.0,
+                           start: int = 1, method: str = "dynamic", samples: int = 16,
+                           max_steps: int = 500_000) -> MechanismSearch:
     """The reduced mechanism ``build(order[:n])`` of the shortest prefix whose training run over
     ``ts`` (from ``y0`` = (z, ż), default: the mechanism's reference at rest) has a reliable
-    error estimate of at most ``tol / safety`` per cent χ_rel (module docstring). ``rho_inf``,
-    ``rtol``, ``atol`` and ``max_steps``: the integrator settings of the run the basis is for;
-    the training runs go at ``rtol / tighten``, ``atol / tighten``, Newton stopping at
-    ``newton_tol`` of the step's tolerance (as ``scenarios.pendulum.run_chain``). ``method`` and
-    ``samples``: ``estimate_mechanism_error``'s. ``start``: the first prefix length tried.
-    Returns the ``MechanismSearch`` with every trial; ``met`` is False (and the longest prefix
-    kept) when none passes."""
+    error estimate of at most ``tol / safety`` per cent χ_rel (module docstring). ``solver``,
+    ``controller``, ``newton`` and ``max_steps``: the integrator of the run the basis is for
+    (defaults built at the call, as ``scenarios.pendulum.run_chain``'s: an
+    ``integrate.GeneralizedAlphaIndex3`` at ρ∞ = 0.9, the plain ``integrate.AdaptiveStepSize`` at
+    rtol 1e-4, atol 1e-5, and ``integrate.Newton(1e-2)``, Newton stopping at 1 % of the step's
+    tolerance); the training runs go at the controller's tolerances divided by ``tighten``
+    (``integrate.tightened``). ``method`` and ``samples``: ``estimate_mechanism_error``'s.
+    ``start``: the first prefix length tried. Returns the ``MechanismSearch`` with every trial;
+    ``met`` is False (and the longest prefix kept) when none passes."""
     order = list(order)
     if not order:
         raise ValueError("mechanism_to_tolerance needs at least one candidate in order")
     _validate.positive("tol (a target χ_rel in per cent)", tol)
     _validate.positive("safety", safety)
     _validate.positive("tighten", tighten)
-    _validate.tolerances(rtol, atol)
+    solver = GeneralizedAlphaIndex3(0.9) if solver is None else solver
+    controller = AdaptiveStepSize(1e-4, 1e-5) if controller is None else controller
+    newton = Newton(1e-2) if newton is None else newton
+    for name, value, kind in (("solver", solver, GeneralizedAlphaIndex3), ("controller", controller, AdaptiveStepSize),
+                              ("newton", newton, Newton)):
+        if not isinstance(value, kind):
+            raise ValueError(f"{name} must be an integrate.{kind.__name__}, got {type(value).__name__}")
+    _validate.tolerances(float(controller.rtol), float(controller.atol))
+    training = tightened(controller, tighten)
     ts = np.asarray(ts, dtype=float)
     if ts.ndim != 1 or ts.size < 3 or np.any(np.diff(ts) <= 0):
         raise ValueError("ts must be at least three increasing output times (the training manoeuvre)")
@@ -132,9 +142,8 @@ def mechanism_to_tolerance(build: Callable[[list], Mechanism], order: Sequence, 
         system = build(order[:n])
         if not isinstance(system, Mechanism):
             raise ValueError(f"build must return a reduced Mechanism, got {type(system).__name__}")
-        sol = simulate(system, GeneralizedAlphaIndex3(rho_inf), AdaptiveStepSize(rtol / tighten, atol / tighten),
-                       jnp.asarray(ts), observe=lambda t, z, v: (z, v), y0=y0, newton=Newton(newton_tol),
-                       max_steps=max_steps, step_ts=estimate_times(ts, samples, method))
+        sol = simulate(system, solver, training, jnp.asarray(ts), observe=lambda t, z, v: (z, v), y0=y0,
+                       newton=newton, max_steps=max_steps, step_ts=estimate_times(ts, samples, method))
         zs, vs = (np.asarray(y) for y in sol.ys)
         est = estimate_mechanism_error(full_counterpart(system), system, ts, zs, vs, samples=samples, method=method)
         runs[n] = (system, est)

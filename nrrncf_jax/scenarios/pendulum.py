@@ -43,6 +43,7 @@ from ..integrate import (
     simulate,
     simulate_batch,
     step_control_name,
+    tightened,
 )
 from ..integrate.simulate import kernel_options, simulate_timed
 from ..models.constrained import AbstractConstrainedModel
@@ -55,7 +56,7 @@ from ..multibody import (
     hinge,
     placed,
 )
-from ..reduction.run_error import ErrorEstimator, estimate_times
+from ..reduction.run_error import TIGHTEN, ErrorEstimator, estimate_times
 from .run_record import RunRecord, run_integrator
 
 # The C1 beam's nodal vectors at a node: r, r_x, r_y, r_xy, r_z, r_xz
@@ -284,21 +285,31 @@ def _frequencies_hz(body, phi) -> np.ndarray:
     return np.sqrt(np.einsum("ik,ij,jk->k", phi, K, phi) / np.einsum("ik,ij,jk->k", phi, M, phi)) / (2 * np.pi)
 
 
+MMI_RTOL = 1e-3
+"""The modal-interaction run's default rtol (``mmi_per_body``, ``candidate_order``; atol a tenth
+of it): loose, W ranks the pairs and need not be accurate."""
+
+
 def mmi_per_body(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, n_mds: int = 8, t_end: float = 2.0,
-                 rtol: float = 1e-3, n_samples: int = 401) -> list:
+                 n_samples: int = 401, *, solver: GeneralizedAlphaIndex3 | None = None,
+                 controller: AdaptiveStepSize | None = None, newton: Newton | None = None) -> list:
     """Maximum modal interaction per beam (Eq. 39, the paper's Fig. 16): the reduced pendulum
     with its ``n_vms`` VMs alone run over 0-``t_end`` (its own nonlinear motion, frames and
-    joints included, at a loose ``rtol``: W ranks the pairs, it need not be accurate), and each
-    beam's ``n_mds`` pairs (i ≤ j) of largest W_b,ij (``multibody.modal_interaction``): one
-    ``reduction.Selection`` a beam, for ``build_reduced_pendulum(spec, PendulumBasis(n_vms,
-    body_pairs=[s.pairs for s in selections]))``."""
+    joints included) with ``n_samples`` outputs, and each beam's ``n_mds`` pairs (i ≤ j) of
+    largest W_b,ij (``multibody.modal_interaction``): one ``reduction.Selection`` a beam, for
+    ``build_reduced_pendulum(spec, PendulumBasis(n_vms, body_pairs=[s.pairs for s in
+    selections]))``. ``solver``: an ``integrate.GeneralizedAlphaIndex3`` (default ρ∞ = 0.9);
+    ``controller``: an ``integrate.AdaptiveStepSize`` (default the plain controller at a loose
+    ``MMI_RTOL``, atol a tenth of it: W ranks the pairs, it need not be accurate); ``newton``:
+    an ``integrate.Newton`` (default ``simulate``'s)."""
     from ..multibody.modal_interaction import modal_interaction
 
     positive_int("n_mds", n_mds)
+    solver, controller = run_integrator(solver, controller, MMI_RTOL, MMI_RTOL / 10,
+                                        solver_type=GeneralizedAlphaIndex3)
     system, _ = build_reduced_pendulum(spec, PendulumBasis(n_vms, pairs=()))
     ts = np.linspace(0.0, t_end, n_samples)
-    sol = simulate(system, GeneralizedAlphaIndex3(0.9), AdaptiveStepSize(rtol, rtol / 10), ts,
-                   observe=lambda t, z, v: z)
+    sol = simulate(system, solver, controller, ts, observe=lambda t, z, v: z, newton=newton)
     return modal_interaction(system, ts, np.asarray(sol.ys), n_mds)
 
 
@@ -307,19 +318,21 @@ JOINT_MODES = "joint modes"
 (``PendulumBasis(joint_modes=True)``)."""
 
 
-def candidate_order(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, t_end: float = 2.0, rtol: float = 1e-3,
-                    joint_modes: bool = True, n_samples: int = 401) -> list:
+def candidate_order(spec: PendulumSpec = PendulumSpec(), n_vms: int = 5, t_end: float = 2.0,
+                    joint_modes: bool = True, n_samples: int = 401, *, solver: GeneralizedAlphaIndex3 | None = None,
+                    controller: AdaptiveStepSize | None = None, newton: Newton | None = None) -> list:
     """The pendulum's candidates for a basis chosen to a tolerance (``pendulum_to_tolerance``),
     in greedy order: the ``n_vms`` in-plane cantilever modes (ints) and the MDs of their pairs
     (``(i, j)``) ranked by maximum modal interaction (``reduction.greedy_order`` on W summed over
-    the beams, from the VMs-only pendulum's run over 0-``t_end`` at ``rtol``, ``n_samples``
-    outputs, ``mmi_per_body``; ties broken by index), with ``JOINT_MODES`` second, right after
-    the first VM: a joint's static modes carry its load as Craig-Bampton's constraint modes do
-    (two columns a beam, in-plane), which the free cantilever's modes and MDs approach only
-    slowly."""
+    the beams, from the VMs-only pendulum's run over 0-``t_end`` with ``n_samples`` outputs,
+    ``mmi_per_body``, which takes ``solver``, ``controller`` and ``newton``; ties broken by
+    index), with ``JOINT_MODES`` second, right after the first VM: a joint's static modes carry
+    its load as Craig-Bampton's constraint modes do (two columns a beam, in-plane), which the free
+    cantilever's modes and MDs approach only slowly."""
     from ..reduction.basis_to_tolerance import greedy_order
 
-    selections = mmi_per_body(spec, n_vms, n_mds=1, t_end=t_end, rtol=rtol, n_samples=n_samples)
+    selections = mmi_per_body(spec, n_vms, n_mds=1, t_end=t_end, n_samples=n_samples, solver=solver,
+                              controller=controller, newton=newton)
     order = greedy_order(sum(np.asarray(s.W) for s in selections), range(n_vms))
     return order[:1] + [JOINT_MODES] + order[1:] if joint_modes else order
 
@@ -338,25 +351,29 @@ def build_from_candidates(spec: PendulumSpec, prefix) -> FloatingFrameSystem:
 
 
 def pendulum_to_tolerance(spec: PendulumSpec = PendulumSpec(), tol: float = 0.5, n_vms: int = 5,
-                          t_train: float = 0.5, dt_out: float = 0.01, t_end: float = 2.0, rho_inf: float = 0.9,
-                          rtol: float = 1e-4, atol: float = 1e-5, safety: float = 2.0, joint_modes: bool = True,
-                          method: str = "dynamic", newton_tol: float = 1e-2):
+                          t_train: float = 0.5, dt_out: float = 0.01, t_end: float = 2.0, safety: float = 2.0,
+                          joint_modes: bool = True, method: str = "dynamic", *,
+                          solver: GeneralizedAlphaIndex3 | None = None, controller: AdaptiveStepSize | None = None,
+                          newton: Newton | None = None):
     """The NR-RNCF pendulum with the smallest basis (a prefix of ``candidate_order``, W from a run
-    over 0-``t_end``) whose training run, released from rest over 0-``t_train`` with outputs
-    every ``dt_out``, has an error estimate of at most ``tol / safety`` per cent χ_rel
-    (``multibody.basis_to_tolerance.mechanism_to_tolerance``: the linearised error equation by
-    default, which holds on this soft chain only until its beams buckle in compression, so the
-    training window is shorter than the run; ``safety`` covers the error's growth after it).
-    ``rho_inf``, ``rtol``,
-    ``atol``: the settings of the run the basis is for. Returns the ``MechanismSearch``."""
+    over 0-``t_end`` at ``candidate_order``'s defaults) whose training run, released from rest
+    over 0-``t_train`` with outputs every ``dt_out``, has an error estimate of at most
+    ``tol / safety`` per cent χ_rel (``multibody.basis_to_tolerance.mechanism_to_tolerance``: the
+    linearised error equation by default, which holds on this soft chain only until its beams
+    buckle in compression, so the training window is shorter than the run; ``safety`` covers the
+    error's growth after it). ``solver``, ``controller``, ``newton``: the integrator of the run
+    the basis is for, as ``run_chain`` takes them (the same defaults); the training runs go at the
+    controller's tolerances tightened (``mechanism_to_tolerance``). Returns the
+    ``MechanismSearch``."""
     from ..multibody.basis_to_tolerance import mechanism_to_tolerance
 
     positive_int("n_vms", n_vms)
-    ts = _validate.run_options(t_train, dt_out, rho_inf, rtol, atol)
+    ts = _validate.output_times(t_train, dt_out)
+    solver, controller = run_integrator(solver, controller, 1e-4, 1e-5, solver_type=GeneralizedAlphaIndex3)
+    newton = _chain_newton(newton)
     order = candidate_order(spec, n_vms, t_end, joint_modes=joint_modes)
     return mechanism_to_tolerance(lambda prefix: build_from_candidates(spec, prefix), order, ts, tol,
-                                  rho_inf=rho_inf, rtol=rtol, atol=atol, safety=safety, method=method,
-                                  newton_tol=newton_tol)
+                                  solver=solver, controller=controller, newton=newton, safety=safety, method=method)
 
 
 def tip_vectors(spec: PendulumSpec) -> list[tuple[int, int]]:
@@ -479,15 +496,9 @@ def run_pendulum(spec: PendulumSpec = PendulumSpec(), t_end: float = 2.0, dt_out
 
 
 def _check_estimator(estimator) -> None:
-    """A chain's ``estimator``: a ``reduction.ErrorEstimator`` or None, without ``integration``
-    (``run_chain``)."""
-    if estimator is None:
-        return
-    if not isinstance(estimator, ErrorEstimator):
+    """A chain's ``estimator``: a ``reduction.ErrorEstimator`` or None (``run_chain``)."""
+    if estimator is not None and not isinstance(estimator, ErrorEstimator):
         raise ValueError(f"estimator must be a reduction.ErrorEstimator or None, got {type(estimator).__name__}")
-    if estimator.integration:
-        raise ValueError("a chain's error estimate is its basis's (multibody.error_estimate), without the run's own "
-                         "time-integration error: pass an ErrorEstimator with integration=False")
 
 
 ERROR_ON = ("nodes", "tips")
@@ -526,6 +537,14 @@ stop costs iterations without changing χ_rel. The full model's Newton stops aft
 correction either way."""
 
 
+def _chain_newton(newton: Newton | None) -> Newton:
+    """A chain run's ``newton``: ``Newton(NEWTON_TOL)`` where None (built at the call), else checked."""
+    newton = Newton(NEWTON_TOL) if newton is None else newton
+    if not isinstance(newton, Newton):
+        raise ValueError(f"newton must be an integrate.Newton, got {type(newton).__name__}")
+    return newton
+
+
 def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0, dt_out: float = 0.001, *,
               solver: GeneralizedAlphaIndex3 | None = None, controller: AdaptiveStepSize | None = None,
               newton: Newton | None = None, estimator: ErrorEstimator | None = None, error_on: str = "nodes",
@@ -547,11 +566,19 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     ``estimator`` (a ``reduction.ErrorEstimator``, for a reduced system; None, the default: no
     estimate): the run's a-posteriori error estimate from the run alone, by its ``method`` at its
     ``samples`` output times (``multibody.error_estimate``, against the system's full-order
-    counterpart; not its ``integration``), in ``PendulumRun.estimate``; the run then also records
-    its coordinates and velocities at the output times, and ends a step on each of the estimate's
-    times (``reduction.run_error.estimate_times``: the estimate evaluates the equations there;
-    every output for ``"dynamic"``, a few more steps where the chain's own steps are shorter than
-    the output interval).
+    counterpart), in ``PendulumRun.estimate``; the run then also records its coordinates and
+    velocities at the output times, and ends a step on each of the estimate's times
+    (``reduction.run_error.estimate_times``: the estimate evaluates the equations there; every
+    output for ``"dynamic"``, a few more steps where the chain's own steps are shorter than the
+    output interval). With ``integration``, the run is repeated at the controller's tolerances
+    divided by ``reduction.run_error.TIGHTEN`` (``integrate.tightened``), ending its steps on the
+    same times, so that it reuses the run's compiled program; the basis part is then estimated on
+    the repetition's states, and the run's distance to it is its own time-integration error
+    (``multibody.error_estimate.integration_error_percent``: χ_rel over the reduced bodies' position
+    vectors, the basis part's norm, so that the two add up to the total's estimate), and each
+    beam's right end's (``sensor_integration_percent``, ``tip1``, ...; summary:
+    ``integration_error_estimate_percent[_tip<k>]``). The repetition's compile and run times are
+    in the estimate's.
 
     ``error_on``: what the step error is measured on: ``"nodes"``, every nodal vector (of the
     full-order counterpart, for a reduced body), or ``"tips"``, the beams' right ends, the run's
@@ -561,9 +588,7 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
 
     ts = _validate.output_times(t_end, dt_out)
     solver, controller = run_integrator(solver, controller, 1e-4, 1e-5, solver_type=GeneralizedAlphaIndex3)
-    newton = Newton(NEWTON_TOL) if newton is None else newton
-    if not isinstance(newton, Newton):
-        raise ValueError(f"newton must be an integrate.Newton, got {type(newton).__name__}")
+    newton = _chain_newton(newton)
     _check_estimator(estimator)
     estimate = estimator is not None
     formulation, vectors, nodes = _chain(system)
@@ -583,21 +608,48 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
         from ..multibody.error_estimate import full_counterpart
 
         full = full_counterpart(system)  # checks that the system has reduced bodies, before the run
-        # The estimate evaluates the equations at its states: the run ends steps there (``run_error``).
+        # The estimate evaluates the equations at its states: the run ends steps there (``run_error``),
+        # and so does a repetition for the ``integration`` part, with the run's compiled program.
         step_ts = estimate_times(ts, estimator.samples, estimator.method)
-    sol, compile_s, run_s = simulate_timed(system, solver, controller, jnp.asarray(ts), observe=observe,
-                                           progress=progress, max_steps=max_steps, newton=newton, step_ts=step_ts)
-    pos, slopes, energy, kinetic, cmax, *state = (np.asarray(y) for y in jax.device_get(sol.ys))
+
+    def run_at(controller):
+        sol, compile_s, run_s = simulate_timed(system, solver, controller, jnp.asarray(ts), observe=observe,
+                                               progress=progress, max_steps=max_steps, newton=newton,
+                                               step_ts=step_ts)
+        return sol, [np.asarray(y) for y in jax.device_get(sol.ys)], compile_s, run_s
+
+    sol, ys, compile_s, run_s = run_at(controller)
+    pos, slopes, energy, kinetic, cmax, *state = ys
     run = PendulumRun(formulation=formulation, dofs=system.n_dof, ts=ts, nodes=pos, left_slopes=slopes,
                       energy=energy, kinetic=kinetic, violation=cmax, steps=int(sol.num_steps),
                       rejected=int(sol.num_rejected), newton_iters=int(sol.num_newton), compile_s=compile_s,
                       run_s=run_s, step_control=step_control_name(controller), error_on=error_on)
     if estimate:
-        from ..multibody.error_estimate import estimate_mechanism_error
-
-        run.estimate = estimate_mechanism_error(full, system, ts, *state, samples=estimator.samples,
-                                                method=estimator.method)
+        run.estimate = _estimate(system, full, estimator, ts, pos, state,
+                                 lambda: run_at(tightened(controller, TIGHTEN)))
     return run
+
+
+def _estimate(system, full, estimator, ts, pos, state, repeat):
+    """``run_chain``'s error estimate of its run (its docstring): the run's nodes ``pos`` and
+    (z, ż) ``state`` at the output times ``ts``; ``repeat()`` the run at tightened tolerances
+    (``run_at``'s tuple), for the ``integration`` part."""
+    from ..multibody.error_estimate import estimate_mechanism_error, integration_error_percent
+    from ..post.metrics import chi_rel
+
+    zs, vs = state
+    integration = tips = None
+    extra_compile_s = extra_run_s = 0.0
+    if estimator.integration:
+        _, (rep_pos, *_, rep_zs, rep_vs), extra_compile_s, extra_run_s = repeat()
+        integration = integration_error_percent(system, zs, rep_zs)
+        tip, rep_tip = pos[:, :, -1], rep_pos[:, :, -1]  # each beam's right end, as compare_sensors measures a sensor
+        tips = {f"tip{k + 1}": float(chi_rel(rep_tip[:, k] - rep_tip[:1, k], tip[:, k] - tip[:1, k]))
+                for k in range(tip.shape[1]) if np.abs(rep_tip[:, k] - rep_tip[:1, k]).max() > 0}
+        zs, vs = rep_zs, rep_vs  # the basis part on the repetition's states, as run_setup does
+    est = estimate_mechanism_error(full, system, ts, zs, vs, samples=estimator.samples, method=estimator.method)
+    return dataclasses.replace(est, integration_percent=integration, sensor_integration_percent=tips,
+                               compile_s=est.compile_s + extra_compile_s, run_s=est.run_s + extra_run_s)
 
 
 def _released(system, angle):
@@ -625,22 +677,26 @@ class ReleaseSweep:
     lanes: int
 
 
-def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: float = 2.0, dt_out: float = 0.01,
-                  rho_inf: float = 0.9, rtol: float = 1e-4, atol: float = 1e-5, newton_tol: float = 1e-2,
-                  lanes: int | None = None, max_steps: int = 500_000, small_kernels: bool = False) -> ReleaseSweep:
+def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: float = 2.0, dt_out: float = 0.01, *,
+                  solver: GeneralizedAlphaIndex3 | None = None, controller: AdaptiveStepSize | None = None,
+                  newton: Newton | None = None, lanes: int | None = None, max_steps: int = 500_000,
+                  small_kernels: bool = False) -> ReleaseSweep:
     """The chain ``system`` (any of ``FORMULATIONS``; its reference state straight along +x)
     released from rest at each of ``angles`` [rad] about the ground hinge's Z axis
     (``system.turned``), all in one compiled, batched run (``integrate.simulate_batch``: every
     member keeps its own adaptive steps; ``lanes`` of them advance together, the rest queue;
     default ``integrate.batch_lanes``: all at once on an accelerator, a few on a CPU; the highest
-    releases queue first, the costliest as a rule). Index-3 generalized-α as in ``run_chain``;
-    returns a ``ReleaseSweep`` with the tips. A member that fails (Newton, step size) is flagged in
+    releases queue first, the costliest as a rule). Index-3 generalized-α as in ``run_chain``
+    (``solver``, ``controller``, ``newton``: its, with its defaults); returns a ``ReleaseSweep``
+    with the tips. A member that fails (Newton, step size) is flagged in
     ``ok``, not raised.
     ``small_kernels``: compile with ``integrate.SMALL_KERNEL_OPTIONS`` on a CPU (``simulate_batch``'s
     option of that name: faster to compile, its run possibly slower; off by default)."""
     import time
 
-    ts = _validate.run_options(t_end, dt_out, rho_inf, rtol, atol)
+    ts = _validate.output_times(t_end, dt_out)
+    solver, controller = run_integrator(solver, controller, 1e-4, 1e-5, solver_type=GeneralizedAlphaIndex3)
+    newton = _chain_newton(newton)
     angles = np.asarray(angles, dtype=float).reshape(-1)
     if angles.size == 0 or not np.all(np.isfinite(angles)):
         raise ValueError(f"angles must be a non-empty sequence of finite release angles [rad], got {angles!r}")
@@ -653,9 +709,8 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
         return jnp.stack([xb[tip] for xb in vectors(x)])
 
     def batch(angles):
-        return simulate_batch(jax.tree_util.Partial(_released, system), angles, GeneralizedAlphaIndex3(rho_inf),
-                              AdaptiveStepSize(rtol, atol), ts, width=lanes, newton=Newton(newton_tol),
-                              max_steps=max_steps, observe=observe, throw=False)
+        return simulate_batch(jax.tree_util.Partial(_released, system), angles, solver, controller, ts, width=lanes,
+                              newton=newton, max_steps=max_steps, observe=observe, throw=False)
 
     # The queue runs the highest releases first, with their results put back in the order of
     # ``angles``: a higher release has more energy to swing with and costs more steps, and with
@@ -678,7 +733,7 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
                         ok=in_given_order(sol.succeeded), compile_s=t1 - t0, run_s=t2 - t1, lanes=int(lanes))
 
 
-__all__ = ["CONDITIONS", "FORMULATIONS", "LEFT_END_FRAME", "LEFT_SECTION_FRAME", "NEWTON_TOL", "REFERENCE_CONDITIONS",
-           "SHAPE_TIMES", "PendulumBasis", "PendulumRun", "PendulumSpec", "ReleaseSweep", "build_pendulum",
-           "build_reduced_pendulum", "build_rncf_pendulum", "mmi_per_body", "release_sweep", "run_chain",
-           "run_pendulum", "tip_vectors"]
+__all__ = ["CONDITIONS", "FORMULATIONS", "LEFT_END_FRAME", "LEFT_SECTION_FRAME", "MMI_RTOL", "NEWTON_TOL",
+           "REFERENCE_CONDITIONS", "SHAPE_TIMES", "PendulumBasis", "PendulumRun", "PendulumSpec", "ReleaseSweep",
+           "build_pendulum", "build_reduced_pendulum", "build_rncf_pendulum", "mmi_per_body", "release_sweep",
+           "run_chain", "run_pendulum", "tip_vectors"]
