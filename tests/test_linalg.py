@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from conftest import RTOL_ROUNDOFF, roundoff_tol
+from conftest import EPS, RTOL_ROUNDOFF, roundoff_tol
 
 from nrrncf_jax.linalg import (
     CACHE_SIZE,
@@ -437,3 +437,39 @@ def test_sparse_callbacks_read_xla_buffers_on_the_cpu():
     A = dense_reference([(Ge, dofs)], free)
     np.testing.assert_allclose(solve(Ge, b), np.linalg.solve(A, b), rtol=0,
                                atol=roundoff_tol(A) * np.abs(np.linalg.solve(A, b)).max())
+
+
+@pytest.mark.parametrize("spec, shapes", [
+    ("ij,jk->ik", [(3, 4), (4, 5)]),
+    ("kij,vj->vik", [(4, 3, 3), (7, 3)]),
+    ("kia,lib,ab->kl", [(4, 3, 3), (4, 3, 3), (3, 3)]),
+    ("k,l,klij->ij", [(4,), (4,), (4, 4, 3, 3)]),
+    ("i,i->", [(4,), (4,)]),
+    ("ij->ji", [(2, 3)]),
+    ("ii->", [(3, 3)]),  # a trace: einsum
+    ("ij,jk->ik", [(80, 80), (80, 80)]),  # above MAX_FUSED: einsum
+])
+def test_contract_is_einsum(spec, shapes):
+    """``linalg.contract``: the same contraction as ``einsum`` (to round-off: the products are
+    summed in another order), fused where small, an ``einsum`` where large, under ``vmap`` too,
+    and always an ``einsum`` inside ``as_einsum()``; a malformed spec is refused."""
+    from nrrncf_jax.linalg.contract import MAX_FUSED, as_einsum, contract
+
+    rng = np.random.default_rng(0)
+    ops = [rng.normal(size=s) for s in shapes]
+    expected = np.einsum(spec, *ops)
+    scale = np.einsum(spec, *[np.abs(x) for x in ops])  # the sum of the terms' sizes
+    got = np.asarray(contract(spec, *ops))
+    assert got.shape == expected.shape
+    np.testing.assert_allclose(got, expected, rtol=0, atol=64 * EPS * (np.max(scale) + 1.0))
+    batched = jax.vmap(lambda x: contract(spec, x, *ops[1:]))(np.stack([ops[0], 2.0 * ops[0]]))
+    np.testing.assert_allclose(np.asarray(batched[1]), 2.0 * expected, rtol=0, atol=128 * EPS * (np.max(scale) + 1.0))
+    small = np.prod([n for s in shapes for n in s]) <= MAX_FUSED  # a bound on the product: the fused form
+    text = jax.jit(lambda *x: contract(spec, *x)).lower(*ops).as_text()
+    if small and "ii" not in spec:
+        assert "dot_general" not in text
+    with as_einsum():
+        text = jax.jit(lambda *x: contract(spec, *x)).lower(*ops).as_text()
+    assert ("dot_general" in text) == (len(shapes) > 1)
+    with pytest.raises(ValueError, match="explicit einsum"):
+        contract("ij,jk", *ops[:2]) if len(ops) > 1 else contract("ij", ops[0])

@@ -34,6 +34,7 @@ from jax import lax
 
 from .. import _validate
 from .._types import Array, Float, Int
+from ..linalg.contract import as_einsum
 from .base import AbstractSolver, IterationMatrix, Newton, NewtonOptions
 from .forward_mode import forward_mode_only
 from .generalized_alpha import hermite_interpolate
@@ -242,7 +243,10 @@ def simulate_batch(model_fn: Callable, params, solver: AbstractSolver, controlle
                              "options only to the outermost program; pass compiler_options=kernel_options(True) "
                              "to your jax.jit instead")
         program = _simulate_batch_small
-    sol = program(model_fn, params, solver, controller, ts_, t0_, options, config, width=width)
+    # traced per member under vmap, the models' small contractions stay matrix products on a CPU,
+    # which run faster there than fused loops widened by the lanes (``linalg.contract``)
+    with as_einsum(jax.default_backend() == "cpu"):
+        sol = program(model_fn, params, solver, controller, ts_, t0_, options, config, width=width)
     return _check(sol, throw)
 
 

@@ -58,6 +58,7 @@ import numpy as np
 
 from .._types import Array, Float
 from ..bodies.body import Body, stiffened
+from ..linalg.contract import contract
 from ..reduction.tensors import ElasticTensors
 from .kinds import AbstractBodyKind
 from .markers import BodyGeometry
@@ -253,10 +254,11 @@ class FloatingBody(AbstractBodyKind):
         return 7 + self.k
 
     def _deflection(self, p):
-        """Ψ p as nodal vectors, computed as the row p Ψᵀ: under ``vmap`` over bodies that share
-        Ψ (``mechanism._stacks``), or over a batch, XLA's CPU backend runs that as one matrix
-        product, where Ψ p becomes a product with a transposed operand that runs much slower."""
-        return (p @ self.basis_rows).reshape(-1, 3)
+        """Ψ p as nodal vectors, computed as the row p Ψᵀ (``linalg.contract``: fused where it is
+        small): under ``vmap`` over bodies that share Ψ (``mechanism._stacks``), or over a batch,
+        XLA's CPU backend runs a large one as one matrix product, where Ψ p becomes a product with
+        a transposed operand that runs much slower."""
+        return contract("k,kn->n", p, self.basis_rows).reshape(-1, 3)
 
     def _local(self, p):
         return self.body.q_hat + self._deflection(p)
@@ -279,22 +281,22 @@ class FloatingBody(AbstractBodyKind):
             rows = jnp.asarray(rows, dtype=int)
             u, pos, Psi = u[rows], pos[rows], Psi[rows]
         J_R = pos[:, None, None] * jnp.eye(3)[None]
-        J_e = jnp.einsum("kij,vj->vik", _dA_hat(e), u)
-        J_p = jnp.einsum("ij,vjk->vik", _A_hat(e), Psi)
+        J_e = contract("kij,vj->vik", _dA_hat(e), u)
+        J_p = contract("ij,vjk->vik", _A_hat(e), Psi)
         return jnp.concatenate([J_R, J_e, J_p], axis=-1)
 
     def tangent(self, z, dz) -> Float[Array, "nv 3"]:
         """J dz (J not formed): dR on the position vectors, Σ_k ∂Â/∂e_k de_k u + Â Ψ dp."""
         e, p = z[3:7], z[7:]
-        A_de = jnp.einsum("k,kij->ij", dz[3:7], _dA_hat(e))
+        A_de = 2.0 * _A_bilinear(dz[3:7], e)
         return (self.is_position[:, None] * dz[None, :3] + _times_transpose(self._local(p), A_de)
                 + _times_transpose(self._deflection(dz[7:]), _A_hat(e)))
 
     def acceleration(self, z, v, a) -> Float[Array, "nv 3"]:
         """ẍ = J z̈ + J̇ ż, with J̇ ż = Ä u + 2 Ȧ u̇, Ä = ∂²Â(ė, ė), Ȧ = ∂Â ė, u̇ = Ψ ṗ."""
         e, p, de, dp = z[3:7], z[7:], v[3:7], v[7:]
-        A_dd = 2.0 * jnp.einsum("k,l,klij->ij", de, de, jnp.asarray(_B))
-        A_d = jnp.einsum("k,kij->ij", de, _dA_hat(e))
+        A_dd = 2.0 * _A_bilinear(de, de)
+        A_d = 2.0 * _A_bilinear(de, e)
         return (self.tangent(z, a) + _times_transpose(self._local(p), A_dd)
                 + 2.0 * _times_transpose(self._deflection(dp), A_d))
 
@@ -302,9 +304,9 @@ class FloatingBody(AbstractBodyKind):
         """J ᵀF (J not formed): Σ F_α over the position vectors, Σ_α u_αᵀ ∂Â/∂e_kᵀ F_α, and
         Ψᵀ (Â ᵀF_α)_α."""
         e, p = z[3:7], z[7:]
-        F_R = self.is_position @ F
-        F_e = jnp.einsum("kij,ij->k", _dA_hat(e), F.T @ self._local(p))
-        F_p = _times_transpose(F, _A_hat(e).T).reshape(-1) @ self.basis
+        F_R = contract("v,vi->i", self.is_position, F)
+        F_e = contract("kij,ij->k", _dA_hat(e), contract("vi,vj->ij", F, self._local(p)))
+        F_p = contract("n,nk->k", _times_transpose(F, _A_hat(e).T).reshape(-1), self.basis)
         return jnp.concatenate([F_R, F_e, F_p])
 
     def mass_matrix(self, z: Float[Array, " nz"]) -> Float[Array, "nz nz"]:
@@ -321,15 +323,15 @@ class FloatingBody(AbstractBodyKind):
         round-off (tests/test_floating.py)."""
         e, p = z[3:7], z[7:]
         A, D = _A_hat(e), _dA_hat(e)
-        c = self.c0 + self.C @ p
-        Gp = jnp.einsum("abj,j->ab", self.G, p)
-        V = self.G + jnp.einsum("abjm,j->abm", self.H, p)
-        U = self.U0 + Gp.T + jnp.einsum("abm,m->ab", V, p)
-        M_Re = jnp.einsum("kij,j->ik", D, c)
-        M_Rp = A @ self.C
-        M_ee = jnp.einsum("kia,lib,ab->kl", D, D, U)
-        M_ep = jnp.einsum("kia,ib,abm->km", D, A, V)
-        M_pp = (e @ e) ** 2 * self.H_trace
+        c = self.c0 + contract("ak,k->a", self.C, p)
+        Gp = contract("abj,j->ab", self.G, p)
+        V = self.G + contract("abjm,j->abm", self.H, p)
+        U = self.U0 + Gp.T + contract("abm,m->ab", V, p)
+        M_Re = contract("kij,j->ik", D, c)
+        M_Rp = contract("ab,bk->ak", A, self.C)
+        M_ee = contract("kia,lib,ab->kl", D, D, U)
+        M_ep = contract("kia,ib,abm->km", D, A, V)
+        M_pp = jnp.sum(e * e) ** 2 * self.H_trace
         return jnp.block([[self.m_total * jnp.eye(3), M_Re, M_Rp],
                           [M_Re.T, M_ee, M_ep],
                           [M_Rp.T, M_ep.T, M_pp]])
@@ -358,14 +360,14 @@ class FloatingBody(AbstractBodyKind):
         much faster."""
         e, p, de = z[3:7], z[7:], v[3:7]
         A, D = _A_hat(e), _dA_hat(e)
-        A_dd = 2.0 * jnp.einsum("k,l,klij->ij", de, de, jnp.asarray(_B)) + jnp.einsum("k,kij->ij", a[3:7], D)
-        Y = c_K * A_dd + 2.0 * c_C * jnp.einsum("k,kij->ij", de, D)
-        V = self.G + jnp.einsum("abjm,j->abm", self.H, p)
+        A_dd = 2.0 * _A_bilinear(de, de) + contract("k,kij->ij", a[3:7], D)
+        Y = c_K * A_dd + 2.0 * c_C * contract("k,kij->ij", de, D)
+        V = self.G + contract("abjm,j->abm", self.H, p)
         Psi = self.basis.reshape(self.body.n_vectors, 3, -1)
-        W = jnp.einsum("vi,vjm->ijm", F, Psi)
-        rows_R = Y @ self.C
-        rows_e = jnp.einsum("kia,ib,abm->km", D, Y, V) + c_K * jnp.einsum("kij,ijm->km", D, W)
-        rows_p = jnp.einsum("ia,ib,abmn->mn", A, Y, self.H)
+        W = contract("vi,vjm->ijm", F, Psi)
+        rows_R = contract("ab,bk->ak", Y, self.C)
+        rows_e = contract("kia,ib,abm->km", D, Y, V) + c_K * contract("kij,ijm->km", D, W)
+        rows_p = contract("ia,ib,abmn->mn", A, Y, self.H)
         return jnp.concatenate([rows_R, rows_e, rows_p], axis=0)
 
     def initial(self) -> Float[Array, " nz"]:
@@ -457,8 +459,10 @@ class FloatingBody(AbstractBodyKind):
         """|e|² − 1; for a full-order mean-axis body also G p (linear: the deformation's linear
         and angular momentum relative to the frame, linearised at q̂, Buckens' conditions, which a
         reduced mean-axis basis meets by construction)."""
-        norm = jnp.atleast_1d(z[3:7] @ z[3:7] - 1.0)
-        return norm if self.mean_axis_rows is None else jnp.concatenate([norm, self.mean_axis_rows @ z[7:]])
+        norm = jnp.atleast_1d(jnp.sum(z[3:7] * z[3:7]) - 1.0)
+        if self.mean_axis_rows is None:
+            return norm
+        return jnp.concatenate([norm, contract("rk,k->r", self.mean_axis_rows, z[7:])])
 
     def own_jacobian(self, z) -> Float[Array, "e nz"]:
         """The row 2eᵀ (and [0, G] for a full-order mean-axis body)."""
@@ -499,18 +503,23 @@ def _times_transpose(X: Float[Array, "nv 3"], A: Float[Array, "3 3"]) -> Float[A
     XLA hands a 3-wide product to a matrix-multiply library call (a batched one for a run of
     equal bodies, and more so under ``vmap`` over a batch of runs), which costs far more than its
     arithmetic; the added columns fuse with the operations around them. A (a few flops) is
-    formed once by a product and shared: as a sum of terms it would be fused into every
-    consumer and recomputed for each of X's rows, which is slower."""
+    formed once and shared (``_A_bilinear``)."""
     return X[:, 0:1] * A[None, :, 0] + X[:, 1:2] * A[None, :, 1] + X[:, 2:3] * A[None, :, 2]
 
 
+def _A_bilinear(a, b):
+    """Σ_kl a_k b_l B_kl (``_B``): the symmetric bilinear form whose diagonal is Â(e) = Â(e, e)."""
+    return contract("k,l,klij->ij", a, b, jnp.asarray(_B))
+
+
 def _A_hat(e):
-    return jnp.einsum("k,l,klij->ij", e, e, jnp.asarray(_B))
+    """Â(e) = (e0² − ēᵀē) I + 2 ē ēᵀ + 2 e0 ẽ, the unnormalised rotation matrix (Eq. of ``_B``)."""
+    return _A_bilinear(e, e)
 
 
 def _dA_hat(e):
-    """∂Â/∂e_k (4, 3, 3)."""
-    return 2.0 * jnp.einsum("l,klij->kij", e, jnp.asarray(_B))
+    """∂Â/∂e_k (4, 3, 3) = 2 Â(δ_k, e)."""
+    return 2.0 * contract("l,klij->kij", e, jnp.asarray(_B))
 
 
 __all__ = ["FloatingBody", "axis_angle", "euler_parameters", "rotation"]
