@@ -680,7 +680,7 @@ class ReleaseSweep:
 def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: float = 2.0, dt_out: float = 0.01, *,
                   solver: GeneralizedAlphaIndex3 | None = None, controller: AdaptiveStepSize | None = None,
                   newton: Newton | None = None, lanes: int | None = None, max_steps: int = 500_000,
-                  small_kernels: bool = False) -> ReleaseSweep:
+                  small_kernels: bool = True) -> ReleaseSweep:
     """The chain ``system`` (any of ``FORMULATIONS``; its reference state straight along +x)
     released from rest at each of ``angles`` [rad] about the ground hinge's Z axis
     (``system.turned``), all in one compiled, batched run (``integrate.simulate_batch``: every
@@ -691,7 +691,9 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
     with the tips. A member that fails (Newton, step size) is flagged in
     ``ok``, not raised.
     ``small_kernels``: compile with ``integrate.SMALL_KERNEL_OPTIONS`` on a CPU (``simulate_batch``'s
-    option of that name: faster to compile, its run possibly slower; off by default)."""
+    option of that name), as ``studies.sweep`` does by default: on the reduced pendulum's batch of
+    16 it compiled in three quarters of the time and ran no slower
+    (``benchmarks/results/pendulum_batch.md``); ``False`` keeps XLA's defaults."""
     import time
 
     ts = _validate.output_times(t_end, dt_out)
