@@ -124,11 +124,3 @@ def output_times(t_end: float, dt_out: float) -> np.ndarray:
     return ts[ts <= t_end + 1e-12]
 
 
-def run_options(t_end, dt_out, rho_inf, rtol, atol) -> np.ndarray:
-    """Check a scenario run's options (output times, ρ∞ in [0, 1], tolerances); return the output
-    times."""
-    ts = output_times(t_end, dt_out)
-    if not 0.0 <= rho_inf <= 1.0:
-        raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf!r}")
-    tolerances(rtol, atol)
-    return ts
