@@ -122,5 +122,3 @@ def output_times(t_end: float, dt_out: float) -> np.ndarray:
     positive("dt_out (output interval)", dt_out)
     ts = np.arange(0.0, t_end + 0.5 * dt_out, dt_out)
     return ts[ts <= t_end + 1e-12]
-
-
