@@ -26,12 +26,13 @@ between the models; the largest, and per sensor as ``chi_rel_percent_<name>``).
 
 ``--estimate`` (a model with reduced bodies) estimates the run's error from reduced runs alone
 (``run_setup``'s ``estimator``): ``basis_error_estimate_percent`` over the reduced bodies' position
-vectors, ``chi_rel_estimate_body_<b>_percent`` each one's on its deformation; with
-``--estimate-integration`` also the run's own time-integration error, on those positions
-(``integration_error_estimate_percent``, and ``chi_rel_estimate_percent`` the sum of the two parts)
-and on each compared sensor (``integration_error_estimate_percent_<name>``, the estimate of what
-``--reference full`` measures as ``integration_error_percent_<name>``). The basis part is not
-estimated per sensor.
+vectors, ``chi_rel_estimate_body_<b>_percent`` each one's on its deformation,
+``basis_error_estimate_percent_<name>`` each compared sensor's; with ``--estimate-integration`` also
+the run's own time-integration error, on those positions (``integration_error_estimate_percent``,
+and ``chi_rel_estimate_percent`` the sum of the two parts) and on each sensor
+(``integration_error_estimate_percent_<name>``), and ``chi_rel_estimate_percent_<name>`` the
+estimate of what ``--reference full`` measures as ``chi_rel_percent_<name>``
+(``--estimate-method dynamic`` for sensors: the static one holds the frames).
 """
 
 import ast

@@ -66,6 +66,7 @@ from ..reduction.error_estimate import (
 from .floating import FloatingBody, rigid_motions_left, rotation
 from .full_order_frame import full_floating_body
 from .mechanism import Mechanism
+from .sensors import observe
 
 
 def _reduced(body) -> bool:
@@ -175,23 +176,33 @@ def _lifted_state(maps, full: Mechanism, reduced: Mechanism, t, z, v):
     return zf, vf, af, _lift_multipliers(full, reduced, lam)
 
 
+def _sensor_errors(observer, t, zf, vf, e) -> dict:
+    """The sensors' first-order errors ∂s/∂z e at the lifted state (each sensor of ``observer``,
+    ``sensors.observe`` on the full mechanism; None: none)."""
+    if observer is None:
+        return {}
+    return jax.jvp(lambda y: observer(t, y, vf), (zf,), (e,))[1]
+
+
 @eqx.filter_jit
-def _mechanism_corrections(full, reduced, maps, ts, zs, vs, flexible):
-    """|e_b| over each flexible body's position vectors at each sample, (samples, bodies)
-    (``lax.map``: one sample after another, as ``reduction.error_estimate`` does, for the same
-    reason)."""
+def _mechanism_corrections(full, reduced, maps, ts, zs, vs, flexible, observer=None):
+    """|e_b| over each flexible body's position vectors at each sample, (samples, bodies), and
+    the ``observer``'s sensors' errors under the corrections (``_sensor_errors``; the frames
+    held, as the corrections hold them) (``lax.map``: one sample after another, as
+    ``reduction.error_estimate`` does, for the same reason)."""
     def one(args):
         t, z, v = args
         zf, vf, af, lam = _lifted_state(maps, full, reduced, t, z, v)
         r = full.split(full.residual(t, zf, vf, af) + full.constraint_force(zf, lam, t))
         blocks = full.tangent_blocks(t, zf, vf, af, lam)
-        norms = []
+        norms, parts = [], [jnp.zeros_like(y) for y in full.split(zf)]
         for b in flexible:
             body = full.bodies[b]
             e = -jnp.linalg.solve(blocks[b][7:, 7:], r[b][7:])
+            parts[b] = jnp.concatenate([jnp.zeros(7, e.dtype), e])
             dq = (body.basis @ e).reshape(-1, 3)
             norms.append(jnp.sqrt(jnp.sum(body.is_position[:, None] * dq**2)))
-        return jnp.stack(norms)
+        return jnp.stack(norms), _sensor_errors(observer, t, zf, vf, jnp.concatenate(parts))
     return lax.map(one, (ts, zs, vs))
 
 
@@ -202,7 +213,7 @@ integrator's does): the linear step's equations to far below the estimate's own 
 
 
 @eqx.filter_jit
-def _error_equation(full, reduced, maps, ts, zs, vs, flexible):
+def _error_equation(full, reduced, maps, ts, zs, vs, flexible, observer=None):
     """The linearised error equation integrated along the run (``method="dynamic"``): |δx(t)| of
     the flexible bodies' position vectors at each output time.
 
@@ -215,7 +226,8 @@ def _error_equation(full, reduced, maps, ts, zs, vs, flexible):
     times (``reduction.error_estimate.integrate_error_equation``); each step's linear equations
     solved by the full model's constrained iteration matrix (``factor_augmented``) with
     ``REFINEMENTS`` corrections on the exact defect (its products R_z e, ... by forward-mode
-    derivatives). δx = ∂x/∂z e, its norm over each flexible body's position vectors."""
+    derivatives). δx = ∂x/∂z e, its norm over each flexible body's position vectors, and the
+    ``observer``'s sensors' errors ∂s/∂z e (``_sensor_errors``)."""
     g, b = NEWMARK_GAMMA, NEWMARK_BETA
     n, m = full.n_dof, full.n_constraints
 
@@ -234,10 +246,12 @@ def _error_equation(full, reduced, maps, ts, zs, vs, flexible):
             c = c_f + jax.jvp(lambda y: full.constraints(y, t), (zf,), (e,))[1]
             return jnp.concatenate([r + lin, c / (b * h**2)])
 
-        return defect, full.factor_augmented(t, zf, vf, lam, g * h, b * h**2, a=af), zf
+        return defect, full.factor_augmented(t, zf, vf, lam, g * h, b * h**2, a=af), (zf, vf, t)
 
-    def position_error(zf, e):
-        return _body_norms(full, jax.jvp(lambda y: _positions(full, y, flexible), (zf,), (e,))[1], flexible)
+    def position_error(lifted, e):
+        zf, vf, t = lifted
+        norms = _body_norms(full, jax.jvp(lambda y: _positions(full, y, flexible), (zf,), (e,))[1], flexible)
+        return norms, _sensor_errors(observer, t, zf, vf, e)
 
     return integrate_error_equation(ts, (zs, vs), linearised, position_error, n, m, REFINEMENTS)
 
@@ -250,7 +264,7 @@ def _frames_speed(reduced: Mechanism, vs) -> float:
 
 
 def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, samples: int = 16,
-                             method: str = "static") -> ErrorEstimate:
+                             method: str = "static", sensors: dict | None = None) -> ErrorEstimate:
     """The error estimate (module docstring) of the reduced mechanism's run whose coordinates
     ``zs`` and velocities ``vs`` (each (n_out, n_dof)) were recorded at the output times ``ts``,
     against ``full`` (``full_counterpart(reduced)``): ``method="static"`` at ``samples`` of the
@@ -259,7 +273,13 @@ def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, sa
     the first output; and each reduced body's on its deformation (``body_chi_percent``: its
     position vectors' error over its deformation Ψp, without the frame's rigid motion, which in a
     mechanism can be far larger than the deformation and would make a basis that misses the
-    deformation read as accurate). Compile and run timed apart (``compile_s``, ``run_s``)."""
+    deformation read as accurate). ``sensors`` ({name: sensor}, ``multibody.sensors``, of the
+    reduced mechanism, whose markers the full one shares): each one's estimated error, its first
+    order change ∂s/∂z e under the state's estimated error e, evaluated on the full mechanism,
+    as χ_rel of the sensor's change from its value at the first output (``sensor_chi_percent``;
+    the static estimate holds the frames, so a sensor on a rigid body reads none of the basis's
+    error there, which the dynamic one carries through the joints). Compile and run timed apart
+    (``compile_s``, ``run_s``)."""
     ts, zs, vs = np.asarray(ts, float), np.asarray(zs, float), np.asarray(vs, float)
     if zs.ndim != 2 or zs.shape != vs.shape or zs.shape[0] != ts.shape[0] or zs.shape[1] != reduced.n_dof:
         raise ValueError(f"zs and vs must be (len(ts), {reduced.n_dof}) = ({ts.shape[0]}, {reduced.n_dof}), got "
@@ -274,12 +294,15 @@ def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, sa
             "mechanism with mean-axis bodies by method='dynamic' (the linearised error equation of the whole "
             "mechanism)")
     flexible = tuple(b for b, P in enumerate(maps) if P is not None)
-    args = (full, reduced, maps, jnp.asarray(ts[idx]), jnp.asarray(zs[idx]), jnp.asarray(vs[idx]), flexible)
+    observer = observe(full, dict(sensors)) if sensors else None  # the markers resolved on the full bodies
+    args = (full, reduced, maps, jnp.asarray(ts[idx]), jnp.asarray(zs[idx]), jnp.asarray(vs[idx]), flexible,
+            observer)
     fn = _mechanism_corrections if method == "static" else _error_equation
     t0 = time.perf_counter()
     compiled = fn.lower(*args).compile()
     t1 = time.perf_counter()
-    e_bodies = np.asarray(jax.block_until_ready(compiled(*args)))  # (samples, flexible bodies)
+    e_bodies, ds = jax.block_until_ready(compiled(*args))  # (samples, flexible bodies), {sensor: (samples, ...)}
+    e_bodies = np.asarray(e_bodies)
     t2 = time.perf_counter()
     e = np.sqrt(np.sum(e_bodies**2, axis=1))
     x0 = _positions(reduced, jnp.asarray(zs[0]), flexible)
@@ -296,9 +319,19 @@ def estimate_mechanism_error(full: Mechanism, reduced: Mechanism, ts, zs, vs, sa
 
     d = np.asarray(jax.vmap(lambda z: _deformations(reduced, z, flexible))(jnp.asarray(zs[idx])))
     bodies = {b: chi_of(e_bodies[:, i], d[:, i]) for i, b in enumerate(flexible)}
+    per_sensor = None
+    if sensors:
+        on_run = observe(reduced, dict(sensors))
+        values = jax.vmap(on_run)(jnp.asarray(ts[idx]), jnp.asarray(zs[idx]), jnp.asarray(vs[idx]))
+        first = on_run(ts[0], jnp.asarray(zs[0]), jnp.asarray(vs[0]))
+        per_sensor = {}
+        for name in sensors:
+            err = np.asarray(ds[name]).reshape(idx.size, -1)
+            change = (np.asarray(values[name]) - np.asarray(first[name])).reshape(idx.size, -1)
+            per_sensor[name] = chi_of(np.linalg.norm(err, axis=1), np.linalg.norm(change, axis=1))
     return ErrorEstimate(ts=ts[idx], error_norm=e, displacement_norm=w, chi_rel_percent=chi_of(e, w),
                          output_error=np.zeros((idx.size, 0)), compile_s=t1 - t0, run_s=t2 - t1,
-                         valid_until=valid_until, body_chi_percent=bodies)
+                         valid_until=valid_until, body_chi_percent=bodies, sensor_chi_percent=per_sensor)
 
 
 

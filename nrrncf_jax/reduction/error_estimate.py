@@ -190,7 +190,8 @@ class ErrorEstimate:
     ``multibody.error_estimate``; None otherwise). ``sensor_integration_percent``: for a mechanism's
     run with its sensors, each compared sensor's time-integration error, χ_rel of its change from
     its initial value against the tightened repetition's ({name: per cent};
-    ``scenarios.mechanism_file.run_setup``; None otherwise)."""
+    ``scenarios.mechanism_file.run_setup``; None otherwise); ``sensor_chi_percent``: each one's
+    basis error (``multibody.error_estimate.estimate_mechanism_error``'s ``sensors``)."""
 
     ts: np.ndarray
     error_norm: np.ndarray
@@ -203,6 +204,7 @@ class ErrorEstimate:
     integration_percent: float | None = None  # the run's own time-integration error (reduction.run_error)
     body_chi_percent: dict | None = None  # a mechanism's: {body: estimated χ_rel on its deformation}
     sensor_integration_percent: dict | None = None  # a mechanism's: {sensor: its integration error's χ_rel}
+    sensor_chi_percent: dict | None = None  # a mechanism's: {sensor: its estimated basis error's χ_rel}
 
     @property
     def reliable(self) -> bool:

@@ -227,8 +227,9 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     ``estimator`` (a ``reduction.ErrorEstimator``; a system with reduced bodies): the run's error
     from reduced runs alone, in ``MechanismRun.estimate`` (``run_record.estimate_fields`` in its
     summary). Its basis part: ``multibody.error_estimate.estimate_mechanism_error`` against the
-    system's full-order counterpart, over the reduced bodies' position vectors and each one's on
-    its deformation, at states that end the run's steps (``reduction.run_error``: the run itself
+    system's full-order counterpart, over the reduced bodies' position vectors, each one's on
+    its deformation and each compared sensor's (the model's ``compare``; every sensor without
+    one), at states that end the run's steps (``reduction.run_error``: the run itself
     stops on the static estimate's samples; the dynamic estimate, or ``integration``, repeats it).
     With ``integration``, the repetition is at the tolerances divided by ``TIGHTEN`` (fixed steps:
     the step divided by √``TIGHTEN``: ``integrate.tightened``), and the run's
@@ -343,7 +344,9 @@ def _estimate(setup, system, full, estimator, run, states, solver, controller, n
             integration = integration_error_percent(system, zs, rep_zs)
             sensors = compare_sensors(setup, run.series, {k: np.asarray(rep.ys[k]) for k in setup.sensors})
         zs, vs = rep_zs, rep_vs
-    est = estimate_mechanism_error(full, system, ts, zs, vs, samples=estimator.samples, method=estimator.method)
+    compared = {k: setup.sensors[k] for k in setup.compare or setup.sensors}
+    est = estimate_mechanism_error(full, system, ts, zs, vs, samples=estimator.samples, method=estimator.method,
+                                   sensors=compared)
     return dataclasses.replace(est, integration_percent=integration, sensor_integration_percent=sensors,
                                compile_s=est.compile_s + extra_compile_s, run_s=est.run_s + extra_run_s)
 

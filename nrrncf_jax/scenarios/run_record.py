@@ -31,7 +31,7 @@ def estimate_fields(e, **after_times) -> dict:
     whether it is in its reliable range, its samples and run time, then ``after_times`` (a
     scenario's own, e.g. the effectivity), where the dynamic estimate stopped being valid, the
     integration part, each reduced body's estimate on its deformation and, for a mechanism's
-    sensors, each one's integration part."""
+    sensors, each one's total and parts (``_sensor_fields``)."""
     total = e.chi_rel_percent + (e.integration_percent or 0.0)
     return {"chi_rel_estimate_percent": total, "basis_error_estimate_percent": e.chi_rel_percent,
             "estimate_reliable": e.reliable, "estimate_samples": int(len(e.ts)), "estimate_run_s": e.run_s,
@@ -40,8 +40,18 @@ def estimate_fields(e, **after_times) -> dict:
             **({} if e.integration_percent is None else {"integration_error_estimate_percent": e.integration_percent}),
             **({} if not e.body_chi_percent else
                {f"chi_rel_estimate_body_{b}_percent": c for b, c in e.body_chi_percent.items()}),
-            **({} if not e.sensor_integration_percent else
-               {f"integration_error_estimate_percent_{k}": c for k, c in e.sensor_integration_percent.items()})}
+            **_sensor_fields(e)}
+
+
+def _sensor_fields(e) -> dict:
+    """A mechanism's estimate on each sensor: the total (the basis part, plus the integration
+    part where it was estimated) as ``chi_rel_estimate_percent_<name>``, what ``nrrncf run
+    --reference full`` measures as ``chi_rel_percent_<name>``, and the parts."""
+    basis, integration = e.sensor_chi_percent or {}, e.sensor_integration_percent or {}
+    names = list(dict.fromkeys([*basis, *integration]))
+    return ({f"chi_rel_estimate_percent_{k}": basis.get(k, 0.0) + integration.get(k, 0.0) for k in names}
+            | {f"basis_error_estimate_percent_{k}": c for k, c in basis.items()}
+            | {f"integration_error_estimate_percent_{k}": c for k, c in integration.items()})
 
 
 @dataclasses.dataclass(kw_only=True)
