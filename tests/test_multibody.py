@@ -170,6 +170,9 @@ def test_the_reduced_chains_integration_error_estimate_meets_the_measured_one():
     for k in range(3):
         ratio = s[f"integration_error_estimate_percent_tip{k + 1}"] / measured(run.tips[:, k], converged.tips[:, k])
         assert 0.5 < ratio < 2, (k, ratio)
+        # each tip's total: its basis part (the estimate's sensors) and its integration part
+        parts = s[f"basis_error_estimate_percent_tip{k + 1}"], s[f"integration_error_estimate_percent_tip{k + 1}"]
+        assert parts[0] > 0 and s[f"chi_rel_estimate_percent_tip{k + 1}"] == pytest.approx(sum(parts), rel=1e-12)
 
 
 def _swinging_run():

@@ -633,7 +633,9 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
 def _estimate(system, full, estimator, ts, pos, state, repeat):
     """``run_chain``'s error estimate of its run (its docstring): the run's nodes ``pos`` and
     (z, ż) ``state`` at the output times ``ts``; ``repeat()`` the run at tightened tolerances
-    (``run_at``'s tuple), for the ``integration`` part."""
+    (``run_at``'s tuple), for the ``integration`` part. Each beam tip's parts too (``tip_sensors``:
+    its basis part from ``estimate_mechanism_error``'s ``sensors``, its integration part from the
+    repetition), so that the summary's ``chi_rel_estimate_percent_tip<k>`` is each tip's total."""
     from ..multibody.error_estimate import estimate_mechanism_error, integration_error_percent
     from ..post.metrics import chi_rel
 
@@ -647,7 +649,8 @@ def _estimate(system, full, estimator, ts, pos, state, repeat):
         tips = {f"tip{k + 1}": float(chi_rel(rep_tip[:, k] - rep_tip[:1, k], tip[:, k] - tip[:1, k]))
                 for k in range(tip.shape[1]) if np.abs(rep_tip[:, k] - rep_tip[:1, k]).max() > 0}
         zs, vs = rep_zs, rep_vs  # the basis part on the repetition's states, as run_setup does
-    est = estimate_mechanism_error(full, system, ts, zs, vs, samples=estimator.samples, method=estimator.method)
+    est = estimate_mechanism_error(full, system, ts, zs, vs, samples=estimator.samples, method=estimator.method,
+                                   sensors=tip_sensors(system))  # each tip's basis part too
     return dataclasses.replace(est, integration_percent=integration, sensor_integration_percent=tips,
                                compile_s=est.compile_s + extra_compile_s, run_s=est.run_s + extra_run_s)
 
