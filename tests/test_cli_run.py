@@ -64,8 +64,10 @@ def test_run_refuses_bad_arguments(tmp_path, capsys):
     assert main(["run", "slider_crank", "--param", "formulation=nr-rncf", "--param", "mds=0"]) == 2
     assert "mds must be" in capsys.readouterr().err
     # the estimate's settings without the estimate, and an estimate of a model without reduced bodies
-    assert main(["run", "slider_crank", "--estimate-method", "dynamic"]) == 2
+    assert main(["run", "slider_crank", "--estimate-method", "static"]) == 2
     assert "add --estimate" in capsys.readouterr().err
+    assert main(["run", "slider_crank", "--estimate", "--estimate-samples", "8"]) == 2  # the dynamic estimate's
+    assert "static estimate's samples" in capsys.readouterr().err
     assert main(["run", "slider_crank", "--param", "formulation=rigid", "--estimate", "--no-progress"]) == 2
     assert "no NR-RNCF body" in capsys.readouterr().err
 
@@ -78,16 +80,16 @@ def test_reference_full_reports_the_error_against_a_converged_reference_and_its_
     part, by the reference in the others: hence the factor 1 + basis), and the reference's own
     error is a small part of what it measures.
 
-    With ``--estimate-integration --estimate-method dynamic`` the same run also estimates its error
-    from reduced runs alone: its total is the sum of its parts, and on each compared sensor the
+    With ``--estimate-integration`` (by the dynamic estimate, the command's default) the same run
+    also estimates its error from reduced runs alone: its total is the sum of its parts, and on
+    each compared sensor the
     total estimate and its time-integration part (from a repetition at a tenth of the tolerance)
     are the ones measured against the converged references to within the factor 2 an error bar
     allows (the estimate is first order in the basis's error; the repetition's own error is a
     tenth of the run's, and the two repetitions measure their step errors on different norms:
     the model's sensors against every nodal vector)."""
     assert main(["run", "slider_crank", "--param", "formulation=nr-rncf", "--param", "elements=2", "--t-end", "0.02",
-                 "--reference", "full", "--estimate-integration", "--estimate-method", "dynamic", "--json",
-                 "--no-progress"]) == 0
+                 "--reference", "full", "--estimate-integration", "--json", "--no-progress"]) == 0
     out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     total, integration, basis = (out[k] for k in ("chi_rel_percent", "integration_error_percent",
                                                    "basis_error_percent"))

@@ -32,7 +32,8 @@ the run's own time-integration error, on those positions (``integration_error_es
 and ``chi_rel_estimate_percent`` the sum of the two parts) and on each sensor
 (``integration_error_estimate_percent_<name>``), and ``chi_rel_estimate_percent_<name>`` the
 estimate of what ``--reference full`` measures as ``chi_rel_percent_<name>``
-(``--estimate-method dynamic`` for sensors: the static one holds the frames).
+(``--estimate-method``: ``dynamic`` by default, which carries the basis's error through the joints
+to every sensor; ``static`` is cheaper, but it holds the frames).
 """
 
 import ast
@@ -146,9 +147,11 @@ def _check(args) -> None:
     if args.estimate_integration is None:
         args.estimate_integration = False
     args.estimate = bool(args.estimate or args.estimate_integration)
-    if not args.estimate and (args.estimate_method != "static" or args.estimate_samples is not None):
+    if not args.estimate and (args.estimate_method is not None or args.estimate_samples is not None):
         raise ValueError("--estimate-method and --estimate-samples set the error estimate: add --estimate (or "
                          "--estimate-integration)")
+    if args.estimate_method is None:  # a mechanism's default: the estimate that carries the error to its sensors
+        args.estimate_method = "dynamic"
     _common.estimate_samples(args, True)
 
 
@@ -181,9 +184,11 @@ def register(sub) -> None:
                         "(multibody.error_estimate, against the bodies' full-order counterparts): over the reduced "
                         "bodies' positions (basis_error_estimate_percent) and each one's on its deformation")
     _common.add_estimate_options(t, method_help=(
-        "with --estimate: the quasi-static correction at sampled outputs (static: the run ends a step on each) or "
-        "the linearised error equation over every output (dynamic: a repetition of the run, and a factorisation of "
-        "the full model an output)"))
+        "with --estimate: the linearised error equation over every output (dynamic, the default: a repetition of "
+        "the run, and a factorisation of the full model an output; it carries the basis's error through the joints "
+        "to every sensor) or the quasi-static correction at sampled outputs (static: cheaper; it holds the frames, "
+        "so a sensor on a rigid body reads none of the error)"))
+    t.set_defaults(estimate_method=None)  # resolved by the check: dynamic where an estimate is asked for
     _common.add_estimate_integration(t, "with a reduced model (implies --estimate)",
                                      "; also each compared sensor's (integration_error_estimate_percent_<name>)")
     t.add_argument("--json", action="store_true", help="print one JSON object as the last line")
