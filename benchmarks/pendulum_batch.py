@@ -50,9 +50,8 @@ def main(argv=None):
     ap.add_argument("--rtol", type=float, default=1e-4)
     ap.add_argument("--out", default="benchmarks/results/pendulum_batch.md")
     ap.add_argument("--all-cores", action="store_true", help="do not pin the process to one core (on a CPU)")
-    ap.add_argument("--xla-defaults", action="store_true",
-                    help="compile the batch with XLA's default options (release_sweep(small_kernels=False)) instead "
-                         "of integrate.SMALL_KERNEL_OPTIONS")
+    ap.add_argument("--small-kernels", action="store_true",
+                    help="compile the batch with integrate.SMALL_KERNEL_OPTIONS (release_sweep's small_kernels)")
     a = ap.parse_args(argv)
     if not a.all_cores:
         pin_to_one_core()
@@ -60,7 +59,7 @@ def main(argv=None):
     lines = ["# NR-RNCF pendulums released at different angles, one batched run", "",
              f"Produced by `benchmarks/pendulum_batch.py --sizes {' '.join(map(str, a.sizes))} --range "
              f"{a.range[0]:g} {a.range[1]:g} --elements {a.elements} --t-end {a.t_end:g}"
-             f"{' --xla-defaults' if a.xla_defaults else ''}`. Machine: {machine()}.", "",
+             f"{' --small-kernels' if a.small_kernels else ''}`. Machine: {machine()}.", "",
              f"The paper's pendulum ({a.elements} C1 elements a beam), NR-RNCF with 5 VMs + 15 MDs a beam "
              f"({system.n_dof} DOFs; offline {info['offline_s']:.1f} s), released from rest at n angles evenly "
              f"spread over {a.range[0]:g}° … {a.range[1]:g}° about the ground hinge, 0-{a.t_end:g} s, "
@@ -76,7 +75,7 @@ def main(argv=None):
         for lanes in a.lanes:
             sweep = release_sweep(system, angles, t_end=a.t_end, dt_out=0.01,
                                   controller=AdaptiveStepSize(a.rtol, a.rtol / 10), lanes=lanes,
-                                  small_kernels=not a.xla_defaults)
+                                  small_kernels=a.small_kernels)
             tried = sweep.steps + sweep.rejected  # what the loop computes, accepted or not
             lines.append(f"| {device} | {n} | {sweep.lanes} | {sweep.compile_s:.1f} | {sweep.run_s:.2f} | "
                          f"{sweep.run_s / n:.3f} | {sweep.steps.mean():.0f} | {sweep.steps.max()} | "

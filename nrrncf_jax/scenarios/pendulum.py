@@ -683,7 +683,7 @@ class ReleaseSweep:
 def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: float = 2.0, dt_out: float = 0.01, *,
                   solver: GeneralizedAlphaIndex3 | None = None, controller: AdaptiveStepSize | None = None,
                   newton: Newton | None = None, lanes: int | None = None, max_steps: int = 500_000,
-                  small_kernels: bool = True) -> ReleaseSweep:
+                  small_kernels: bool = False) -> ReleaseSweep:
     """The chain ``system`` (any of ``FORMULATIONS``; its reference state straight along +x)
     released from rest at each of ``angles`` [rad] about the ground hinge's Z axis
     (``system.turned``), all in one compiled, batched run (``integrate.simulate_batch``: every
@@ -694,9 +694,10 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
     with the tips. A member that fails (Newton, step size) is flagged in
     ``ok``, not raised.
     ``small_kernels``: compile with ``integrate.SMALL_KERNEL_OPTIONS`` on a CPU (``simulate_batch``'s
-    option of that name), as ``studies.sweep`` does by default: on the reduced pendulum's batch of
-    16 it compiled in three quarters of the time and ran no slower
-    (``benchmarks/results/pendulum_batch.md``); ``False`` keeps XLA's defaults."""
+    option of that name): it compiles in about two thirds of the time; the batch's run was about 7 %
+    slower on one machine and 7 % faster on another (``benchmarks/results/xla_options.md``,
+    ``pendulum_batch.md``), and a persistent compilation cache saves the compile but not the run,
+    so it is off by default."""
     import time
 
     ts = _validate.output_times(t_end, dt_out)
