@@ -103,6 +103,12 @@ def test_reference_full_reports_the_error_against_a_converged_reference_and_its_
                                                             + out["integration_error_estimate_percent"], rel=1e-12)
     # on the rod's deformation, which is far smaller than the mechanism's motion, the same error reads larger
     assert out["chi_rel_estimate_body_1_percent"] > out["basis_error_estimate_percent"]
+    # which part dominates, on the sensor of the largest estimated total
+    worst = max(("w_mid", "x_B"), key=lambda k: out[f"chi_rel_estimate_percent_{k}"])
+    parts = {"basis": out[f"basis_error_estimate_percent_{worst}"],
+             "time integration": out[f"integration_error_estimate_percent_{worst}"]}
+    assert out["estimate_dominant_part"].startswith(max(parts, key=parts.get) + " (")
+    assert out["estimate_dominant_part"].endswith(f"on {worst})")
     for name in ("w_mid", "x_B"):
         for part in ("chi_rel", "integration_error"):
             ratio = out[f"{part}_estimate_percent_{name}"] / out[f"{part}_percent_{name}"]

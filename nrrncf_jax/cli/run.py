@@ -31,7 +31,8 @@ vectors, ``chi_rel_estimate_body_<b>_percent`` each one's on its deformation,
 the run's own time-integration error, on those positions (``integration_error_estimate_percent``,
 and ``chi_rel_estimate_percent`` the sum of the two parts) and on each sensor
 (``integration_error_estimate_percent_<name>``), and ``chi_rel_estimate_percent_<name>`` the
-estimate of what ``--reference full`` measures as ``chi_rel_percent_<name>``
+estimate of what ``--reference full`` measures as ``chi_rel_percent_<name>``, and
+``estimate_dominant_part`` which part dominates
 (``--estimate-method``: ``dynamic`` by default, which carries the basis's error through the joints
 to every sensor; ``static`` is cheaper, but it holds the frames).
 """

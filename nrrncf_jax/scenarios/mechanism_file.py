@@ -121,11 +121,34 @@ class MechanismRun:
 
     def summary(self) -> dict:
         """The run's statistics, bodies and settings, and its error estimate's fields where it has one
-        (``run_record.estimate_fields``, with the estimate's method)."""
+        (``run_record.estimate_fields``), with ``estimate_dominant_part`` where both parts were
+        estimated (``dominant_part``)."""
         out = {"formulation": self.formulation, "dofs": self.dofs, "steps": self.steps, "rejected": self.rejected,
                "newton_iters": self.newton_iters, "compile_s": self.compile_s, "run_s": self.run_s,
                "bodies": list(self.bodies), **self.settings}
-        return out if self.estimate is None else out | estimate_fields(self.estimate)
+        if self.estimate is None:
+            return out
+        dominant = dominant_part(self.estimate)
+        return out | estimate_fields(self.estimate) | ({} if dominant is None else {"estimate_dominant_part": dominant})
+
+
+def dominant_part(e) -> str | None:
+    """Which part of the estimated error dominates, in words, where both the basis part and the
+    time-integration part were estimated (None otherwise): on the compared sensor whose estimated
+    total is largest (on the reduced bodies' positions without sensors), ``"basis (0.91 % of
+    2.62 % on w_mid)"`` or ``"time integration (...)"``, so that a user knows whether a larger
+    basis or a tighter tolerance is what would lower it."""
+    if e.integration_percent is None:
+        return None
+    basis, integration = e.sensor_chi_percent or {}, e.sensor_integration_percent or {}
+    totals = {k: basis.get(k, 0.0) + integration.get(k, 0.0) for k in [*basis, *integration]}
+    if totals:
+        name = max(totals, key=totals.get)
+        b, i, where = basis.get(name, 0.0), integration.get(name, 0.0), f" on {name}"
+    else:
+        b, i, where = e.chi_rel_percent, e.integration_percent, " on the reduced bodies' positions"
+    part, value = ("basis", b) if b >= i else ("time integration", i)
+    return f"{part} ({value:.3g} % of {b + i:.3g} %{where})"
 
 
 def compare_sensors(setup: MechanismSetup, series: dict, other: dict) -> dict:
@@ -351,4 +374,5 @@ def _estimate(setup, system, full, estimator, run, states, solver, controller, n
                                compile_s=est.compile_s + extra_compile_s, run_s=est.run_s + extra_run_s)
 
 
-__all__ = ["MechanismRun", "MechanismSetup", "compare_sensors", "examples", "load_setup", "run_setup"]
+__all__ = ["MechanismRun", "MechanismSetup", "compare_sensors", "dominant_part", "examples", "load_setup",
+           "run_setup"]
