@@ -1,6 +1,7 @@
 """Accuracy measures (docs/theory.md, §9 Accuracy measures and checks)."""
 
 import jax.numpy as jnp
+import numpy as np
 
 from .._types import Array, Float
 
@@ -16,3 +17,17 @@ def chi_rel(w_ref: Float[Array, "nt ..."], w: Float[Array, "nt ..."]) -> Float[A
     if w_ref.shape != w.shape:
         raise ValueError(f"chi_rel needs arrays of equal shape, got {w_ref.shape} and {w.shape}")
     return 100.0 * jnp.sqrt(jnp.sum((w_ref - w) ** 2)) / jnp.sqrt(jnp.sum(w_ref**2))
+
+
+def chi_rel_of_changes(series: dict, reference: dict) -> dict:
+    """χ_rel (Eq. 40, %) of each history of ``series`` ({name: (nt, ...) array}) against the same
+    name's in ``reference`` (the same times), on each one's change from its first value (a
+    position's displacement, a deflection's change): ``{name: per cent}``; a history that does not
+    change in ``reference`` is left out."""
+    chis = {}
+    for name, y in series.items():
+        y, yr = np.asarray(y), np.asarray(reference[name])
+        dy, dyr = y - y[:1], yr - yr[:1]
+        if np.abs(dyr).max() > 0:
+            chis[name] = float(chi_rel(dyr, dy))
+    return chis

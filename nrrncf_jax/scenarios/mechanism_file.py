@@ -30,7 +30,7 @@ from ..integrate import (
 from ..integrate.step_size import STEP_CONTROLS, adaptive_step_size, tightened
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody.sensors import Observer, observe
-from ..post.metrics import chi_rel
+from ..post.metrics import chi_rel_of_changes
 from ..post.outline import mechanism_outline
 from ..reduction.run_error import TIGHTEN, ErrorEstimator, estimate_times
 from .run_record import estimate_fields
@@ -153,17 +153,11 @@ def dominant_part(e) -> str | None:
 
 def compare_sensors(setup: MechanismSetup, series: dict, other: dict) -> dict:
     """χ_rel (Eq. 40, %) of the sensors' histories ``series`` against ``other``'s ({name: array}
-    at the same output times), each sensor's change from its initial value: the model's
-    ``compare`` (positions and deflections, say, not reactions, whose high-frequency content
-    differs between models), every sensor without one; a sensor that does not change in
-    ``other`` is left out."""
-    chis = {}
-    for name in setup.compare or tuple(series):
-        y, yr = np.asarray(series[name]), np.asarray(other[name])
-        dy, dyr = y - y[:1], yr - yr[:1]
-        if np.abs(dyr).max() > 0:
-            chis[name] = float(chi_rel(dyr, dy))
-    return chis
+    at the same output times), each sensor's change from its initial value
+    (``post.metrics.chi_rel_of_changes``): the model's ``compare`` (positions and deflections,
+    say, not reactions, whose high-frequency content differs between models), every sensor
+    without one; a sensor that does not change in ``other`` is left out."""
+    return chi_rel_of_changes({name: series[name] for name in setup.compare or tuple(series)}, other)
 
 
 def load_setup(source: str, params: dict | None = None) -> MechanismSetup:
@@ -351,28 +345,21 @@ def _run_step_ts(estimator: ErrorEstimator, ts):
 
 def _estimate(setup, system, full, estimator, run, states, solver, controller, newton, fn, y0):
     """``run_setup``'s error estimate of ``run`` (its docstring), ``states`` the run's (z, ż) at
-    its output times."""
-    from ..multibody.error_estimate import estimate_mechanism_error, integration_error_percent
+    its output times: ``multibody.error_estimate.estimate_mechanism_run`` on the compared sensors,
+    with a repetition that ends its steps on the estimate's times where the dynamic estimate or
+    the ``integration`` part needs one."""
+    from ..multibody.error_estimate import estimate_mechanism_run
 
-    ts, (zs, vs) = run.ts, states
-    extra_compile_s = extra_run_s = 0.0
-    integration = sensors = None
-    if estimator.integration or estimator.method == "dynamic":  # a repetition that ends its steps on its times
+    ts, repetition = run.ts, None
+    compared = setup.compare or tuple(setup.sensors)
+    if estimator.integration or estimator.method == "dynamic":
         again = tightened(controller, TIGHTEN) if estimator.integration else controller
         rep, compile_s, run_s = simulate_timed(system, solver, again, ts, observe=fn, y0=y0, newton=newton,
                                                step_ts=estimate_times(ts, estimator.samples, estimator.method))
-        extra_compile_s, extra_run_s = compile_s, run_s
-        rep_zs, rep_vs = (np.asarray(y) for y in rep.ys[_STATE])
-        if estimator.integration:
-            integration = integration_error_percent(system, zs, rep_zs)
-            sensors = compare_sensors(setup, run.series, {k: np.asarray(rep.ys[k]) for k in setup.sensors})
-        zs, vs = rep_zs, rep_vs
-    compared = {k: setup.sensors[k] for k in setup.compare or setup.sensors}
-    est = estimate_mechanism_error(full, system, ts, zs, vs, samples=estimator.samples, method=estimator.method,
-                                   sensors=compared)
-    return dataclasses.replace(est, integration_percent=integration, sensor_integration_percent=sensors,
-                               compile_s=est.compile_s + extra_compile_s, run_s=est.run_s + extra_run_s)
-
+        rep_states = tuple(np.asarray(y) for y in rep.ys[_STATE])
+        repetition = ({k: np.asarray(rep.ys[k]) for k in compared}, rep_states, compile_s, run_s)
+    return estimate_mechanism_run(full, system, estimator, ts, states, sensors={k: setup.sensors[k] for k in compared},
+                                  outputs={k: run.series[k] for k in compared}, repetition=repetition)
 
 __all__ = ["MechanismRun", "MechanismSetup", "compare_sensors", "dominant_part", "examples", "load_setup",
            "run_setup"]

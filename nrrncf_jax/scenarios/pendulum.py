@@ -633,26 +633,21 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
 def _estimate(system, full, estimator, ts, pos, state, repeat):
     """``run_chain``'s error estimate of its run (its docstring): the run's nodes ``pos`` and
     (z, ż) ``state`` at the output times ``ts``; ``repeat()`` the run at tightened tolerances
-    (``run_at``'s tuple), for the ``integration`` part. Each beam tip's parts too (``tip_sensors``:
-    its basis part from ``estimate_mechanism_error``'s ``sensors``, its integration part from the
-    repetition), so that the summary's ``chi_rel_estimate_percent_tip<k>`` is each tip's total."""
-    from ..multibody.error_estimate import estimate_mechanism_error, integration_error_percent
-    from ..post.metrics import chi_rel
+    (``run_at``'s tuple), for the ``integration`` part
+    (``multibody.error_estimate.estimate_mechanism_run``). Each beam tip's parts too
+    (``tip_sensors``), so that the summary's ``chi_rel_estimate_percent_tip<k>`` is each tip's
+    total."""
+    from ..multibody.error_estimate import estimate_mechanism_run
 
-    zs, vs = state
-    integration = tips = None
-    extra_compile_s = extra_run_s = 0.0
+    def tips(nodes):  # each beam's right end, as a sensor's history
+        return {f"tip{k + 1}": nodes[:, k, -1] for k in range(nodes.shape[1])}
+
+    repetition = None
     if estimator.integration:
-        _, (rep_pos, *_, rep_zs, rep_vs), extra_compile_s, extra_run_s = repeat()
-        integration = integration_error_percent(system, zs, rep_zs)
-        tip, rep_tip = pos[:, :, -1], rep_pos[:, :, -1]  # each beam's right end, as compare_sensors measures a sensor
-        tips = {f"tip{k + 1}": float(chi_rel(rep_tip[:, k] - rep_tip[:1, k], tip[:, k] - tip[:1, k]))
-                for k in range(tip.shape[1]) if np.abs(rep_tip[:, k] - rep_tip[:1, k]).max() > 0}
-        zs, vs = rep_zs, rep_vs  # the basis part on the repetition's states, as run_setup does
-    est = estimate_mechanism_error(full, system, ts, zs, vs, samples=estimator.samples, method=estimator.method,
-                                   sensors=tip_sensors(system))  # each tip's basis part too
-    return dataclasses.replace(est, integration_percent=integration, sensor_integration_percent=tips,
-                               compile_s=est.compile_s + extra_compile_s, run_s=est.run_s + extra_run_s)
+        _, (rep_pos, *_, rep_zs, rep_vs), compile_s, run_s = repeat()
+        repetition = (tips(rep_pos), (rep_zs, rep_vs), compile_s, run_s)
+    return estimate_mechanism_run(full, system, estimator, ts, state, sensors=tip_sensors(system),
+                                  outputs=tips(pos), repetition=repetition)
 
 
 def _released(system, angle):
