@@ -46,7 +46,6 @@ Either way the estimate of χ_rel is 100 √(Σ_t |δx(t)|²) / √(Σ_t |w(t)|�
 bodies' position vectors, w(t) their displacement from the run's first output: the norm of
 ``scenarios.pendulum.PendulumRun.compare``."""
 
-import dataclasses
 import time
 
 import equinox as eqx
@@ -56,7 +55,6 @@ import numpy as np
 from jax import lax
 
 from .._types import Array, Float
-from ..post.metrics import chi_rel_of_changes
 from ..reduction.error_estimate import (
     NEWMARK_BETA,
     NEWMARK_GAMMA,
@@ -363,33 +361,4 @@ def integration_error_percent(system: Mechanism, zs, zs_tight) -> float:
     return 100.0 * float(np.linalg.norm(run - rep)) / den if den > 0 else 0.0
 
 
-
-def estimate_mechanism_run(full: Mechanism, reduced: Mechanism, estimator, ts, states, *, sensors=None,
-                           outputs=None, repetition=None) -> ErrorEstimate:
-    """The error estimate of a reduced mechanism's run from reduced runs alone, as the scenario
-    runners make it (``scenarios.mechanism_file.run_setup``, ``scenarios.pendulum.run_chain``):
-    ``estimate_mechanism_error`` (the ``estimator``'s method and samples, on ``sensors`` too) at
-    the run's states ``(zs, vs)`` at ``ts``, or at a repetition's where there is one.
-    ``repetition``: ``(its outputs, (zs, vs), compile_s, run_s)``, the run made again ending its
-    steps on the estimate's times (at the tolerances divided by ``reduction.run_error.TIGHTEN``
-    where the ``estimator`` asks for the ``integration`` part); with ``integration`` the run's
-    distance to it is that part, on the reduced bodies' positions
-    (``integration_error_percent``) and on each of the run's ``outputs`` ({name: history},
-    ``post.metrics.chi_rel_of_changes``). Its compile and run times are added to the
-    estimate's."""
-    zs, vs = states
-    integration = per_output = None
-    compile_s = run_s = 0.0
-    if repetition is not None:
-        rep_outputs, (rep_zs, rep_vs), compile_s, run_s = repetition
-        if estimator.integration:
-            integration = integration_error_percent(reduced, zs, rep_zs)
-            per_output = chi_rel_of_changes(dict(outputs or {}), rep_outputs)
-        zs, vs = rep_zs, rep_vs
-    est = estimate_mechanism_error(full, reduced, ts, zs, vs, samples=estimator.samples, method=estimator.method,
-                                   sensors=sensors)
-    return dataclasses.replace(est, integration_percent=integration, sensor_integration_percent=per_output,
-                               compile_s=est.compile_s + compile_s, run_s=est.run_s + run_s)
-
-__all__ = ["estimate_mechanism_error", "estimate_mechanism_run", "flexible_bodies", "full_counterpart",
-           "integration_error_percent"]
+__all__ = ["estimate_mechanism_error", "flexible_bodies", "full_counterpart", "integration_error_percent"]

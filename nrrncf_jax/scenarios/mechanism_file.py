@@ -33,7 +33,7 @@ from ..multibody.sensors import Observer, observe
 from ..post.metrics import chi_rel_of_changes
 from ..post.outline import mechanism_outline
 from ..reduction.run_error import TIGHTEN, ErrorEstimator, estimate_times
-from .run_record import estimate_fields
+from .run_record import estimate_fields, estimate_mechanism_run
 
 _POINTS = "__points__"  # the recorded nodes' key among the observed outputs
 _STATE = "__state__"  # the recorded coordinates' and velocities' key, for the error estimate
@@ -345,11 +345,9 @@ def _run_step_ts(estimator: ErrorEstimator, ts):
 
 def _estimate(setup, system, full, estimator, run, states, solver, controller, newton, fn, y0):
     """``run_setup``'s error estimate of ``run`` (its docstring), ``states`` the run's (z, ż) at
-    its output times: ``multibody.error_estimate.estimate_mechanism_run`` on the compared sensors,
+    its output times: ``run_record.estimate_mechanism_run`` on the compared sensors,
     with a repetition that ends its steps on the estimate's times where the dynamic estimate or
     the ``integration`` part needs one."""
-    from ..multibody.error_estimate import estimate_mechanism_run
-
     ts, repetition = run.ts, None
     compared = setup.compare or tuple(setup.sensors)
     if estimator.integration or estimator.method == "dynamic":

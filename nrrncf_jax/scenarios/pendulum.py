@@ -57,7 +57,7 @@ from ..multibody import (
     placed,
 )
 from ..reduction.run_error import TIGHTEN, ErrorEstimator, estimate_times
-from .run_record import RunRecord, run_integrator
+from .run_record import RunRecord, estimate_mechanism_run, run_integrator
 
 # The C1 beam's nodal vectors at a node: r, r_x, r_y, r_xy, r_z, r_xz
 _R, _RX, _RY, _RZ, _PER_NODE = 0, 1, 2, 4, 6
@@ -634,11 +634,9 @@ def _estimate(system, full, estimator, ts, pos, state, repeat):
     """``run_chain``'s error estimate of its run (its docstring): the run's nodes ``pos`` and
     (z, ż) ``state`` at the output times ``ts``; ``repeat()`` the run at tightened tolerances
     (``run_at``'s tuple), for the ``integration`` part
-    (``multibody.error_estimate.estimate_mechanism_run``). Each beam tip's parts too
+    (``run_record.estimate_mechanism_run``). Each beam tip's parts too
     (``tip_sensors``), so that the summary's ``chi_rel_estimate_percent_tip<k>`` is each tip's
     total."""
-    from ..multibody.error_estimate import estimate_mechanism_run
-
     def tips(nodes):  # each beam's right end, as a sensor's history
         return {f"tip{k + 1}": nodes[:, k, -1] for k in range(nodes.shape[1])}
 

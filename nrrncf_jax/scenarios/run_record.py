@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlpha
-from ..post.metrics import chi_rel
+from ..post.metrics import chi_rel, chi_rel_of_changes
 from ..reduction.basis_choice import Basis
 from ..reduction.basis_to_tolerance import ToTolerance
 from ..reduction.run_error import ErrorEstimator
@@ -218,5 +218,34 @@ def reduction_targets(basis, estimator, tol, ts) -> tuple:
     return tol, None if estimator is None else estimator.step_ts(ts)
 
 
-__all__ = ["REFERENCE_TIGHTENING", "RunRecord", "check_reduction", "estimate_fields", "reduction_targets",
-           "run_integrator"]
+
+def estimate_mechanism_run(full, reduced, estimator, ts, states, *, sensors=None, outputs=None, repetition=None):
+    """The error estimate (a ``reduction.ErrorEstimate``) of a reduced mechanism's run from
+    reduced runs alone, as the scenario runners make it (``mechanism_file.run_setup``,
+    ``pendulum.run_chain``): ``multibody.error_estimate.estimate_mechanism_error`` (the
+    ``estimator``'s method and samples, on ``sensors`` too) at the run's states ``(zs, vs)`` at
+    ``ts``, or at a repetition's where there is one. ``repetition``: ``(its outputs, (zs, vs),
+    compile_s, run_s)``, the run made again ending its steps on the estimate's times (at the
+    tolerances divided by ``reduction.run_error.TIGHTEN`` where the ``estimator`` asks for the
+    ``integration`` part); with ``integration`` the run's distance to it is that part, on the
+    reduced bodies' positions (``multibody.error_estimate.integration_error_percent``) and on
+    each of the run's ``outputs`` ({name: history}, ``post.metrics.chi_rel_of_changes``). Its
+    compile and run times are added to the estimate's."""
+    from ..multibody.error_estimate import estimate_mechanism_error, integration_error_percent
+
+    zs, vs = states
+    integration = per_output = None
+    compile_s = run_s = 0.0
+    if repetition is not None:
+        rep_outputs, (rep_zs, rep_vs), compile_s, run_s = repetition
+        if estimator.integration:
+            integration = integration_error_percent(reduced, zs, rep_zs)
+            per_output = chi_rel_of_changes(dict(outputs or {}), rep_outputs)
+        zs, vs = rep_zs, rep_vs
+    est = estimate_mechanism_error(full, reduced, ts, zs, vs, samples=estimator.samples, method=estimator.method,
+                                   sensors=sensors)
+    return dataclasses.replace(est, integration_percent=integration, sensor_integration_percent=per_output,
+                               compile_s=est.compile_s + compile_s, run_s=est.run_s + run_s)
+
+__all__ = ["REFERENCE_TIGHTENING", "RunRecord", "check_reduction", "estimate_fields", "estimate_mechanism_run",
+           "reduction_targets", "run_integrator"]
