@@ -106,6 +106,41 @@ def test_in_plane_case_needs_the_modal_derivative():
     assert np.abs(ref.rim[:, 2]).max() < 1e-9 * np.abs(ref.rim[:, 1]).max()  # no bending in case A
 
 
+@pytest.mark.xdist_group("membrane_small")
+def test_tol_chooses_the_step_settings_too():
+    """``run_membrane(tol=P)`` (``run_forced``, issue 61) chooses the step settings beside the
+    basis: the run's own time-integration error, estimated against its repetition at a tenth of
+    the tolerances, at most P / 2. Over 0-1 s of the small disk's in-plane spin-up the
+    adaptive run takes steps of about 0.1 s, five output intervals: a tighter rtol does not
+    change them, and the integration part is the outputs' interpolation between the steps, so
+    the steps are limited to the output interval (``step_dt_max``). The run's true integration
+    error, against the same reduced model at a thousandth of the tolerances and a tenth of that
+    step, is then at most P (the estimate's effectivity band [0.5, 2])."""
+    import jax
+    import jax.numpy as jnp
+
+    from nrrncf_jax.integrate import GeneralizedAlpha, simulate
+    from nrrncf_jax.post.metrics import chi_rel
+
+    tol, dt_out = 0.1, 0.02
+    run = run_membrane("in-plane", 7.0, "nr-rncf", SMALL, tol=tol, t_end=1.0, dt_out=dt_out,
+                       controller=AdaptiveStepSize(1e-3, 1e-5))
+    s = run.summary()
+    assert s["tol_met"] and s["basis_error_estimate_percent"] <= tol / 2
+    assert s["integration_error_estimate_percent"] <= tol / 2
+    assert s["step_rtol"] < 1e-3 and s["step_atol"] / s["step_rtol"] == pytest.approx(1e-2)
+    assert s["step_dt_max"] == pytest.approx(dt_out)
+    assert s["chi_rel_estimate_percent"] == pytest.approx(s["basis_error_estimate_percent"]
+                                                          + s["integration_error_estimate_percent"])
+    model = run.reduction.model
+    tight = simulate(model, GeneralizedAlpha(0.9),
+                     AdaptiveStepSize(s["step_rtol"] / 1000, s["step_atol"] / 1000, dt_max=dt_out / 10),
+                     jnp.asarray(run.ts))
+    pos = np.flatnonzero(np.asarray(build_membrane(SMALL).body.is_position))
+    w_tight = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p)[pos])(tight.ys))
+    assert float(chi_rel(w_tight, run.positions)) <= tol
+
+
 @pytest.mark.slow
 @pytest.mark.xdist_group("membrane_small")
 def test_membrane_estimates_its_integration_error_on_request(capsys):

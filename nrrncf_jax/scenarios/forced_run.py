@@ -21,7 +21,7 @@ from ..reduction.basis_choice import Basis
 from ..reduction.basis_to_tolerance import ToTolerance, nr_rncf_to_tolerance
 from ..reduction.pipeline import nr_rncf
 from ..reduction.run_error import ErrorEstimator
-from .run_record import RunRecord, reduction_targets, run_integrator
+from .run_record import RunRecord, chosen_step_settings, reduction_targets, run_integrator, step_tolerances_to
 
 FORMULATIONS = ("rncf", "nr-rncf")
 
@@ -57,7 +57,7 @@ class ForcedRun(RunRecord):
                 "mds": None if self.mds is None else [list(p) for p in self.mds],
                 **self.statistics(newton_key="newton_iterations"),
                 "offline_s": None if self.offline_s is None else round(self.offline_s, 2), **self.comparison(),
-                **self.estimate_summary()}
+                **self.estimate_summary(), **self.step_tolerance_fields()}
 
     def command_record(self, **extra) -> dict:
         """What the commands' ``--json`` prints: ``dofs, vms, mds, steps, compile_s, run_s,
@@ -65,7 +65,7 @@ class ForcedRun(RunRecord):
         speedup``, the formulation, and ``extra``."""
         s = self.summary()
         keys = ["dofs", "vms", "mds", "steps", "compile_s", "run_s", "offline_s", *self.comparison(),
-                *self.estimate_summary()]
+                *self.estimate_summary(), *self.step_tolerance_fields()]
         return {**{k: s[k] for k in keys}, "formulation": self.formulation, **extra}
 
     def displacement_fields(self, body, count: int = 50) -> tuple[dict, np.ndarray]:
@@ -105,8 +105,11 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     estimator's samples): the basis chosen to it instead (``nr_rncf_to_tolerance``, the run itself
     the training manoeuvre, the basis's ``max_dofs`` the largest basis tried; its ``vms`` and
     ``mds`` are then not used, its ``spin_state`` governs the spinning-state check of each basis
-    tried); the search's training runs and the estimate's repetition take the plain controller at
-    the controller's tolerances. The search's estimate of the chosen basis is then the run's.
+    tried); the search's training runs take the plain controller at the controller's tolerances.
+    With an estimator the step tolerances are chosen to ``tol`` as well
+    (``run_record.step_tolerances_to``: the run's own time-integration error, against its
+    repetition at a tenth of them, at most ``tol`` / 2; ``step_tolerances`` holds the chosen pair),
+    so that the total error meets ``tol``; the estimate is then that of the run kept, both parts.
 
     ``reference`` (an NR-RNCF run): ``True`` compares it with the full model converged
     (``RunRecord.compare_converged``: the full run at a tenth and a hundredth of the tolerances,
@@ -146,6 +149,20 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     own = red is not None and red.search is None and estimator is not None  # the estimate reads the run's step ends
     sol, compile_s, run_s = simulate_timed(model, solver, controller, jnp.asarray(ts), observe=observe,
                                            progress=progress, max_steps=max_steps, step_ts=stops if own else None)
+    chosen = None
+    if red is not None and tol is not None and estimator is not None:  # the step tolerances to tol too
+        with_integration = dataclasses.replace(estimator, integration=True)
+
+        def estimate(c):
+            P, V = (np.asarray(y) for y in jax.device_get(sol.ys))
+            return with_integration.estimate(full, model, ts, P, V, solver, c, max_steps=max_steps, norm_rows=rows)
+
+        def rerun(c):
+            nonlocal sol, run_s
+            sol, _, run_s = simulate_timed(model, solver, c, jnp.asarray(ts), observe=observe, progress=progress,
+                                           max_steps=max_steps)
+
+        chosen, controller = step_tolerances_to(tol.tol, controller, estimate, rerun, float(np.diff(ts).min()))
     w = positions(sol)
     if red is not None:
         P, V = (np.asarray(y) for y in jax.device_get(sol.ys))
@@ -158,7 +175,11 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     if red is not None:
         run.vms, run.mds, run.reduction = red.selection.vms, red.selection.pairs, red
         run.offline_s = red.offline_s["total"]  # nr_rncf's own timing of its stages
-        if red.search is not None:
+        if chosen is not None:
+            # the estimate made as the step tolerances were chosen: the basis's and the run's own
+            # integration error, of the run kept
+            run.estimate, run.step_tolerances = chosen, chosen_step_settings(controller)
+        elif red.search is not None:
             # The search ran the chosen basis over these output times with these settings: its
             # estimate is this run's, and a second one would cost a sparse factorisation a sample.
             run.estimate = red.search.estimate

@@ -14,10 +14,12 @@ import dataclasses
 from collections.abc import Callable
 from typing import ClassVar
 
+import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..integrate import AdaptiveStepSize, GeneralizedAlpha
+from ..integrate import AdaptiveStepSize, GeneralizedAlpha, with_tolerances
 from ..post.metrics import chi_rel, chi_rel_of_changes
 from ..reduction.basis_choice import Basis
 from ..reduction.basis_to_tolerance import ToTolerance
@@ -80,6 +82,7 @@ class RunRecord(abc.ABC):
     step_control: str = "plain"  # the adaptive controller (integrate.STEP_CONTROLS)
     reference: "RunRecord | None" = dataclasses.field(default=None, repr=False)  # the run compared against
     error_split: dict | None = None  # against a converged reference: the error's parts (``compare_converged``)
+    step_tolerances: tuple | None = None  # (rtol, atol[, dt_max]) chosen to a tolerance (``step_tolerances_to``)
 
     REFERENCE: ClassVar[str] = "a run of the same model and output times"
     """What ``compare`` accepts as the reference, for its error message."""
@@ -142,6 +145,15 @@ class RunRecord(abc.ABC):
                "compile_s": round(self.compile_s, 3), "run_s": round(self.run_s, 4)}
         return out if self.step_control == "plain" else out | {"step_control": self.step_control}
 
+    def step_tolerance_fields(self) -> dict:
+        """Where the step settings were chosen to a target (``step_tolerances_to``): ``step_rtol,
+        step_atol``, ``step_dt_max`` where the steps were limited to the output interval; else
+        nothing."""
+        if self.step_tolerances is None:
+            return {}
+        rtol, atol, *dt_max = self.step_tolerances
+        return {"step_rtol": rtol, "step_atol": atol} | ({"step_dt_max": dt_max[0]} if dt_max else {})
+
     def comparison(self) -> dict:
         """After ``compare``: ``reference_dofs, reference_run_s`` (to the millisecond),
         ``chi_rel_percent, speedup`` for ``--json``, and ``reference_converged``: after
@@ -175,6 +187,57 @@ REFERENCE_TIGHTENING = 10.0
 ``membrane``, ``truss`` and ``nrrncf run``): the full model runs at the run's tolerances over this
 and over its square; the tighter run is the reference, their distance bounds the looser one's own
 error."""
+
+
+STEP_TOLERANCE_ROUNDS = 4
+"""``step_tolerances_to``: the most estimates made to bring a run's own time-integration error to
+its share of the target."""
+
+
+def chosen_step_settings(controller: AdaptiveStepSize) -> tuple:
+    """A controller's ``(rtol, atol)``, and its ``dt_max`` where it is finite: the record's
+    ``step_tolerances`` (``step_tolerances_to``)."""
+    dt_max = float(controller.dt_max)
+    return (float(controller.rtol), float(controller.atol)) + ((dt_max,) if np.isfinite(dt_max) else ())
+
+
+def step_tolerances_to(tol: float, controller: AdaptiveStepSize, estimate: Callable, rerun: Callable,
+                       dt_out: float) -> tuple:
+    """The step settings of a reduced run chosen to a target χ_rel of ``tol`` per cent, beside a
+    basis chosen to it (``tol=P`` of the scenarios): ``(estimate, controller)``, the estimate of
+    the last run and the controller it ran with.
+
+    The basis is chosen to an estimated error of at most ``tol`` / 2; the run's own
+    time-integration error gets the other half, so that the total, basis and time integration,
+    meets ``tol``. ``estimate(controller)`` estimates the run made last (at ``controller``) with
+    its integration part (an ``ErrorEstimator`` with ``integration``: the run against its
+    repetition at tightened tolerances); while that part exceeds ``tol`` / 2, ``rerun(controller)``
+    runs the model again, either
+
+    - at tighter tolerances: rtol and atol shrink together, by the rule that a run's global error
+      goes as its tolerance to the power 2/3 (with a margin of 0.7; at most a hundredfold and at
+      least twofold a round); or,
+    - where the last tightening lowered the integration part by less than a third, with steps no
+      longer than the output interval ``dt_out`` (``dt_max``): the part is then the outputs'
+      interpolation between steps far longer than their interval (cubic Hermite, whose error the
+      step's error estimate does not see), which no tolerance reaches.
+
+    At most ``STEP_TOLERANCE_ROUNDS`` estimates; the last is kept whether or not it meets the
+    target (its figures say so: ``integration_percent`` against ``tol`` / 2)."""
+    previous = None
+    for attempt in range(STEP_TOLERANCE_ROUNDS):
+        est = estimate(controller)
+        part = est.integration_percent
+        if part <= 0.5 * tol or attempt == STEP_TOLERANCE_ROUNDS - 1:
+            return est, controller
+        if previous is not None and part > previous / 1.5 and float(controller.dt_max) > dt_out:
+            controller = eqx.tree_at(lambda c: c.dt_max, controller, jnp.asarray(dt_out, jnp.result_type(float)))
+        else:
+            shrink = float(np.clip(0.7 * (0.5 * tol / part) ** 1.5, 1e-2, 0.5))
+            controller = with_tolerances(controller, float(controller.rtol) * shrink, float(controller.atol) * shrink)
+        previous = part
+        rerun(controller)
+    raise AssertionError("unreachable")
 
 
 def run_integrator(solver, controller: AdaptiveStepSize | None, rtol: float = 1e-4, atol: float = 1e-6, *,

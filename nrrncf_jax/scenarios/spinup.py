@@ -20,7 +20,14 @@ from ..reduction.pipeline import nr_rncf
 from ..reduction.run_error import TIGHTEN, ErrorEstimator, observe_state
 from ..studies.sweep import SweepGrid
 from .beams import BeamPreset, beam_preset
-from .run_record import REFERENCE_TIGHTENING, RunRecord, reduction_targets, run_integrator
+from .run_record import (
+    REFERENCE_TIGHTENING,
+    RunRecord,
+    chosen_step_settings,
+    reduction_targets,
+    run_integrator,
+    step_tolerances_to,
+)
 
 PAPER_ELEMENTS = {4.0: 6, 10.0: 10, 20.0: 16, 40.0: 24}
 """Elements per steady spin rate in the paper's Table 2."""
@@ -77,7 +84,6 @@ class SpinupResult(RunRecord):
     spin: object = None  # the ``SpinCheck`` of the spinning-state enrichment (None: not checked)
     reduction: object = dataclasses.field(default=None, repr=False)  # the ``Reduction`` (W, omega, model)
     basis_search: object = None  # the ``reduction.basis_to_tolerance.BasisSearch`` (None: no tol given)
-    step_tolerances: tuple | None = None  # (rtol, atol) chosen to a tolerance (``run_nr_rncf_spinup(tol=...)``)
 
     REFERENCE: ClassVar[str] = ("a full RNCF SpinupResult of the same beam mesh and output times, run with "
                                 "save_displacements=True")
@@ -112,8 +118,7 @@ class SpinupResult(RunRecord):
                     "omega_ritz": self.spin.omega_ritz, "rel_err": self.spin.rel_err, "enriched": self.spin.enriched,
                     "spin_vms": list(self.spin.vms), "spin_mds": [list(p) for p in self.spin.pairs]},
                 "chi_rel_percent": self.chi_rel_percent, "speedup": self.speedup, **(self.error_split or {}),
-                **({} if self.step_tolerances is None else
-                   {"step_rtol": self.step_tolerances[0], "step_atol": self.step_tolerances[1]}),
+                **self.step_tolerance_fields(),
                 **self.estimate_summary(), **self._tolerance_summary(),
                 "reference": None if ref is None else {"formulation": ref.formulation, "dofs": ref.dofs,
                                                        **ref.statistics()},
@@ -153,9 +158,10 @@ class SpinupResult(RunRecord):
                 rows.insert(-1, ("basis to tol [%]", f"{b.tol:g}: {'met' if b.met else 'NOT MET (largest kept)'}; "
                                  f"tried (prefix length or −dropped→DOFs: estimate %) {b.trials_line()}"))
             if self.step_tolerances is not None:
-                rows.insert(-1, ("step tolerances (to tol)", f"rtol {self.step_tolerances[0]:.3g}, atol "
-                                 f"{self.step_tolerances[1]:.3g}: the run's own integration error estimate at most "
-                                 "tol / 2"))
+                f = self.step_tolerance_fields()
+                rows.insert(-1, ("step tolerances (to tol)", f"rtol {f['step_rtol']:.3g}, atol {f['step_atol']:.3g}"
+                                 + (f", steps <= {f['step_dt_max']:g} s" if "step_dt_max" in f else "")
+                                 + ": the run's own integration error estimate at most tol / 2"))
             c = s["spin_check"]
             if c is not None:
                 added = (f"added spinning mode(s) {c['spin_vms']} and MDs "
@@ -308,8 +314,8 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     holds every basis tried. With an estimator the step tolerances are chosen to it as well:
     starting from the controller's, rtol and atol shrink together until the run's own
     time-integration error, estimated against its repetition at a tenth of them, is at most
-    ``tol`` / 2 (``STEP_TOLERANCE_ROUNDS`` tries; ``step_tolerances`` holds the chosen pair), so
-    that the total error, basis and time integration, meets ``tol``.
+    ``tol`` / 2 (``run_record.step_tolerances_to``; ``step_tolerances`` holds the chosen pair),
+    so that the total error, basis and time integration, meets ``tol``.
     """
 
     ts = _validate.output_times(t_end, dt_out)
@@ -329,23 +335,20 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     # Observing (p, ṗ) alone keeps the loop's carry small; displacements are rebuilt afterwards.
     P, V = sol.ys
     chosen = None
-    if tol is not None and estimator is not None:
-        # The step tolerance to tol too: the run's own time-integration error (estimated against
-        # its repetition at rtol / TIGHTEN) at most tol / 2, beside the basis's tol / 2; rtol and
-        # atol shrink together, by the rule global error ∝ tolerance^(2/3), until it is.
+    if tol is not None and estimator is not None:  # the step tolerances to tol too (``step_tolerances_to``)
         with_integration = dataclasses.replace(estimator, integration=True)
-        for attempt in range(STEP_TOLERANCE_ROUNDS):
-            est = with_integration.estimate(full, model, ts, P, V, solver, controller, max_steps=max_steps,
-                                            output=tip_rows)
-            if est.integration_percent <= 0.5 * tol.tol or attempt == STEP_TOLERANCE_ROUNDS - 1:
-                break
-            shrink = float(np.clip(0.7 * (0.5 * tol.tol / est.integration_percent) ** 1.5, 1e-2, 0.5))
-            rtol, atol = rtol * shrink, atol * shrink
-            controller = with_tolerances(controller, rtol, atol)
-            sol, _, run_s = simulate_timed(model, solver, controller, jnp.asarray(ts), observe=observe_state,
+
+        def estimate(c):
+            return with_integration.estimate(full, model, ts, P, V, solver, c, max_steps=max_steps, output=tip_rows)
+
+        def rerun(c):
+            nonlocal sol, run_s, P, V
+            sol, _, run_s = simulate_timed(model, solver, c, jnp.asarray(ts), observe=observe_state,
                                            progress=progress, max_steps=max_steps)
             P, V = sol.ys
-        chosen = (est, rtol, atol)
+
+        chosen, controller = step_tolerances_to(tol.tol, controller, estimate, rerun, float(np.diff(ts).min()))
+        rtol, atol = float(controller.rtol), float(controller.atol)
     w = np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(P))
     theta = np.asarray(jax.vmap(lambda t: full.motion(t)[0])(jnp.asarray(ts)))
     name = beam if isinstance(beam, str) else beam.name
@@ -358,10 +361,10 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         offline_s=dict(red.offline_s), reduction=red, spin=red.spin, basis_search=red.search,
         # With tol, the estimate made as the step tolerance was chosen (the basis's and the run's own
         # integration error); without, the run's own.
-        estimate=chosen[0] if chosen is not None else red.search.estimate if red.search is not None else
+        estimate=chosen if chosen is not None else red.search.estimate if red.search is not None else
         estimator.estimate(full, model, ts, P, V, solver, controller, max_steps=max_steps, output=tip_rows)
         if own else None,
-        step_tolerances=None if chosen is None else (rtol, atol),
+        step_tolerances=None if chosen is None else chosen_step_settings(controller),
     )
     if reference is False or reference is None:
         return res
@@ -379,10 +382,6 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
         return np.asarray(jax.vmap(lambda p: model.displacements(0.0, p))(sol.ys[0]))
 
     return res.compare_converged(full_at, repeat_at, rtol=rtol)
-
-
-STEP_TOLERANCE_ROUNDS = 4
-"""``tol``: the most runs made to bring the run's own time-integration error to ``tol`` / 2."""
 
 
 
