@@ -318,18 +318,28 @@ def test_pendulum_command(tmp_path, monkeypatch, capsys):
         chains.append((system, args, kw))
         return dataclasses.replace(pendulum_run, formulation="nr-rncf")
 
+    def fake_to_tolerance(system, tol, estimator, **kw):  # the step settings chosen: tolerances halved
+        run = fake_chain(system, tol, estimator, **kw)
+        run.step_tolerances = (float(kw["controller"].rtol) / 2, float(kw["controller"].atol) / 2)
+        return run
+
     monkeypatch.setattr(pendulum, "pendulum_to_tolerance", fake_search)
     monkeypatch.setattr(pendulum, "run_chain", fake_chain)
+    monkeypatch.setattr(pendulum, "chain_to_tolerance", fake_to_tolerance)
     calls.clear()
     assert main(argv[:-9] + ["--formulation", "nr-rncf", "--tol", "0.5", "--train-t", "0.3", "--vms", "4",
                              "--reference", "ancf", "--json"]) == 0
     (spec, tol, kw), = searches
     assert tol == 0.5 and kw["n_vms"] == 4 and kw["t_train"] == 0.3 and kw["t_end"] == 0.4
     assert _as_flags(kw) == dict(n_vms=4, t_train=0.3, t_end=0.4, rho_inf=1.0, rtol=1e-5, atol=1e-6,
-                                 step_control="plain")  # the training runs' integrator
+                                 step_control="pi")  # the training runs' integrator: the run's own
     assert chains[0][0] == "the chosen system" and [c[1].get("formulation", "ancf") for c in calls] == ["ancf"] * 2
-    assert len(chains) == 2 and chains[1][0] == "the chosen system" and chains[1][2]["estimator"] is None
+    assert len(chains) == 2 and chains[1][0] == "the chosen system" and "estimator" not in chains[1][2]
+    assert chains[0][1] == (0.5, chains[0][1][1])  # chain_to_tolerance's target: the basis's
+    # the converged comparison repeats the chain at a hundredth of the chosen tolerances
+    assert float(chains[1][2]["controller"].rtol) == pytest.approx(1e-5 / 2 / 100)
     d = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert d["step_rtol"] == pytest.approx(5e-6) and d["step_atol"] == pytest.approx(5e-7)
     assert d["tol_met"] and d["basis_chosen"] == ["φ0", "joint modes"] and d["basis_trials"][0]["dofs"] == 30
     assert "chi_rel_percent" in d
     for bad, says in ((["--tol", "0.5"], "use it with --formulation nr-rncf"),

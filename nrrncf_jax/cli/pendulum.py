@@ -62,9 +62,9 @@ error equation holds (``scenarios.pendulum.pendulum_to_tolerance``)."""
 def _run(args) -> int:
     import numpy as np
 
-    from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, adaptive_step_size, with_tolerances
+    from ..integrate import GeneralizedAlphaIndex3, adaptive_step_size, with_tolerances
     from ..scenarios.pendulum import SHAPE_TIMES, PendulumBasis, PendulumSpec, run_pendulum
-    from ..scenarios.run_record import REFERENCE_TIGHTENING
+    from ..scenarios.run_record import REFERENCE_TIGHTENING, with_step_settings
 
     spec = PendulumSpec(elements=args.elements)
     _common.say(args, f"three-beam pendulum, {spec.elements} elements a beam, {args.formulation}, "
@@ -74,26 +74,30 @@ def _run(args) -> int:
               progress=not (args.json or args.no_progress))
 
     def at(rtol, atol):  # the run's options at other tolerances, the same step control
-        return kw | dict(controller=with_tolerances(controller, rtol, atol))
+        return kw | dict(controller=with_tolerances(kw["controller"], rtol, atol))
 
     full = args.formulation in ("ancf", "rncf")
     if full:
         run = run_pendulum(spec, **kw, error_on=args.error_on,
                            **({} if args.formulation == "ancf" else {"formulation": "rncf"}))
     elif args.tol is not None:
-        from ..scenarios.pendulum import pendulum_to_tolerance, run_chain
+        from ..scenarios.pendulum import chain_to_tolerance, pendulum_to_tolerance, run_chain
 
         _common.say(args, f"basis to chi_rel <= {args.tol:g} %: trials over 0-{args.train_t:g} s ...")
-        # the training runs: the plain controller at the run's tolerances (tightened by the search)
+        # the training runs: the run's own step control at its tolerances (tightened by the search)
         search = pendulum_to_tolerance(spec, args.tol, n_vms=args.vms, t_train=args.train_t, t_end=args.t_end,
-                                       solver=kw["solver"], controller=AdaptiveStepSize(args.rtol, args.atol))
+                                       solver=kw["solver"], controller=controller)
         _common.say(args, search.describe())
+        if args.no_estimate:
+            run = run_chain(search.system, error_on=args.error_on, **kw)
+        else:  # the step settings to the same target: the run's own integration error at most tol / 2
+            run = chain_to_tolerance(search.system, args.tol, _common.estimator(args), error_on=args.error_on, **kw)
+            kw["controller"] = with_step_settings(controller, run.step_tolerances)
+        rtol, atol = float(kw["controller"].rtol), float(kw["controller"].atol)
 
         def chain_at(k, estimate):
-            return run_chain(search.system, estimator=_common.estimator(args) if estimate else None,
-                             error_on=args.error_on, **at(args.rtol / k, args.atol / k))
+            return run_chain(search.system, error_on=args.error_on, **at(rtol / k, atol / k))
 
-        run = chain_at(1.0, not args.no_estimate)
         run.search = search
     else:
         basis = PendulumBasis(args.vms, "all" if args.mds == "all" else (), joint_modes=args.joint_modes,
@@ -108,7 +112,7 @@ def _run(args) -> int:
     if args.reference is not None:
         # Against the full model converged (``RunRecord.compare_converged``): it runs at ten and at
         # one times the reference's tolerance, the reduced chain again at a hundredth of its own.
-        tight = (min(args.rtol, DEFAULTS[args.reference][0]) / REFERENCE_TIGHTENING**2
+        tight = (min(float(kw["controller"].rtol), DEFAULTS[args.reference][0]) / REFERENCE_TIGHTENING**2
                  if args.reference_rtol is None else args.reference_rtol)
         base = tight * REFERENCE_TIGHTENING**2
 

@@ -57,7 +57,7 @@ from ..multibody import (
     placed,
 )
 from ..reduction.run_error import TIGHTEN, ErrorEstimator, estimate_times
-from .run_record import RunRecord, estimate_mechanism_run, run_integrator
+from .run_record import RunRecord, chosen_step_settings, estimate_mechanism_run, run_integrator, step_tolerances_to
 
 # The C1 beam's nodal vectors at a node: r, r_x, r_y, r_xy, r_z, r_xz
 _R, _RX, _RY, _RZ, _PER_NODE = 0, 1, 2, 4, 6
@@ -449,7 +449,7 @@ class PendulumRun(RunRecord):
                 **({} if self.offline is None else {"offline_s": round(self.offline["offline_s"], 3)}),
                 **({"conditions": self.offline["conditions"]} if self.offline and "conditions" in self.offline
                    else {}),
-                **self.comparison(), **self.estimate_summary(),
+                **self.comparison(), **self.estimate_summary(), **self.step_tolerance_fields(),
                 **({} if self.search is None else self.search.summary())}
 
 
@@ -630,6 +630,32 @@ def run_chain(system: MultibodySystem | FloatingFrameSystem, t_end: float = 2.0,
     return run
 
 
+def chain_to_tolerance(system: FloatingFrameSystem, tol: float, estimator: ErrorEstimator | None = None,
+                       **options) -> PendulumRun:
+    """``run_chain(system, **options)`` with its step settings chosen to a target χ_rel of ``tol``
+    per cent (``run_record.step_tolerances_to``), for a basis chosen to ``tol`` / 2
+    (``pendulum_to_tolerance``): the run's own time-integration error, estimated by ``estimator``
+    (default the static ``ErrorEstimator()``) with its ``integration`` part, at most ``tol`` / 2,
+    the controller's tolerances tightened (or its steps limited to the output interval) until it
+    is. Returns the last run, whose ``estimate`` has both parts and ``step_tolerances`` the
+    settings it ran with."""
+    _validate.positive("tol (target chi_rel in per cent)", tol)
+    _check_estimator(estimator)
+    estimator = dataclasses.replace(ErrorEstimator() if estimator is None else estimator, integration=True)
+    solver, controller = run_integrator(options.pop("solver", None), options.pop("controller", None), 1e-4, 1e-5,
+                                        solver_type=GeneralizedAlphaIndex3)
+    last = run_chain(system, solver=solver, controller=controller, estimator=estimator, **options)
+
+    def rerun(c):
+        nonlocal last
+        last = run_chain(system, solver=solver, controller=c, estimator=estimator, **options)
+
+    _, controller = step_tolerances_to(float(tol), controller, lambda c: last.estimate, rerun,
+                                       float(np.diff(last.ts).min()))
+    last.step_tolerances = chosen_step_settings(controller)
+    return last
+
+
 def _estimate(system, full, estimator, ts, pos, state, repeat):
     """``run_chain``'s error estimate of its run (its docstring): the run's nodes ``pos`` and
     (z, ż) ``state`` at the output times ``ts``; ``repeat()`` the run at tightened tolerances
@@ -734,5 +760,5 @@ def release_sweep(system: MultibodySystem | FloatingFrameSystem, angles, t_end: 
 
 __all__ = ["CONDITIONS", "FORMULATIONS", "LEFT_END_FRAME", "LEFT_SECTION_FRAME", "MMI_RTOL", "NEWTON_TOL",
            "REFERENCE_CONDITIONS", "SHAPE_TIMES", "PendulumBasis", "PendulumRun", "PendulumSpec", "ReleaseSweep",
-           "build_pendulum", "build_reduced_pendulum", "build_rncf_pendulum", "mmi_per_body", "release_sweep",
-           "run_chain", "run_pendulum", "tip_vectors"]
+           "build_pendulum", "build_reduced_pendulum", "build_rncf_pendulum", "chain_to_tolerance", "mmi_per_body",
+           "release_sweep", "run_chain", "run_pendulum", "tip_vectors"]

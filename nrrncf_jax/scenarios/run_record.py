@@ -201,6 +201,15 @@ def chosen_step_settings(controller: AdaptiveStepSize) -> tuple:
     return (float(controller.rtol), float(controller.atol)) + ((dt_max,) if np.isfinite(dt_max) else ())
 
 
+def with_step_settings(controller: AdaptiveStepSize, settings: tuple) -> AdaptiveStepSize:
+    """``controller`` with the settings ``chosen_step_settings`` recorded: (rtol, atol) and, where
+    recorded, dt_max; its step control kept."""
+    rtol, atol, *dt_max = settings
+    controller = with_tolerances(controller, rtol, atol)
+    return eqx.tree_at(lambda c: c.dt_max, controller, jnp.asarray(dt_max[0], jnp.result_type(float))) if dt_max \
+        else controller
+
+
 def step_tolerances_to(tol: float, controller: AdaptiveStepSize, estimate: Callable, rerun: Callable,
                        dt_out: float) -> tuple:
     """The step settings of a reduced run chosen to a target χ_rel of ``tol`` per cent, beside a
