@@ -147,7 +147,8 @@ def main():
             n2 = 2 * args.samples - 1
             P_2, V_2, _, _ = _pv(res, RTOL, estimate_times(res.ts, n2))
             more = estimate_run_error(full, model, res.ts, P_2, V_2, samples=n2)
-            rep = estimate_run_error(full, model, res.ts, P_s, rtol=RTOL, atol=RTOL / 100, samples=args.samples)
+            rep = estimate_run_error(full, model, res.ts, P_s, controller=AdaptiveStepSize(RTOL, RTOL / 100),
+                                     samples=args.samples)
             P_d, V_d, _, _ = _pv(res, RTOL, estimate_times(res.ts, method="dynamic"))
             dyn = estimate_run_error(full, model, res.ts, P_d, V_d, method="dynamic")
             rows.append(dict(beam=beam, om=om, basis=label, dofs=res.dofs, same=res.chi_rel_percent,

@@ -125,8 +125,8 @@ def test_run_error_splits_basis_and_integration(spin):
     red = nr_rncf(full, jnp.asarray(TS), Basis(n_modes=12)).model
     loose = simulate(red, GA, AdaptiveStepSize(1e-3, 1e-5), jnp.asarray(TS), observe=lambda t, p, v: p)
     P = np.asarray(loose.ys)
-    est = estimate_run_error(full, red, TS, P, rtol=1e-3, atol=1e-5)
-    tighter = estimate_run_error(full, red, TS, P, rtol=1e-3, atol=1e-5, tighten=100.0)
+    est = estimate_run_error(full, red, TS, P, controller=AdaptiveStepSize(1e-3, 1e-5))
+    tighter = estimate_run_error(full, red, TS, P, controller=AdaptiveStepSize(1e-3, 1e-5), tighten=100.0)
     assert est.chi_rel_percent == pytest.approx(tighter.chi_rel_percent, rel=1e-2)
     idx = sample_indices(TS.size, 16)
     np.testing.assert_allclose(est.ts, TS[idx])
@@ -137,7 +137,7 @@ def test_run_error_splits_basis_and_integration(spin):
     assert 0.5 <= est.integration_percent / truth <= 2.0, (est.integration_percent, truth)
     assert float(chi_rel(w_ref, w_loose)) <= 1.1 * (est.chi_rel_percent + est.integration_percent)
     with pytest.raises(ValueError, match="ps must be"):
-        estimate_run_error(full, red, TS, P[:, :2], rtol=1e-3, atol=1e-5)
+        estimate_run_error(full, red, TS, P[:, :2], controller=AdaptiveStepSize(1e-3, 1e-5))
 
 
 def test_error_estimator_checks_its_fields():
@@ -191,8 +191,8 @@ def test_run_error_from_the_runs_own_step_ends(spin):
     sol = simulate(red, GA, AdaptiveStepSize(1e-3, 1e-5), jnp.asarray(TS), observe=lambda t, p, v: (p, v),
                    step_ts=stops)
     P, V = (np.asarray(y) for y in sol.ys)
-    own = estimate_run_error(full, red, TS, P, V, rtol=1e-3, atol=1e-5)
-    rep = estimate_run_error(full, red, TS, rtol=1e-3, atol=1e-5)
+    own = estimate_run_error(full, red, TS, P, V, controller=AdaptiveStepSize(1e-3, 1e-5))
+    rep = estimate_run_error(full, red, TS, controller=AdaptiveStepSize(1e-3, 1e-5))
     assert own.integration_percent is None and rep.integration_percent is None  # no ps: no run to compare
     assert own.chi_rel_percent == pytest.approx(rep.chi_rel_percent, rel=1e-2), (own.chi_rel_percent,
                                                                                  rep.chi_rel_percent)

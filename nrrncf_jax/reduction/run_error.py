@@ -18,7 +18,7 @@ So the run itself ends steps on the estimate's samples: ``estimate_times`` gives
 ``step_ts``; ``estimate_run_error`` with the run's velocities ``vs`` then estimates from the run's
 own states, at the cost of the estimate alone (a full residual and one sparse factorisation a
 sample; the run's step before each stop is cut short). Without ``vs`` it repeats the run
-(``integrate.states_at``) at ``rtol / tighten``, ending on the times, and estimates there; given
+(``integrate.states_at``) at its tolerances divided by ``tighten``, ending on the times, and estimates there; given
 the run's coordinates ``ps`` it also estimates the run's own time-integration error by its
 displacements against the repetition's at the samples (χ_rel over the samples, in
 ``ErrorEstimate.integration_percent``; the repetition's own error is about ``tighten`` times
@@ -36,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..integrate import AdaptiveStepSize, GeneralizedAlpha, states_at
+from ..integrate import AbstractStepSizeController, AdaptiveStepSize, GeneralizedAlpha, states_at, tightened
 from .error_estimate import METHODS, ErrorEstimate, estimate_error, estimate_indices, sample_indices
 
 TIGHTEN = 10.0
@@ -88,20 +88,26 @@ def _ending_on(reduced, times, solver, controller, max_steps):
     return P[len(start):], V[len(start):], compile_s, run_s, steps
 
 
-def estimate_run_error(full, reduced, ts, ps=None, vs=None, *, rho_inf: float = 0.9, rtol: float = 1e-4,
-                       atol: float = 1e-6, max_steps: int = 500_000, tighten: float = TIGHTEN,
-                       samples: int = 16, output=(), norm_rows=None, method: str = "static") -> ErrorEstimate:
+def estimate_run_error(full, reduced, ts, ps=None, vs=None, *, solver: GeneralizedAlpha | None = None,
+                       controller: AbstractStepSizeController | None = None, max_steps: int = 500_000,
+                       tighten: float = TIGHTEN, samples: int = 16, output=(), norm_rows=None,
+                       method: str = "static") -> ErrorEstimate:
     """The error of the reduced run (module docstring) over the output times ``ts``, its
-    coordinates ``ps`` and velocities ``vs`` ((len(ts), k) each) recorded there, with the
-    generalized-α settings ``rho_inf``, ``rtol``, ``atol``.
+    coordinates ``ps`` and velocities ``vs`` ((len(ts), k) each) recorded there, made with
+    ``solver`` and ``controller`` (``simulate``'s objects; default ``GeneralizedAlpha(0.9)`` and
+    ``AdaptiveStepSize(1e-4, 1e-6)``).
 
     Given ``vs``, the run must have ended its steps on ``estimate_times(ts, samples, method)``
     (its ``step_ts``): the basis's error is estimated at its own states there (``estimate_error``
     with ``output``, ``norm_rows``, ``method``), and nothing is run again. Without ``vs``, the
-    reduced model is repeated at ``rtol / tighten``, ``atol / tighten``, ending on those times,
-    the basis's error is estimated on the repetition, and, given ``ps``, the run's integration
-    error against it in ``integration_percent`` (None with ``tighten`` = 1, where the repetition
-    is no more accurate than the run). A repetition's compile and run times are in the estimate's."""
+    reduced model is repeated with the run's solver and step control, its tolerances divided by
+    ``tighten`` (``integrate.tightened``: the PI coefficients and the step limits kept), ending on
+    those times, the basis's error is estimated on the repetition, and, given ``ps``, the run's
+    integration error against it in ``integration_percent`` (None with ``tighten`` = 1, where the
+    repetition is no more accurate than the run). A repetition's compile and run times are in the
+    estimate's."""
+    solver = GeneralizedAlpha(0.9) if solver is None else solver
+    controller = AdaptiveStepSize(1e-4, 1e-6) if controller is None else controller
     _validate.positive("tighten", tighten)
     ts = np.asarray(ts, dtype=float)
     idx = estimate_indices(ts.shape[0], samples, method)
@@ -117,8 +123,7 @@ def estimate_run_error(full, reduced, ts, ps=None, vs=None, *, rho_inf: float = 
     if vs is not None:
         P, V = ps[idx], vs[idx]
     else:
-        solver, controller = GeneralizedAlpha(rho_inf), AdaptiveStepSize(rtol / tighten, atol / tighten)
-        P, V, compile_s, run_s, _ = _ending_on(reduced, ts[idx], solver, controller, max_steps)
+        P, V, compile_s, run_s, _ = _ending_on(reduced, ts[idx], solver, tightened(controller, tighten), max_steps)
     est = estimate_error(full, reduced, ts[idx], P, V, samples=idx.size, output=output, norm_rows=norm_rows,
                          method=method)
     integration = None
@@ -138,7 +143,7 @@ def estimate_own_run(full, reduced, ts, ps, vs, *, samples: int = 16, method: st
     integration)``, its coordinates ``ps`` and velocities ``vs`` recorded at ``ts``: from its own
     states where it stopped on the samples, else on a repetition (at ``rtol / TIGHTEN`` with the
     run's ``integration`` error, at the run's tolerances without). ``kwargs``: the rest of
-    ``estimate_run_error``'s settings (the run's ``rho_inf``, ``rtol``, ``atol``, ``max_steps``,
+    ``estimate_run_error``'s settings (the run's ``solver`` and ``controller``, ``max_steps``,
     ``output``, ``norm_rows``)."""
     stopped = run_step_ts(ts, samples, method, integration) is not None
     return estimate_run_error(full, reduced, ts, ps, vs if stopped else None, samples=samples, method=method,
@@ -188,13 +193,12 @@ class ErrorEstimator:
         """The estimate (``estimate_own_run``) of the run of ``reduced`` made with ``solver`` (a
         ``GeneralizedAlpha``), ``controller`` (an ``AdaptiveStepSize``) and
         ``step_ts=self.step_ts(ts)``, its coordinates ``ps`` and velocities ``vs`` recorded at the
-        output times ``ts``. A repetition runs at the solver's ρ∞ with the plain controller at
-        the controller's tolerances (divided by ``TIGHTEN`` for ``integration``). ``output``,
-        ``norm_rows``: ``estimate_error``'s."""
+        output times ``ts``. A repetition runs with the run's solver and step control, at its
+        tolerances (divided by ``TIGHTEN`` for ``integration``). ``output``, ``norm_rows``:
+        ``estimate_error``'s."""
         return estimate_own_run(full, reduced, ts, ps, vs, samples=self.samples, method=self.method,
-                                integration=self.integration, rho_inf=float(solver.rho_inf),
-                                rtol=float(controller.rtol), atol=float(controller.atol), max_steps=max_steps,
-                                output=output, norm_rows=norm_rows)
+                                integration=self.integration, solver=solver, controller=controller,
+                                max_steps=max_steps, output=output, norm_rows=norm_rows)
 
 
 __all__ = ["TIGHTEN", "ErrorEstimator", "estimate_own_run", "estimate_run_error", "estimate_times", "observe_state",
