@@ -46,11 +46,11 @@ def memory_case():
     steps = simulate(*run, observe=Observation(m, tip_deflection(m))).num_steps
 
     def loss(s, max_steps=100_000):
-        return misfit(fam, {"E": 70e9 * s}, meas, rtol=1e-6, atol=1e-9, max_steps=max_steps)
+        return misfit(fam, {"E": 70e9 * s}, meas, controller=AdaptiveStepSize(1e-6, 1e-9), max_steps=max_steps)
 
     rows = []
-    forward = lambda s: misfit(fam, {"E": 70e9 * s}, meas, rtol=1e-6, atol=1e-9, max_steps=100_000,  # noqa: E731
-                               adjoint="forward")
+    forward = lambda s: misfit(fam, {"E": 70e9 * s}, meas, controller=AdaptiveStepSize(1e-6, 1e-9),  # noqa: E731
+                               max_steps=100_000, adjoint="forward")
     for name, fn in (("forward run (misfit only)", forward),
                      ("reverse-mode gradient (checkpointed), max_steps = 100000", jax.grad(loss)),
                      ("reverse-mode gradient (checkpointed), max_steps = 20000",

@@ -32,8 +32,8 @@ _EXPORTS = {
                   "reduce_rotating_model", "vibration_modes"),
     "scenarios": ("BEAMS", "beam_preset", "run_spinup", "sweep_reduction"),
     "scenarios.truss": ("TrussSpec", "build_truss"),
-    "studies": ("Measurement", "OptimalSpinup", "SpinupFamily", "SweepGrid", "SweepResult", "identify", "misfit",
-                "offline_family", "optimal_spinup", "spinup_sweep", "sweep_grid", "tip_response"),
+    "studies": ("AdamLbfgs", "Measurement", "OptimalSpinup", "SpinupFamily", "SweepGrid", "SweepResult", "identify",
+                "misfit", "offline_family", "optimal_spinup", "spinup_sweep", "sweep_grid", "tip_response"),
 }
 """Public names by the submodule (relative to this package) that defines them."""
 

@@ -17,12 +17,12 @@ from nrrncf_jax.integrate.simulate import simulate
 from nrrncf_jax.reduction.modes import eigh
 from nrrncf_jax.scenarios import beam_preset
 from nrrncf_jax.studies.families import DegenerateModesWarning, OfflineSpinupFamily, SpinupFamily, offline_family
-from nrrncf_jax.studies.identification import Measurement, Observation, identify, misfit, tip_deflection
+from nrrncf_jax.studies.identification import AdamLbfgs, Measurement, Observation, identify, misfit, tip_deflection
 
 TS = np.linspace(0.0, 2.0, 21)
 # Fixed steps (finite differences then see no step-size changes) and tightly converged Newton
 # (the gradient differentiates the converged step equations).
-FIXED = dict(adaptive=False, dt=0.02, newton_tol=1e-5)
+FIXED = dict(controller=ConstantStepSize(0.02, rtol=1e-6, atol=1e-9), newton=Newton(1e-5))
 
 
 def _reduction(beam: str, n_el: int, omega_s=6.0, T_s=1.47):
@@ -72,13 +72,12 @@ def test_misfit_is_the_relative_mean_square_misfit(straight):
     fam = SpinupFamily.from_reduction(red, E0)
     params = {"E": 1.1 * E0, "zeta": 0.03, "omega_s": 6.3, "T_s": 1.4}
     m = fam(params)
-    sim = dict(rtol=1e-6, atol=1e-9, newton_tol=1e-5, max_steps=100_000)
     y = np.asarray(simulate(m, GeneralizedAlpha(0.9), ConstantStepSize(0.02, rtol=1e-6, atol=1e-9), jnp.asarray(TS),
                             adjoint="forward", observe=Observation(m, tip_deflection(m)), newton=Newton(1e-5),
                             max_steps=100_000).ys)
     assert np.abs(y).max() > 1e-2  # the beam deflects
-    value = float(misfit(fam, params, Measurement(TS, 2 * y), rho_inf=0.9, adaptive=False, dt=0.02, adjoint="forward",
-                         **sim))
+    value = float(misfit(fam, params, Measurement(TS, 2 * y), solver=GeneralizedAlpha(0.9), adjoint="forward",
+                         max_steps=100_000, **FIXED))
     assert value == pytest.approx(0.25, rel=1e-9)
 
 
@@ -159,7 +158,9 @@ def test_identify_rejects_bad_input_before_tracing(straight):
     with pytest.raises(ValueError, match="at least one"):
         identify(fam, meas, {})
     with pytest.raises(ValueError, match="adam_steps"):
-        identify(fam, meas, {"E": E0}, adam_steps=-1)
+        identify(fam, meas, {"E": E0}, optimizer=AdamLbfgs(adam_steps=-1))
+    with pytest.raises(ValueError, match="optimizer must be an AdamLbfgs"):
+        identify(fam, meas, {"E": E0}, optimizer={"adam_steps": 3})
     with pytest.raises(ValueError, match="unknown parameter"):
         identify(fam, meas, {"youngs": 1.0})
     with pytest.raises(ValueError, match="E must be > 0, got -1"):

@@ -21,13 +21,14 @@ def _check(args) -> None:
 
 def _identify(args) -> int:
     from ..scenarios.identification import identification_demo
+    from ..studies.identification import AdamLbfgs
 
     if not args.json:
         print(f"nrrncf identify --demo: classic beam, full RNCF measurement at omega_s = 10 rad/s with zeta = 2 %, "
               f"{100 * args.noise:g} % noise; reduced model from a start {100 * (args.start - 1):+g} % off", flush=True)
     demo = identification_demo(elements=args.elements, t_end=args.t_end, dt_out=args.dt_out, noise=args.noise,
-                               start=args.start, seed=args.seed, adam_steps=args.adam_steps,
-                               lbfgs_steps=args.lbfgs_steps,
+                               start=args.start, seed=args.seed,
+                               optimizer=AdamLbfgs(adam_steps=args.adam_steps, lbfgs_steps=args.lbfgs_steps),
                                progress=not args.no_progress)
     if args.plot:
         demo.plot(args.plot)

@@ -28,7 +28,14 @@ from ..motion import SpinUp
 from ..reduction.basis_choice import Basis
 from ..reduction.pipeline import nr_rncf
 from ..studies.families import SpinupFamily
-from ..studies.identification import IdentificationResult, Measurement, Observation, identify, tip_deflection
+from ..studies.identification import (
+    AdamLbfgs,
+    IdentificationResult,
+    Measurement,
+    Observation,
+    identify,
+    tip_deflection,
+)
 from .beams import beam_preset
 from .spinup import output_times
 
@@ -93,10 +100,11 @@ class IdentificationDemo:
 
 def identification_demo(*, elements: int = 6, omega_s: float = 10.0, T_s: float = 15.0, t_end: float = 30.0,
                         dt_out: float = 0.05, zeta: float = 0.02, noise: float = 0.01, start: float = 1.3,
-                        vms: int = 3, seed: int = 0, adam_steps: int = 15, lbfgs_steps: int = 30,
+                        vms: int = 3, seed: int = 0, optimizer: AdamLbfgs = AdamLbfgs(adam_steps=15, lbfgs_steps=30),
                         progress: bool = False) -> IdentificationDemo:
     """Run the demonstration (see the module docstring); defaults are the issue's case.
-    ``progress=True`` prints each stage and each iteration on stderr."""
+    ``optimizer``: ``identify``'s (15 Adam steps, then up to 30 of L-BFGS). ``progress=True``
+    prints each stage and each iteration on stderr."""
     for name, value in (("omega_s", omega_s), ("T_s", T_s), ("zeta", zeta), ("start", start)):
         _validate.positive(name, value)
     _validate.non_negative("noise", noise)
@@ -129,8 +137,7 @@ def identification_demo(*, elements: int = 6, omega_s: float = 10.0, T_s: float 
     measured = clean + noise * np.std(clean) * rng.standard_normal(clean.shape)
 
     initial = {"E": E0, "zeta": start * zeta}
-    result = identify(family, Measurement(ts, measured), initial, adam_steps=adam_steps, lbfgs_steps=lbfgs_steps,
-                      progress=progress)
+    result = identify(family, Measurement(ts, measured), initial, optimizer=optimizer, progress=progress)
 
     def response(params):
         m = family(params)

@@ -19,7 +19,7 @@ import optax
 
 from .._progress import note
 from .._types import Array, Float
-from ..integrate import AdaptiveStepSize, ConstantStepSize, GeneralizedAlpha, Newton
+from ..integrate import AbstractStepSizeController, AdaptiveStepSize, GeneralizedAlpha, Newton
 from ..integrate.simulate import simulate
 from ..models.observe import beam_tip
 from ..reduction.reduced_model import ReducedRotatingModel
@@ -80,6 +80,32 @@ class Observation(eqx.Module):
         return self.observable(self.model.displacements(t, p))
 
 
+@dataclasses.dataclass(frozen=True)
+class AdamLbfgs:
+    """``identify``'s optimiser: ``adam_steps`` of optax's Adam at learning rate ``adam_lr``,
+    then up to ``lbfgs_steps`` of L-BFGS (``optimize.lbfgs``: optax's direction, Armijo
+    backtracking), which stops when ‖∇u‖ < ``gtol``, when an iteration lowers the loss by less
+    than ``ftol`` (relative), or when no step along its direction lowers it. Checked when made."""
+
+    adam_steps: int = 20
+    adam_lr: float = 0.05
+    lbfgs_steps: int = 30
+    gtol: float = 1e-10
+    ftol: float = 1e-7
+
+    def __post_init__(self):
+        for name in ("adam_steps", "lbfgs_steps"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+                raise ValueError(f"AdamLbfgs.{name} must be an integer >= 0, got {value!r}")
+        if not (np.isfinite(self.adam_lr) and self.adam_lr > 0):
+            raise ValueError(f"AdamLbfgs.adam_lr must be finite and > 0, got {self.adam_lr!r}")
+        for name in ("gtol", "ftol"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"AdamLbfgs.{name} must be finite and >= 0, got {value!r}")
+
+
 @dataclasses.dataclass
 class IdentificationResult:
     """What ``identify`` found: parameters, the loss history (one entry per iteration) and cost."""
@@ -100,54 +126,50 @@ class IdentificationResult:
 
 
 def misfit(family, params: dict, measurement: Measurement, *, observable: Callable | None = None,
-           rtol: float = 1e-6, atol: float = 1e-9, rho_inf: float = 0.9, adaptive: bool = True,
-           dt: float | None = None, max_steps: int = 100_000, newton_tol: float = 1e-3, adjoint: str = "reverse"):
+           solver: GeneralizedAlpha | None = None, controller: AbstractStepSizeController | None = None,
+           newton: Newton | None = None, max_steps: int = 100_000, adjoint: str = "reverse"):
     """The relative mean-square misfit ``Σ(y(tᵢ) − yᵢ)² / Σ yᵢ²`` of the model ``family(params)``
     against ``measurement``; differentiable in ``params`` (``jax.grad``; ``adjoint="reverse"``
     runs the checkpointed integrator). ``observable`` maps the displacements w = q − q̂ to one
-    sample (default: the in-plane tip deflection). ``adaptive=False`` takes fixed steps ``dt``
-    (then finite differences of the misfit see no step-size changes)."""
+    sample (default: the in-plane tip deflection). ``solver``, ``controller``, ``newton``:
+    ``simulate``'s (default ``GeneralizedAlpha(0.9)``, ``AdaptiveStepSize(1e-6, 1e-9)``,
+    ``Newton(1e-3)``); a ``ConstantStepSize`` takes fixed steps, so that finite differences of
+    the misfit see no step-size changes."""
+    solver = GeneralizedAlpha(0.9) if solver is None else solver
+    controller = AdaptiveStepSize(1e-6, 1e-9) if controller is None else controller
+    newton = Newton(1e-3) if newton is None else newton
     ts = measurement.ts  # NumPy: stays concrete inside a trace (the integrator checks it and sizes dt0 from it)
     data = jnp.asarray(measurement.values)
     observable = tip_deflection(family.template) if observable is None else observable
     model = family(params)
-    if adaptive:
-        controller = AdaptiveStepSize(rtol, atol, dt0=dt)
-    elif dt is None:
-        raise ValueError("adaptive=False needs a step size dt")
-    else:
-        controller = ConstantStepSize(dt, rtol=rtol, atol=atol)
-    y = simulate(model, GeneralizedAlpha(rho_inf), controller, ts, adjoint=adjoint, max_steps=max_steps,
-                 newton=Newton(newton_tol), observe=Observation(model, observable)).ys
+    y = simulate(model, solver, controller, ts, adjoint=adjoint, max_steps=max_steps, newton=newton,
+                 observe=Observation(model, observable)).ys
     return jnp.sum((y - data) ** 2) / jnp.sum(data**2)
 
 
 def identify(family, measurement: Measurement, initial: dict, *, observable: Callable | None = None,
-             adam_steps: int = 20, adam_lr: float = 0.05, lbfgs_steps: int = 30, gtol: float = 1e-10,
-             ftol: float = 1e-7, progress: bool = False, **simulation) -> IdentificationResult:
+             optimizer: AdamLbfgs = AdamLbfgs(), progress: bool = False, **simulation) -> IdentificationResult:
     """Fit the parameters named in ``initial`` (a dict, e.g. ``{"E": 9e10, "zeta": 0.03}``) by
-    minimising ``misfit`` (``simulation``: its keyword arguments, e.g. ``rtol``).
+    minimising ``misfit`` (``simulation``: its keyword arguments, e.g. ``controller``).
 
     Parameters are optimised as ``u = log(x / x_initial)`` (positive by construction, all of
-    order one): ``adam_steps`` of Adam, then up to ``lbfgs_steps`` of L-BFGS (``optimize.lbfgs``:
-    optax's direction, Armijo backtracking; a trial point where the simulation fails shortens the
-    step), stopping when ‖∇u‖ < ``gtol`` or an iteration lowers the loss by less than ``ftol``
-    (relative), or when no step along the direction lowers it. ``wall_s`` includes
-    ``compile_s``. Gradients are reverse-mode through the checkpointed integrator; the
-    step-size control is not differentiated (each step's Newton solve is, implicitly).
+    order one) by ``optimizer`` (an ``AdamLbfgs``: Adam, then L-BFGS whose trial points where the
+    simulation fails shorten the step). ``wall_s`` includes ``compile_s``. Gradients are
+    reverse-mode through the checkpointed integrator; the step-size control is not
+    differentiated (each step's Newton solve is, implicitly).
     A non-finite loss or gradient stops it with ``FloatingPointError`` naming the parameters
     (at an L-BFGS trial point it shortens the step instead).
     ``progress=True`` prints the compilation and each iteration (loss, parameters) on stderr.
     """
+    if not isinstance(optimizer, AdamLbfgs):
+        raise ValueError(f"optimizer must be an AdamLbfgs, got {type(optimizer).__name__}")
+    adam_steps, lbfgs_steps = optimizer.adam_steps, optimizer.lbfgs_steps
     if not isinstance(measurement, Measurement):
         raise ValueError("measurement must be a Measurement(ts, values)")
     if not initial:
         raise ValueError("initial must name at least one parameter to identify")
     allowed = OFFLINE_PARAMETERS if isinstance(family, OfflineSpinupFamily) else PARAMETERS
     check_params(initial, allowed)
-    for name, value in (("adam_steps", adam_steps), ("lbfgs_steps", lbfgs_steps)):
-        if int(value) < 0:
-            raise ValueError(f"{name} must be >= 0")
     names = tuple(sorted(initial))
     x0 = jnp.asarray([float(initial[k]) for k in names])
     data = jnp.asarray(measurement.values)
@@ -178,7 +200,7 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
         return value, grad, None
 
     history, evals = [], 0
-    adam = optax.adam(adam_lr)
+    adam = optax.adam(optimizer.adam_lr)
     state = adam.init(u)
     for i in range(int(adam_steps)):
         value, grad, _ = evaluate(u)
@@ -194,7 +216,8 @@ def identify(family, measurement: Measurement, initial: dict, *, observable: Cal
 
     value, grad, _ = evaluate(u)
     evals += 1
-    run = lbfgs(evaluate, u, value, grad, max_iterations=int(lbfgs_steps), gtol=gtol, ftol=ftol, on_step=on_step)
+    run = lbfgs(evaluate, u, value, grad, max_iterations=int(lbfgs_steps), gtol=optimizer.gtol, ftol=optimizer.ftol,
+                on_step=on_step)
     u, evals, n_lbfgs = run.x, evals + run.evaluations, run.iterations
     x = np.asarray(x0 * jnp.exp(u))
     return IdentificationResult(
