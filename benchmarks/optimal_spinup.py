@@ -12,6 +12,7 @@ profiles are then run once on the full RNCF model to check that the optimum carr
 """
 
 import argparse
+import dataclasses
 import os
 import sys
 import time
@@ -28,7 +29,7 @@ from nrrncf_jax.integrate import AdaptiveStepSize  # noqa: E402
 from nrrncf_jax.models.observe import tip_index  # noqa: E402
 from nrrncf_jax.reduction.pipeline import nr_rncf  # noqa: E402
 from nrrncf_jax.scenarios.spinup import build_spinup_model  # noqa: E402
-from nrrncf_jax.studies.control import optimal_spinup, residual_amplitude, tip_response  # noqa: E402
+from nrrncf_jax.studies.control import OPTIMIZER, optimal_spinup, residual_amplitude, tip_response  # noqa: E402
 
 
 def _log(msg):
@@ -55,8 +56,8 @@ def main(argv=None):
     _log(f"NR-RNCF basis: {a.elements} elements, ωs = {a.omega}, Ts = {a.ts}, 0-{a.t_end} s")
     red = nr_rncf(full, jnp.asarray(ts))
     _log(f"  {red.dofs} DOFs ({red.n_vms} VMs + {red.n_mds} MDs), offline {red.offline_s['total']:.1f} s")
-    res = optimal_spinup(red.model, a.omega, a.ts, a.t_end, n_terms=a.terms, steps=a.adam, lbfgs_steps=a.lbfgs,
-                         tip=tip, dt_out=a.dt_out, verbose=True)
+    res = optimal_spinup(red.model, a.omega, a.ts, a.t_end, n_terms=a.terms, tip=tip, dt_out=a.dt_out, verbose=True,
+                         optimizer=dataclasses.replace(OPTIMIZER, adam_steps=a.adam, lbfgs_steps=a.lbfgs))
     _log(res.table())
 
     _log("full RNCF check of both profiles")

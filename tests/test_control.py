@@ -2,6 +2,8 @@
 Eq. 43 at zero coefficients), the gradient of the residual objective against finite differences,
 and a short optimisation that beats Eq. 43."""
 
+import dataclasses
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -13,7 +15,7 @@ from nrrncf_jax import RotatingFrameModel, SpinUp, reduce_rotating_model, vibrat
 from nrrncf_jax.integrate import ConstantStepSize, Newton
 from nrrncf_jax.models.observe import tip_index, tip_observer
 from nrrncf_jax.motion.profiles import FourierSpinUp
-from nrrncf_jax.studies.control import optimal_spinup, residual_amplitude, residual_mean_square, tip_response
+from nrrncf_jax.studies.control import OPTIMIZER, optimal_spinup, residual_amplitude, residual_mean_square, tip_response
 
 OMEGA_S, T_S, T_END = 1.0, 3.0, 5.0  # a short manoeuvre; still tip deflections of ~0.8 m
 # fixed steps: finite differences must not see step choices
@@ -148,7 +150,8 @@ def test_objective_gradient_matches_finite_differences(tiny):
 @pytest.mark.xdist_group("control_tiny")
 def test_short_optimisation_beats_eq43(tiny):
     full, model, tip = tiny
-    r = optimal_spinup(model, OMEGA_S, T_S, T_END, n_terms=2, steps=2, lbfgs_steps=4, tip=tip, **FIXED)
+    r = optimal_spinup(model, OMEGA_S, T_S, T_END, n_terms=2, tip=tip, **FIXED,
+                       optimizer=dataclasses.replace(OPTIMIZER, adam_steps=2, lbfgs_steps=4))
     assert r.amplitude_baseline > 1e-4  # Eq. 43 leaves a measurable residual on this short manoeuvre
     assert r.rms_optimal < 0.3 * r.rms_baseline
     assert r.amplitude_optimal < 0.5 * r.amplitude_baseline
@@ -169,8 +172,10 @@ def test_optimal_spinup_input_errors(tiny):
         optimal_spinup(model, OMEGA_S, T_S, T_S, tip=tip)
     with pytest.raises(ValueError, match="grad"):
         optimal_spinup(model, OMEGA_S, T_S, T_END, tip=tip, grad="sideways")
-    with pytest.raises(ValueError, match="steps"):
-        optimal_spinup(model, OMEGA_S, T_S, T_END, tip=tip, steps=-1)
+    with pytest.raises(ValueError, match="adam_steps"):
+        optimal_spinup(model, OMEGA_S, T_S, T_END, tip=tip, optimizer=dataclasses.replace(OPTIMIZER, adam_steps=-1))
+    with pytest.raises(ValueError, match="optimizer must be"):
+        optimal_spinup(model, OMEGA_S, T_S, T_END, tip=tip, optimizer={"adam_steps": 2})
     with pytest.raises(ValueError, match="omega_s"):
         optimal_spinup(model, -1.0, T_S, T_END, tip=tip)
     with pytest.raises(ValueError, match="tip"):

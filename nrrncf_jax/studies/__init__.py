@@ -37,10 +37,10 @@ from .control import optimal_spinup as optimal_spinup
 from .control import tip_response as tip_response
 from .families import SpinupFamily as SpinupFamily
 from .families import offline_family as offline_family
-from .identification import AdamLbfgs as AdamLbfgs
 from .identification import Measurement as Measurement
 from .identification import identify as identify
 from .identification import misfit as misfit
+from .optimize import AdamLbfgs as AdamLbfgs
 from .sweep import SweepGrid as SweepGrid
 from .sweep import SweepResult as SweepResult
 from .sweep import spinup_sweep as spinup_sweep

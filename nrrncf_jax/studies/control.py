@@ -26,7 +26,7 @@ from ..integrate.simulate import simulate
 from ..models.observe import TipObserver, tip_observer
 from ..motion import SpinUp
 from ..motion.profiles import FourierSpinUp
-from .optimize import lbfgs
+from .optimize import AdamLbfgs, lbfgs
 
 
 def tip_response(model, motion, ts, *, solver: AbstractSolver | None = None,
@@ -104,9 +104,14 @@ def peak_acceleration(motion, T_s, n: int = 2001) -> float:
     return float(jnp.max(jnp.abs(motion(jnp.linspace(0.0, T_s, n))[2])))
 
 
-def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int = 4, steps: int = 20, *,
-                   lbfgs_steps: int = 10, tip: int | None = None, dt_out: float = 0.05,
-                   learning_rate: float = 0.005, smoothness: float = 0.0, init: FourierSpinUp | None = None,
+OPTIMIZER = AdamLbfgs(adam_steps=20, adam_lr=0.005, lbfgs_steps=10, gtol=0.0, ftol=None)
+"""``optimal_spinup``'s optimiser: 20 Adam steps from a learning rate of 0.005, then up to 10
+L-BFGS iterations, which stop only when no step lowers the loss."""
+
+
+def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int = 4, *,
+                   optimizer: AdamLbfgs = OPTIMIZER, tip: int | None = None, dt_out: float = 0.05,
+                   smoothness: float = 0.0, init: FourierSpinUp | None = None,
                    grad: str = "reverse", controller: AbstractStepSizeController | None = None,
                    max_steps: int = 20_000, verbose: bool = False) -> OptimalSpinup:
     """Find the spin-up to ``omega_s`` within ``T_s`` with the least residual tip vibration.
@@ -120,10 +125,12 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
         J(x) = mean_{t ≥ Ts} uy(t)² / (the same for Eq. 43) + smoothness · mean_{[0,Ts]}(θ̈ − θ̈_Eq.43)² / (ωs/Ts)²
 
     with respect to x = coefficients / (ωs/Ts). The second term (off by default) penalises the
-    departure from Eq. 43, should the optimum need large accelerations. ``steps`` Adam iterations
-    (``learning_rate`` cosine-decayed to 5 %) are followed by up to ``lbfgs_steps`` L-BFGS
-    iterations (``optimize.lbfgs``: optax's direction, Armijo backtracking, a trial point whose
-    simulation fails shortening the step) from the best Adam iterate: the residual vibration is
+    departure from Eq. 43, should the optimum need large accelerations. ``optimizer`` (an
+    ``optimize.AdamLbfgs``, default ``OPTIMIZER``): its ``adam_steps`` Adam iterations (the
+    learning rate ``adam_lr`` cosine-decayed to 5 % over them) are followed by up to its
+    ``lbfgs_steps`` L-BFGS iterations (``optimize.lbfgs``: optax's direction, Armijo
+    backtracking, a trial point whose simulation fails shortening the step, its ``gtol`` and
+    ``ftol``) from the best Adam iterate: the residual vibration is
     nearly linear in θ̈, so J is nearly quadratic in x, where quasi-Newton converges fast.
     ``grad='reverse'`` differentiates the checkpointed loop (``simulate(adjoint='reverse')``;
     memory grows with ``max_steps``), ``'forward'`` pushes 2·n_terms tangents (constant memory,
@@ -138,11 +145,11 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
     _validate.positive("T_s (spin-up time)", T_s)
     _validate.positive("t_end", t_end)
     _validate.positive("dt_out", dt_out)
-    _validate.positive("learning_rate", learning_rate)
+    if not isinstance(optimizer, AdamLbfgs):
+        raise ValueError(f"optimizer must be an optimize.AdamLbfgs, got {type(optimizer).__name__}")
     _validate.non_negative("smoothness", smoothness)
     n_terms = _validate.positive_int("n_terms", n_terms)
-    steps = _non_negative_int("steps", steps)
-    lbfgs_steps = _non_negative_int("lbfgs_steps", lbfgs_steps)
+    steps, lbfgs_steps = optimizer.adam_steps, optimizer.lbfgs_steps
     if t_end <= T_s:
         raise ValueError(f"t_end must be after the manoeuvre ends (T_s = {T_s}), got t_end = {t_end}")
     if grad not in ("reverse", "forward"):
@@ -218,7 +225,7 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
         x = jnp.asarray(init.coeffs) / scale
         val, g, tip_u = evaluate(x)
     record(x, val, g, tip_u, "start")
-    opt = optax.adam(optax.cosine_decay_schedule(learning_rate, max(steps, 1), alpha=0.05))
+    opt = optax.adam(optax.cosine_decay_schedule(optimizer.adam_lr, max(steps, 1), alpha=0.05))
     state = opt.init(x)
     for _ in range(steps):
         upd, state = opt.update(g, state, x)
@@ -228,8 +235,8 @@ def optimal_spinup(model, omega_s: float, T_s: float, t_end: float, n_terms: int
     if lbfgs_steps:  # from the best Adam iterate, reusing the one compiled function (optimize.lbfgs)
         x = best["x"]
         val, g, _ = evaluate(x) if steps else (val, g, None)
-        lbfgs(evaluate, x, val, g, max_iterations=lbfgs_steps, max_tries=_MAX_HALVINGS,
-              on_step=lambda i, x, val, g, tip_u: record(x, val, g, tip_u, "lbfgs"))
+        lbfgs(evaluate, x, val, g, max_iterations=lbfgs_steps, gtol=optimizer.gtol, ftol=optimizer.ftol,
+              max_tries=_MAX_HALVINGS, on_step=lambda i, x, val, g, tip_u: record(x, val, g, tip_u, "lbfgs"))
     wall_s = time.perf_counter() - t0
 
     profile = FourierSpinUp(omega_s, T_s, scale * best["x"])

@@ -24,7 +24,7 @@ from ..integrate.simulate import simulate
 from ..models.observe import beam_tip
 from ..reduction.reduced_model import ReducedRotatingModel
 from .families import OFFLINE_PARAMETERS, PARAMETERS, OfflineSpinupFamily, check_params
-from .optimize import lbfgs
+from .optimize import AdamLbfgs, lbfgs
 
 
 class Measurement:
@@ -78,32 +78,6 @@ class Observation(eqx.Module):
 
     def __call__(self, t, p, v):
         return self.observable(self.model.displacements(t, p))
-
-
-@dataclasses.dataclass(frozen=True)
-class AdamLbfgs:
-    """``identify``'s optimiser: ``adam_steps`` of optax's Adam at learning rate ``adam_lr``,
-    then up to ``lbfgs_steps`` of L-BFGS (``optimize.lbfgs``: optax's direction, Armijo
-    backtracking), which stops when ‖∇u‖ < ``gtol``, when an iteration lowers the loss by less
-    than ``ftol`` (relative), or when no step along its direction lowers it. Checked when made."""
-
-    adam_steps: int = 20
-    adam_lr: float = 0.05
-    lbfgs_steps: int = 30
-    gtol: float = 1e-10
-    ftol: float = 1e-7
-
-    def __post_init__(self):
-        for name in ("adam_steps", "lbfgs_steps"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-                raise ValueError(f"AdamLbfgs.{name} must be an integer >= 0, got {value!r}")
-        if not (np.isfinite(self.adam_lr) and self.adam_lr > 0):
-            raise ValueError(f"AdamLbfgs.adam_lr must be finite and > 0, got {self.adam_lr!r}")
-        for name in ("gtol", "ftol"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"AdamLbfgs.{name} must be finite and >= 0, got {value!r}")
 
 
 @dataclasses.dataclass

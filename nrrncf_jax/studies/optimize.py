@@ -54,6 +54,33 @@ class LbfgsRun:
     stop: str
 
 
+@dataclasses.dataclass(frozen=True)
+class AdamLbfgs:
+    """The gradient studies' optimiser (``identification.identify``, ``control.optimal_spinup``):
+    ``adam_steps`` of optax's Adam at learning rate ``adam_lr``, then up to ``lbfgs_steps`` of
+    L-BFGS (``lbfgs``: optax's direction, Armijo backtracking), which stops when ‖∇x‖ < ``gtol``,
+    when an iteration lowers the loss by less than ``ftol`` (relative; None: never), or when no
+    step along its direction lowers it. Checked when made."""
+
+    adam_steps: int = 20
+    adam_lr: float = 0.05
+    lbfgs_steps: int = 30
+    gtol: float = 1e-10
+    ftol: float | None = 1e-7
+
+    def __post_init__(self):
+        for name in ("adam_steps", "lbfgs_steps"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+                raise ValueError(f"AdamLbfgs.{name} must be an integer >= 0, got {value!r}")
+        if not (np.isfinite(self.adam_lr) and self.adam_lr > 0):
+            raise ValueError(f"AdamLbfgs.adam_lr must be finite and > 0, got {self.adam_lr!r}")
+        for name in ("gtol", "ftol"):
+            value = getattr(self, name)
+            if not (value is None and name == "ftol") and not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"AdamLbfgs.{name} must be finite and >= 0, got {value!r}")
+
+
 def armijo_backtracking(evaluate: Evaluate, x, value: float, step, slope: float, *, c1: float = 1e-4,
                         shrink: float = 0.5, max_tries: int = 20):
     """The step length of a line search by Armijo backtracking: the first ``α = shrink^k``
