@@ -20,6 +20,7 @@ import pytest
 from conftest import FAST_COMPILE_FLAGS, paper_body
 
 from nrrncf_jax.cli import main
+from nrrncf_jax.integrate import GeneralizedAlphaIndex3
 from nrrncf_jax.scenarios.spinup import sweep_reduction
 from nrrncf_jax.studies.sweep import (
     SweepGrid,
@@ -87,7 +88,8 @@ _SUBPROCESS = textwrap.dedent("""
     from nrrncf_jax.studies.sweep import spinup_sweep, sweep_grid
     model = pickle.load(open(sys.argv[1], "rb"))
     grid = sweep_grid({omega}, {ts}, {e})
-    kw = dict(t_end={t_end}, dt_out={dt_out}, dt=0.01)
+    from nrrncf_jax.integrate import ConstantStepSize
+    kw = dict(t_end={t_end}, dt_out={dt_out}, controller=ConstantStepSize(0.01))
     one = spinup_sweep(model, grid, devices=1, lanes=2, **kw)  # 6 cases queue for 2 lanes
     four = spinup_sweep(model, grid, devices=4, **kw)
     print(json.dumps(dict(device_count=jax.device_count(), x64=jax.config.jax_enable_x64, devices=four.devices,
@@ -173,7 +175,8 @@ def test_bad_input_raises_before_tracing(monkeypatch):
         (dict(t_end=T_END, devices=0), "devices"),
         (dict(t_end=T_END, lanes=0), "lanes"),
         (dict(t_end=T_END, balance="random"), "balance"),
-        (dict(t_end=T_END, dt=-0.01), "dt"),
+        (dict(t_end=T_END, controller="adaptive"), "controller must be"),
+        (dict(t_end=T_END, solver=GeneralizedAlphaIndex3(0.9)), "solver must be"),
         (dict(t_end=T_END, tip=10_000), "tip"),
         (dict(t_end=T_END, small_kernels="yes"), "small_kernels"),
     ]:

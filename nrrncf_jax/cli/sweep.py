@@ -123,6 +123,7 @@ def _sweep(args) -> int:
     primary = jax.process_index() == 0  # the process that prints and writes
 
     from .._progress import note
+    from ..integrate import AdaptiveStepSize
     from ..scenarios import beam_preset
     from ..scenarios.spinup import sweep_reduction
     from ..studies.sweep import spinup_sweep, sweep_grid
@@ -150,7 +151,8 @@ def _sweep(args) -> int:
         cases = shard_indices(grid.expected_cost(), *shard)
         note(progress, f"shard {shard[0]}/{shard[1]}: cases {cases.tolist()}")
     res = spinup_sweep(red, grid if cases is None else grid.subset(cases), t_end=args.t_end, dt_out=args.dt_out,
-                       rtol=args.rtol, devices=args.devices, time_single=True, progress=progress)
+                       controller=AdaptiveStepSize(args.rtol, 1e-6), devices=args.devices, time_single=True,
+                       progress=progress)
     if cases is not None:
         res.case_index, res.cases_total = cases, grid.cases
     if not primary:

@@ -49,7 +49,7 @@ import numpy as np
 from .. import _validate
 from .._progress import note
 from .._validate import parse_range as parse_range  # the CLI's grid syntax, checked without JAX
-from ..integrate import AbstractStepSizeController, AdaptiveStepSize, ConstantStepSize, GeneralizedAlpha
+from ..integrate import AbstractStepSizeController, AdaptiveStepSize, GeneralizedAlpha
 from ..integrate.results import SimulationError, result_message
 from ..integrate.simulate import (
     SMALL_KERNEL_OPTIONS,
@@ -165,25 +165,35 @@ def case_model(model: ReducedRotatingModel, omega_s, T_s, E_scale=1.0) -> Reduce
 
 # --- the kernel ---------------------------------------------------------------------------------
 
+def _integration(solver, controller, ts) -> tuple:
+    """A sweep's ``(solver, controller)``, checked before anything is traced: defaults
+    ``GeneralizedAlpha(0.9)`` and ``AdaptiveStepSize(1e-4, 1e-6)``. An adaptive controller
+    without a first step starts every case at a thousandth of the run (``dt0``), so that the
+    cases, which differ in their motion only, start alike."""
+    solver = GeneralizedAlpha(0.9) if solver is None else solver
+    controller = AdaptiveStepSize(1e-4, 1e-6) if controller is None else controller
+    if not isinstance(solver, GeneralizedAlpha):
+        raise ValueError(f"solver must be an integrate.GeneralizedAlpha (the spin-up has no joints), got "
+                         f"{type(solver).__name__}")
+    if not isinstance(controller, AbstractStepSizeController):
+        raise ValueError(f"controller must be an integrate step-size controller (AdaptiveStepSize, ConstantStepSize), "
+                         f"got {type(controller).__name__}")
+    if isinstance(controller, AdaptiveStepSize) and controller.dt0 is None:
+        controller = AdaptiveStepSize(controller.rtol, controller.atol, dt0=1e-3 * float(ts[-1]),
+                                      dt_min=controller.dt_min, dt_max=controller.dt_max, pcoeff=controller.pcoeff,
+                                      icoeff=controller.icoeff)
+    return solver, controller
+
+
 @dataclasses.dataclass(frozen=True)
 class _Config:
-    """Static settings of the compiled sweep (hashable: part of the jit cache key)."""
+    """Static settings of the compiled sweep (hashable: part of the jit cache key); the solver and
+    the step-size controller travel as arguments."""
 
-    rtol: float
-    atol: float
-    dt0: float
-    rho_inf: float
     max_steps: int
-    adaptive: bool
     tip: int
     scale_E: bool
     lanes: int
-
-    def controller(self) -> AbstractStepSizeController:
-        """The cases' step-size controller."""
-        if self.adaptive:
-            return AdaptiveStepSize(self.rtol, self.atol, dt0=self.dt0)
-        return ConstantStepSize(self.dt0, rtol=self.rtol, atol=self.atol)
 
 
 def _case(model, scale_E: bool, p):
@@ -192,23 +202,24 @@ def _case(model, scale_E: bool, p):
     return case_model(model, omega_s, T_s, E_scale if scale_E else 1.0)
 
 
-def _local_sweep(model, omega_s, T_s, E_scale, ts, cfg):
+def _local_sweep(model, solver, controller, omega_s, T_s, E_scale, ts, cfg):
     """The cases of one device, in its queue's order: one batched loop of ``cfg.lanes`` lanes."""
     sol = simulate_batch(jax.tree_util.Partial(_case, model, cfg.scale_E), (omega_s, T_s, E_scale),
-                         GeneralizedAlpha(cfg.rho_inf), cfg.controller(), ts, width=cfg.lanes, max_steps=cfg.max_steps,
+                         solver, controller, ts, width=cfg.lanes, max_steps=cfg.max_steps,
                          observe=tip_observer(model, cfg.tip), throw=False)
     return dict(tip=sol.ys, steps=sol.num_steps, rejected=sol.num_rejected, newton=sol.num_newton,
                 result=sol.code, t_final=sol.t_final)
 
 
-def _sweep_program(model, omega_s, T_s, E_scale, ts, cfg: _Config, mesh):
+def _sweep_program(integration, omega_s, T_s, E_scale, ts, cfg: _Config, mesh):
+    """``integration``: (model, solver, controller), replicated on every device."""
     from jax import shard_map
     from jax.sharding import PartitionSpec as P
 
-    dyn, static = eqx.partition(model, eqx.is_array)
+    dyn, static = eqx.partition(integration, eqx.is_array)
 
     def local(dyn, w, T, E, ts):
-        return _local_sweep(eqx.combine(dyn, static), w, T, E, ts, cfg)
+        return _local_sweep(*eqx.combine(dyn, static), w, T, E, ts, cfg)
 
     # Each device runs its own loop on its block; nothing crosses devices until the results.
     f = shard_map(local, mesh=mesh, in_specs=(P(), P(_AXIS), P(_AXIS), P(_AXIS), P()), out_specs=P(_AXIS),
@@ -444,8 +455,9 @@ def _as_model(model_or_reduction) -> ReducedRotatingModel:
     return m
 
 
-def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: float = 0.01, rtol: float = 1e-4,
-                 atol: float = 1e-6, rho_inf: float = 0.9, dt: float | None = None, max_steps: int = 500_000,
+def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: float = 0.01,
+                 solver: GeneralizedAlpha | None = None, controller: AbstractStepSizeController | None = None,
+                 max_steps: int = 500_000,
                  devices: int | Sequence | None = None, lanes: int | None = None, balance: str = "blocks",
                  tip: int | None = None, time_single: bool = False, small_kernels: bool = True,
                  throw: bool = True, progress: bool = False) -> SweepResult:
@@ -453,14 +465,15 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
 
     ``model_or_reduction``: a ``ReducedRotatingModel`` (or the ``Reduction`` from ``nr_rncf``);
     its basis is held fixed across the grid, only the motion and E change (``case_model``).
-    Outputs at 0, ``dt_out``, ..., ``t_end``; each case keeps its own adaptive step
-    (``rtol``/``atol``, generalized-α with ``rho_inf``). ``devices``: a count or a list of
+    Outputs at 0, ``dt_out``, ..., ``t_end``; every case integrated with ``solver`` and
+    ``controller`` (``_integration``: default ``GeneralizedAlpha(0.9)`` and
+    ``AdaptiveStepSize(1e-4, 1e-6)``; a ``ConstantStepSize`` takes fixed steps, every case then
+    the same ones), each keeping its own adaptive step. ``devices``: a count or a list of
     devices (default: every device JAX sees); with more than one the batch is split by
     ``shard_map`` and ``balance`` (see ``schedule``). ``lanes``: cases each device's batched loop
     advances together (``simulate_batch``'s ``width``); the device's other cases wait in a queue
     and take the lane of a case that ends (default ``integrate.batch_lanes``: all of a device's
     cases at once on an accelerator, at most ``integrate.CPU_BATCH_LANES`` on a CPU).
-    ``dt``: a fixed step size instead of the adaptive step (every case then takes the same steps).
 
     Results do not depend on the device count beyond round-off: XLA may sum a batched
     contraction in another order for another local batch shape or partitioning, and the
@@ -483,9 +496,7 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     ts = _validate.output_times(t_end, dt_out)
     if ts.size < 2:
         raise ValueError(f"t_end={t_end!r} must be at least one output interval dt_out={dt_out!r}")
-    _validate.tolerances(rtol, atol)
-    if not 0.0 <= float(rho_inf) <= 1.0:
-        raise ValueError(f"rho_inf must lie in [0, 1], got rho_inf={rho_inf!r}")
+    solver, controller = _integration(solver, controller, ts)
     max_steps = _validate.positive_int("max_steps", max_steps)
     if balance not in BALANCES:
         raise ValueError(f"balance must be one of {BALANCES}, got {balance!r}")
@@ -496,8 +507,6 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
         raise ValueError(f"tip must index one of the model's {n_vec} nodal vectors, got tip={tip}")
     devs = _resolve_devices(devices)
 
-    if dt is not None:
-        _validate.positive("dt (fixed step size)", dt)
     n_dev = len(devs)
     per_dev = -(-grid.cases // n_dev)
     # One lane policy for every batched loop (``integrate.batch_lanes``): all of a device's cases
@@ -505,9 +514,7 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
     # it costs alone and what wider batches add is padding.
     c = batch_lanes(per_dev, None if lanes is None else _validate.positive_int("lanes", lanes),
                     platform=devs[0].platform)
-    cfg = _Config(rtol=float(rtol), atol=float(atol), dt0=1e-3 * float(ts[-1]) if dt is None else float(dt),
-                  rho_inf=float(rho_inf), max_steps=max_steps, adaptive=dt is None, tip=tip,
-                  scale_E=bool(np.any(grid.E_scale != 1.0)), lanes=c)
+    cfg = _Config(max_steps=max_steps, tip=tip, scale_E=bool(np.any(grid.E_scale != 1.0)), lanes=c)
     order = schedule(grid.expected_cost(), n_dev, balance)
     params = [x[order] for x in (grid.omega_s, grid.T_s, grid.E_scale)]
     # One device is a mesh of one: a single code path whatever the device count.
@@ -523,8 +530,8 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
         model = eqx.combine(multihost_utils.broadcast_one_to_all(arrays), static)
     mesh = Mesh(np.array(devs), (_AXIS,))
     rep, split = NamedSharding(mesh, P()), NamedSharding(mesh, P(_AXIS))
-    model_r = jax.tree_util.tree_map(lambda x: _put(x, rep) if eqx.is_array(x) else x, model)
-    args = (model_r, *(_put(x, split) for x in params), _put(ts, rep))
+    integration = jax.tree_util.tree_map(lambda x: _put(x, rep) if eqx.is_array(x) else x, (model, solver, controller))
+    args = (integration, *(_put(x, split) for x in params), _put(ts, rep))
 
     note(progress, f"sweep: compiling the batched loop ({grid.cases} cases on {n_dev} {devs[0].platform.upper()} "
                    f"device(s), {c} lanes each) ...")
@@ -560,25 +567,25 @@ def spinup_sweep(model_or_reduction, grid: SweepGrid, *, t_end: float, dt_out: f
         note(progress, f"sweep: the slowest case (case {i}, omega_s = {grid.omega_s[i]:g} rad/s) alone, for "
                        "comparison (compile and run) ...")
         sol, c_s, r_s = single_run(model, grid.omega_s[i], grid.T_s[i], grid.E_scale[i], t_end=t_end, dt_out=dt_out,
-                                   rtol=rtol, atol=atol, rho_inf=rho_inf, dt=dt, max_steps=max_steps, tip=tip,
-                                   timed=True)
+                                   solver=solver, controller=controller, max_steps=max_steps, tip=tip, timed=True)
         res.single_case, res.single_s, res.single_compile_s = i, r_s, c_s
         res.single_steps = int(sol.num_steps)
     return res
 
 
 def single_run(model_or_reduction, omega_s: float, T_s: float, E_scale: float = 1.0, *, t_end: float,
-               dt_out: float = 0.01, rtol: float = 1e-4, atol: float = 1e-6, rho_inf: float = 0.9,
-               dt: float | None = None, max_steps: int = 500_000, tip: int | None = None, timed: bool = False):
-    """One case of a sweep run alone, exactly as the sweep runs it: the ``Solution`` (``ys`` the
-    tip displacement series); with ``timed=True``, ``(solution, compile_s, run_s)``."""
+               dt_out: float = 0.01, solver: GeneralizedAlpha | None = None,
+               controller: AbstractStepSizeController | None = None, max_steps: int = 500_000,
+               tip: int | None = None, timed: bool = False):
+    """One case of a sweep run alone, exactly as the sweep runs it (``solver``, ``controller``:
+    ``spinup_sweep``'s): the ``Solution`` (``ys`` the tip displacement series); with
+    ``timed=True``, ``(solution, compile_s, run_s)``."""
 
     model = _as_model(model_or_reduction)
     ts = _validate.output_times(t_end, dt_out)
     m = case_model(model, jnp.asarray(float(omega_s)), jnp.asarray(float(T_s)),
                    1.0 if float(E_scale) == 1.0 else jnp.asarray(float(E_scale)))
-    cfg = _Config(rtol=float(rtol), atol=float(atol), dt0=1e-3 * float(ts[-1]) if dt is None else float(dt),
-                  rho_inf=float(rho_inf), max_steps=int(max_steps), adaptive=dt is None, tip=0, scale_E=False, lanes=1)
-    args = (m, GeneralizedAlpha(float(rho_inf)), cfg.controller(), jnp.asarray(ts))
+    solver, controller = _integration(solver, controller, ts)
+    args = (m, solver, controller, jnp.asarray(ts))
     kw = dict(max_steps=int(max_steps), observe=tip_observer(m, beam_tip(model) if tip is None else int(tip)))
     return simulate_timed(*args, **kw) if timed else simulate(*args, **kw)
