@@ -678,11 +678,16 @@ ones run slower with it, so those keep XLA's defaults. Per program (``jax.jit``'
 program's options apply."""
 
 _simulate = eqx.filter_jit(_simulate_program)
-_SINGLE_RUN_OPTIONS = SMALL_KERNEL_OPTIONS | {"xla_cpu_experimental_ynn_fusion_type": ""}
-"""A single run's options: ``SMALL_KERNEL_OPTIONS`` and no YNNPACK kernels for the small dot
-products. YNNPACK plans its kernels when a program first runs, a one-off cost comparable to a
-whole reduced mechanism's run, and its kernels are no faster on products of a few tens of rows;
-a batch's wider products keep it."""
+_SINGLE_RUN_OPTIONS = SMALL_KERNEL_OPTIONS | {"xla_cpu_experimental_ynn_fusion_type": "",
+                                              "xla_backend_optimization_level": 1}
+"""A single run's options: ``SMALL_KERNEL_OPTIONS``, no YNNPACK kernels for the small dot
+products, and LLVM's optimisation level 1 instead of 2. YNNPACK plans its kernels when a program
+first runs, a one-off cost comparable to a whole reduced mechanism's run, and its kernels are no
+faster on products of a few tens of rows; a batch's wider products keep it. The lower
+optimisation level compiles a reduced mechanism's loop in a sixth less time, and its kernels, a
+few operations each, run about as fast (``benchmarks/results/xla_options.md``): where a single
+run's compile time is a hundred times its run time, that is what a user waits for. A batch, whose
+run is long, keeps XLA's level."""
 _simulate_small = eqx.filter_jit(_simulate_program, compiler_options=_SINGLE_RUN_OPTIONS)
 
 
