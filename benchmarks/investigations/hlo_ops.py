@@ -5,12 +5,12 @@ a step", before and after).
 
 On a CPU the time of these small models is set by the number of XLA operations a step runs, each
 costing about a microsecond whatever its size (``results/pendulum.md``). This compiles each
-model's whole run (``simulate``, as the scenarios call it) and counts, in the optimized HLO, the
-operations of the adaptive loop's body outside the Newton loop (run once per attempted step),
-of the Newton loop's body (once per iteration), and of the output branch (only in the steps that
-reach an output time). A fusion counts as one operation; parameters, constants, tuples and
-bitcasts are free. Nothing is run, so the table does not depend on the machine's speed, only on
-JAX's and XLA's versions.
+model's whole run (the program ``simulate`` compiles, with its options, as the scenarios call it)
+and counts, in the optimized HLO, the operations of the adaptive loop's body outside the Newton
+loop (run once per attempted step), of the Newton loop's body (once per iteration), and of the
+output branch (only in the steps that reach an output time). A fusion counts as one operation;
+parameters, constants, tuples and bitcasts are free. Nothing is run, so the table does not depend
+on the machine's speed, only on JAX's and XLA's versions.
 """
 
 import argparse
@@ -27,7 +27,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from nrrncf_jax.examples.slider_crank import mechanism  # noqa: E402
-from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlpha, GeneralizedAlphaIndex3, Newton, simulate  # noqa: E402
+from nrrncf_jax.integrate import AdaptiveStepSize, GeneralizedAlpha, GeneralizedAlphaIndex3, Newton  # noqa: E402
+from nrrncf_jax.integrate.simulate import _prepare, _single_run_program  # noqa: E402
 from nrrncf_jax.multibody.sensors import observe as observe_sensors  # noqa: E402
 from nrrncf_jax.reduction import Basis, nr_rncf  # noqa: E402
 from nrrncf_jax.scenarios.pendulum import PendulumSpec, build_reduced_pendulum  # noqa: E402
@@ -122,11 +123,11 @@ def main():
     args = ap.parse_args()
     rows = []
     for name, dofs, model, solver, ts, observe, y0, newton in _cases():
-        def run(y0, model=model, solver=solver, ts=ts, observe=observe, newton=newton):
-            return simulate(model, solver, AdaptiveStepSize(1e-4, 1e-5), jnp.asarray(ts), observe=observe, y0=y0,
-                            newton=newton, throw=False)
-
-        hlo = jax.jit(run).lower(y0).compile().as_text()
+        # the program ``simulate`` itself compiles for this run (its single-run XLA options for a
+        # model of small kernels), not a plain ``jax.jit`` of it, whose operations differ
+        prepared = _prepare(model, solver, AdaptiveStepSize(1e-4, 1e-5), jnp.asarray(ts), observe, newton, 0.0, y0,
+                            "forward", 200_000, False)
+        hlo = _single_run_program(model).lower(*prepared).compile().compiled.as_text()
         ops = step_operations(hlo)
         rows.append((name, dofs, ops))
         print(name, dofs, ops, flush=True)
