@@ -105,7 +105,7 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
     estimator's samples): the basis chosen to it instead (``nr_rncf_to_tolerance``, the run itself
     the training manoeuvre, the basis's ``max_dofs`` the largest basis tried; its ``vms`` and
     ``mds`` are then not used, its ``spin_state`` governs the spinning-state check of each basis
-    tried); the search's training runs take the plain controller at the controller's tolerances.
+    tried); the search's training runs take the run's step control.
     With an estimator the step tolerances are chosen to ``tol`` as well
     (``run_record.step_tolerances_to``: the run's own time-integration error, against its
     repetition at a tenth of them, at most ``tol`` / 2; ``step_tolerances`` holds the chosen pair),
@@ -132,7 +132,7 @@ def run_forced(full: RotatingFrameModel, formulation: str, ts, point_vectors, *,
         rows = (3 * pos[:, None] + np.arange(3)).reshape(-1)
         red = (nr_rncf(full, jnp.asarray(ts), basis, error_rows=rows, modes=modes) if tol is None else
                nr_rncf_to_tolerance(full, jnp.asarray(ts), tol, basis, solver=solver,
-                                    controller=AdaptiveStepSize(controller.rtol, controller.atol),
+                                    controller=controller,
                                     max_steps=max_steps, error_rows=rows, norm_rows=rows, modes=modes))
         model = red.model
 

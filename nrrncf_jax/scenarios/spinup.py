@@ -283,8 +283,8 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     with the MMI simulation over the output times. The run goes with ``solver`` (default
     ``GeneralizedAlpha(0.9)``) and ``controller`` (default ``AdaptiveStepSize(1e-4, 1e-6)``, the
     plain controller; ``integrate.adaptive_step_size(rtol, atol, "pi")`` is Gustafsson's PI
-    controller), as does the reference run; the estimate's repetition and the basis search take
-    the plain controller at the controller's tolerances.
+    controller), as do the reference run, the estimate's repetition and the basis search's
+    training runs (at their own tolerances).
     Returns a ``SpinupResult`` with ``formulation='nr-rncf'``, the reduced DOFs, the basis and the offline time. With
     ``reference=True`` the full RNCF model runs too, converged: at a tenth and a hundredth of the
     run's tolerances (``REFERENCE_TIGHTENING``), the tighter run the reference and their distance
@@ -327,7 +327,7 @@ def run_nr_rncf_spinup(beam: str | BeamPreset = "paper", omega_s: float = 4.0, T
     tip_rows = 3 * (body.n_vectors - body.vectors_per_node) + np.arange(3)  # the tip node's position
     red = (nr_rncf(full, jnp.asarray(ts), basis) if tol is None else
            nr_rncf_to_tolerance(full, jnp.asarray(ts), tol, basis, solver=solver,
-                                controller=AdaptiveStepSize(rtol, atol), max_steps=max_steps, output=tip_rows))
+                                controller=controller, max_steps=max_steps, output=tip_rows))
     model = red.model
     own = estimator is not None and red.search is None
     sol, compile_s, run_s = simulate_timed(model, solver, controller, jnp.asarray(ts), observe=observe_state,
