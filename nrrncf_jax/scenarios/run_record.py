@@ -196,8 +196,8 @@ its share of the target."""
 
 MARGIN = 0.5
 """``step_tolerances_to``'s aim below its target, as a factor of the tolerance: a run's
-integration error is no smooth function of its tolerance (the step sequence changes with it), and
-between nearby tolerances it was seen to scatter by half its size, so the rule aims at about 0.6 of
+integration error is no smooth function of its tolerance (the step sequence changes with it) and
+can differ by a good part of itself between nearby tolerances, so the rule aims at about 0.6 of
 the target's share."""
 
 
@@ -208,13 +208,17 @@ def chosen_step_settings(controller: AdaptiveStepSize) -> tuple:
     return (float(controller.rtol), float(controller.atol)) + ((dt_max,) if np.isfinite(dt_max) else ())
 
 
+def _with_dt_max(controller: AdaptiveStepSize, dt_max: float) -> AdaptiveStepSize:
+    """``controller`` with its steps limited to ``dt_max``, its other settings kept."""
+    return eqx.tree_at(lambda c: c.dt_max, controller, jnp.asarray(dt_max, jnp.result_type(float)))
+
+
 def with_step_settings(controller: AdaptiveStepSize, settings: tuple) -> AdaptiveStepSize:
     """``controller`` with the settings ``chosen_step_settings`` recorded: (rtol, atol) and, where
     recorded, dt_max; its step control kept."""
     rtol, atol, *dt_max = settings
     controller = with_tolerances(controller, rtol, atol)
-    return eqx.tree_at(lambda c: c.dt_max, controller, jnp.asarray(dt_max[0], jnp.result_type(float))) if dt_max \
-        else controller
+    return _with_dt_max(controller, dt_max[0]) if dt_max else controller
 
 
 def step_tolerances_to(tol: float, controller: AdaptiveStepSize, estimate: Callable, rerun: Callable,
@@ -248,7 +252,7 @@ def step_tolerances_to(tol: float, controller: AdaptiveStepSize, estimate: Calla
         if part <= 0.5 * tol or attempt == STEP_TOLERANCE_ROUNDS - 1:
             return est, controller
         if predicted is not None and part > previous * np.sqrt(predicted) and float(controller.dt_max) > dt_out:
-            controller = eqx.tree_at(lambda c: c.dt_max, controller, jnp.asarray(dt_out, jnp.result_type(float)))
+            controller = _with_dt_max(controller, dt_out)
             predicted = None
         else:
             shrink = float(np.clip(MARGIN * (0.5 * tol / part) ** 1.5, 1e-2, 0.5))

@@ -179,9 +179,8 @@ def _integration(solver, controller, ts) -> tuple:
         raise ValueError(f"controller must be an integrate step-size controller (AdaptiveStepSize, ConstantStepSize), "
                          f"got {type(controller).__name__}")
     if isinstance(controller, AdaptiveStepSize) and controller.dt0 is None:
-        controller = AdaptiveStepSize(controller.rtol, controller.atol, dt0=1e-3 * float(ts[-1]),
-                                      dt_min=controller.dt_min, dt_max=controller.dt_max, pcoeff=controller.pcoeff,
-                                      icoeff=controller.icoeff)
+        controller = eqx.tree_at(lambda c: c.dt0, controller, jnp.asarray(1e-3 * float(ts[-1])),
+                                 is_leaf=lambda x: x is None)
     return solver, controller
 
 
