@@ -23,8 +23,19 @@ K_b e_b = −r_b (K_b the full body's deformation block with the inertia terms' 
 small solves a sample), but blind to error in the mechanism's own motion: a reduced body slightly
 too stiff or too soft moves its joints and the frames beyond them a little differently, and that
 difference is carried and amplified over the run (the phase of a swinging chain), while the
-residual at any one instant is of the size of the deformation error only. Where the tangent is
-near singular (a very soft beam in compression) a sample's correction spikes.
+residual at any one instant is of the size of the deformation error only.
+
+K_b is not the body's elastic stiffness: its inertia terms (the frame's rotation and angular
+acceleration acting on the deformation) soften it, and on a soft body swinging fast they carry
+it through singular (K_b's eigenvalues cross zero, and it is indefinite for a while). There the
+quasi-static premise fails (the body's response to the residual is not static), and a plain
+solve K_b⁻¹r amplifies it without bound: which samples land near a crossing is chance, so such
+an estimate could change several-fold between two tolerances of one run. The correction is
+therefore solved in the Tikhonov sense, e_b = −Σ_i v_i σ_i/(σ_i² + μ²) u_iᵀ r_b over K_b's
+singular triplets, with μ = σ_min(K_e)/2 (``COMPLIANCE_CAP``), K_e the body's elastic block in
+the reference state: no direction is then more compliant than the elastic body's most compliant
+one, 1/σ_min(K_e) (σ/(σ² + μ²) ≤ 1/(2μ)). A direction as stiff as that loses a fifth of its
+correction; a stiffer one, less than (μ/σ)². The estimate is a smooth function of the run's states.
 
 ``method="dynamic"``: the full equations linearised about the lifted run, for the error
 e = z − z_f of every coordinate (frames included) and the multipliers' error μ,
@@ -184,21 +195,48 @@ def _sensor_errors(observer, t, zf, vf, e) -> dict:
     return jax.jvp(lambda y: observer(t, y, vf), (zf,), (e,))[1]
 
 
+COMPLIANCE_CAP = 0.5
+"""μ of the static correction's Tikhonov solve, in units of σ_min(K_e) (module docstring): the
+largest compliance the correction applies, 1/(2μ), is then the elastic body's largest."""
+
+
+def _tikhonov_solve(K, r, mu):
+    """x = (KᵀK + μ²I)⁻¹Kᵀr = Σ_i v_i σ_i/(σ_i² + μ²) u_iᵀ r: K⁻¹r where K is well above μ, bounded
+    where it is near singular. By the augmented system [[μI, K], [Kᵀ, −μI]] [y; x] = [r; 0], whose
+    eigenvalues are ±√(σ_i² + μ²): its condition is at most K's, where the normal equations' would
+    be K's squared; one LU of twice the size costs a third of K's SVD."""
+    n = K.shape[0]
+    eye = jnp.eye(n, dtype=K.dtype)
+    A = jnp.block([[mu * eye, K], [K.T, -mu * eye]])
+    return jnp.linalg.solve(A, jnp.concatenate([r, jnp.zeros_like(r)]))[n:]
+
+
+def _elastic_floors(full: Mechanism, flexible) -> tuple:
+    """μ = ``COMPLIANCE_CAP`` σ_min(K_e) of each flexible body, K_e its deformation block in the
+    mechanism's reference state at rest (no inertia terms, no reactions)."""
+    z = full.reference()
+    blocks = full.tangent_blocks(0.0, z, jnp.zeros_like(z), jnp.zeros_like(z), jnp.zeros(full.n_constraints, z.dtype))
+    return tuple(COMPLIANCE_CAP * jnp.linalg.svd(blocks[b][7:, 7:], compute_uv=False)[-1] for b in flexible)
+
+
 @eqx.filter_jit
 def _mechanism_corrections(full, reduced, maps, ts, zs, vs, flexible, observer=None):
     """|e_b| over each flexible body's position vectors at each sample, (samples, bodies), and
     the ``observer``'s sensors' errors under the corrections (``_sensor_errors``; the frames
     held, as the corrections hold them) (``lax.map``: one sample after another, as
-    ``reduction.error_estimate`` does, for the same reason)."""
+    ``reduction.error_estimate`` does, for the same reason). Each correction by
+    ``_tikhonov_solve`` (module docstring)."""
+    floors = _elastic_floors(full, flexible)
+
     def one(args):
         t, z, v = args
         zf, vf, af, lam = _lifted_state(maps, full, reduced, t, z, v)
         r = full.split(full.residual(t, zf, vf, af) + full.constraint_force(zf, lam, t))
         blocks = full.tangent_blocks(t, zf, vf, af, lam)
         norms, parts = [], [jnp.zeros_like(y) for y in full.split(zf)]
-        for b in flexible:
+        for b, mu in zip(flexible, floors):
             body = full.bodies[b]
-            e = -jnp.linalg.solve(blocks[b][7:, 7:], r[b][7:])
+            e = -_tikhonov_solve(blocks[b][7:, 7:], r[b][7:], mu)
             parts[b] = jnp.concatenate([jnp.zeros(7, e.dtype), e])
             dq = (body.basis @ e).reshape(-1, 3)
             norms.append(jnp.sqrt(jnp.sum(body.is_position[:, None] * dq**2)))
