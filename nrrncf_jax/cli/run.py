@@ -5,7 +5,7 @@
                      [--step-control plain|pi] [--rho-inf 0.9] [--n-out 201]
                      [--out F.csv] [--vtk DIR] [--animate F.gif] [--json] [--reference full]
                      [--estimate] [--estimate-method static|dynamic] [--estimate-samples N]
-                     [--estimate-integration] [--no-progress]
+                     [--estimate-integration] [--tol P] [--no-progress]
 
 ``MODEL``: a Python file defining ``mechanism(**params) -> MechanismSetup``, or the name of a
 bundled example (``nrrncf_jax/examples/``: ``slider_crank``, ``rotor``, ``two_link_arm``,
@@ -35,6 +35,15 @@ estimate of what ``--reference full`` measures as ``chi_rel_percent_<name>``, an
 ``estimate_dominant_part`` which part dominates
 (``--estimate-method``: ``dynamic`` by default, which carries the basis's error through the joints
 to every sensor; ``static`` is cheaper, but it holds the frames).
+
+``--tol P`` (a model with reduced bodies; implies ``--estimate-integration``) chooses the step
+settings to a target χ_rel of P per cent on the compared sensors
+(``scenarios.mechanism_file.run_to_tolerance``): the tolerances (from ``--rtol`` or the model's)
+shrink until the run's own time-integration error on every compared sensor is at most P / 2, and
+the output reports the chosen ``step_rtol``, ``step_atol``, ``tol_met`` (the estimated total at
+most P on every compared sensor) and ``tol_verdict`` (in words, which part stands in the way where
+it is not met). The basis is the model's own: where its part exceeds P / 2, the
+output says so, and only a larger basis (the model's parameters, e.g. ``--param vms=...``) meets P.
 """
 
 import ast
@@ -68,8 +77,17 @@ def _run(args) -> int:
     kw = dict(t_end=args.t_end, rtol=args.rtol, n_out=args.n_out, rho_inf=args.rho_inf, dt=args.dt,
               error_on=args.error_on, step_control=args.step_control)
     estimator = _common.estimator(args) if args.estimate else None
-    run = run_setup(setup, **kw, positions=bool(args.vtk or args.animate), estimator=estimator)
+    if args.tol is None:
+        run = run_setup(setup, **kw, positions=bool(args.vtk or args.animate), estimator=estimator)
+    else:
+        from ..scenarios.mechanism_file import run_to_tolerance
+
+        _common.say(args, f"the step settings to chi_rel <= {args.tol:g} % on the compared sensors ...")
+        run = run_to_tolerance(setup, args.tol, estimator, **kw, positions=bool(args.vtk or args.animate))
+        kw["rtol"] = run.settings["step_rtol"]  # a --reference runs at the chosen tolerance's tightenings
     out = run.summary() | {"model": args.model, "params": params}
+    if args.tol is not None:
+        out["tol_verdict"] = _tolerance_verdict(run)
     if args.out:
         names, table = run.table()
         np.savetxt(args.out, table, delimiter=",", header=",".join(names), comments="", fmt="%.12g")
@@ -84,6 +102,23 @@ def _run(args) -> int:
     if args.reference == "full":
         out |= _reference_errors(args, setup, params, run, kw)
     return _common.emit(args, out)
+
+
+def _tolerance_verdict(run) -> str:
+    """``--tol``'s line: whether the target was met, and which part stands in the way where not."""
+    s = run.summary()
+    tol, rtol = s["tol_percent"], s["step_rtol"]
+    if s["tol_met"]:
+        return f"target {tol:g} % met (estimated) at rtol {rtol:.3g}"
+    basis = {k.removeprefix("basis_error_estimate_percent_"): v for k, v in s.items()
+             if k.startswith("basis_error_estimate_percent_")}
+    worst = max(basis, key=basis.get) if basis else None
+    if worst is not None and basis[worst] > tol / 2:
+        return (f"target {tol:g} % NOT MET: the basis's part on {worst} is {basis[worst]:.3g} % (more than half the "
+                "target); the basis is the model's own, so only a larger one (its parameters, e.g. --param vms=...) "
+                "can meet it")
+    return (f"target {tol:g} % NOT MET at rtol {rtol:.3g}: the time-integration part stayed above half the target "
+            "after the tightenings allowed (run_record.STEP_TOLERANCE_ROUNDS)")
 
 
 def _reference_errors(args, setup, params, run, kw) -> dict:
@@ -102,7 +137,7 @@ def _reference_errors(args, setup, params, run, kw) -> dict:
     from ..scenarios.mechanism_file import compare_sensors, load_setup, run_setup
     from ..scenarios.run_record import REFERENCE_TIGHTENING
 
-    rtol = setup.rtol if args.rtol is None else float(args.rtol)
+    rtol = setup.rtol if kw["rtol"] is None else float(kw["rtol"])
     loose, tight = rtol / REFERENCE_TIGHTENING, rtol / REFERENCE_TIGHTENING**2
     # converged in every coordinate, not only in the outputs the run's own step error watches
     adaptive = dict(kw, dt=None, error_on="nodes")
@@ -145,6 +180,14 @@ def _check(args) -> None:
     _common.output_path("--out", args.out)
     _common.output_path("--animate", args.animate)
     _common.output_folder("--vtk", args.vtk)
+    if args.tol is not None:
+        if not args.tol > 0:
+            raise ValueError(f"--tol must be > 0 (a target chi_rel in per cent), got {args.tol:g}")
+        if args.dt is not None:
+            raise ValueError("--tol chooses error-controlled steps: a fixed step (--dt) has no tolerance to tighten")
+        if args.estimate_integration is False:
+            raise ValueError("--tol needs the run's time-integration error: not with --no-estimate-integration")
+        args.estimate_integration = True
     if args.estimate_integration is None:
         args.estimate_integration = False
     args.estimate = bool(args.estimate or args.estimate_integration)
@@ -192,6 +235,10 @@ def register(sub) -> None:
     t.set_defaults(estimate_method=None)  # resolved by the check: dynamic where an estimate is asked for
     _common.add_estimate_integration(t, "with a reduced model (implies --estimate)",
                                      "; also each compared sensor's (integration_error_estimate_percent_<name>)")
+    t.add_argument("--tol", type=float, default=None, metavar="P",
+                   help="a model with reduced bodies: choose the step settings so that the run's own time-integration "
+                        "error on every compared sensor is at most P/2 per cent, and report whether the estimated "
+                        "total (with the model's basis's part) meets P (implies --estimate-integration)")
     t.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     t.add_argument("--no-progress", action="store_true", help="no progress messages on stderr")
     t.set_defaults(func=_run, check=_check)

@@ -19,6 +19,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _validate
 from ..integrate import (
     AbstractSolver,
     AbstractStepSizeController,
@@ -33,7 +34,7 @@ from ..multibody.sensors import Observer, observe
 from ..post.metrics import chi_rel_of_changes
 from ..post.outline import mechanism_outline
 from ..reduction.run_error import TIGHTEN, ErrorEstimator, estimate_times
-from .run_record import estimate_fields, estimate_mechanism_run
+from .run_record import chosen_step_settings, estimate_fields, estimate_mechanism_run, step_tolerances_to
 
 _POINTS = "__points__"  # the recorded nodes' key among the observed outputs
 _STATE = "__state__"  # the recorded coordinates' and velocities' key, for the error estimate
@@ -333,6 +334,57 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     return run
 
 
+def run_to_tolerance(setup: MechanismSetup, tol: float, estimator: ErrorEstimator | None = None,
+                     **options) -> MechanismRun:
+    """``run_setup(setup, **options)`` of a model with reduced bodies, its step settings chosen to a
+    target χ_rel of ``tol`` per cent on the compared sensors (``nrrncf run --tol``): the run's own
+    time-integration error on each compared sensor (the model's ``compare``; each reduced body's
+    positions where no sensor changes), estimated by ``estimator`` with its ``integration``
+    part, at most ``tol`` / 2, the adaptive controller's tolerances tightened (or its steps
+    limited to the output interval) until it is (``run_record.step_tolerances_to``).
+
+    The basis is the model's own (its parameters), so the other half of the target is the basis's:
+    its part is estimated and reported, not chosen. ``MechanismRun.settings`` gets ``step_rtol``,
+    ``step_atol`` (``step_dt_max`` where the steps were limited), ``tol_percent`` and ``tol_met``:
+    whether the estimated total on every compared sensor is at most ``tol`` (where it is not,
+    because the basis part exceeds its half, only a larger basis, through the model's parameters,
+    can meet it). ``estimator``: the dynamic ``ErrorEstimator`` by default (it carries the basis's
+    error through the joints to every sensor, where the static one holds the frames). A fixed
+    step (``dt``, ``ConstantStepSize``) is refused: its error is not controlled by tolerances."""
+    _validate.positive("tol (target chi_rel in per cent)", tol)
+    if options.get("dt") is not None or isinstance(options.get("controller"), ConstantStepSize):
+        raise ValueError("run_to_tolerance chooses error-controlled steps: a fixed step (dt) has no tolerance to "
+                         "tighten; leave dt out")
+    if estimator is not None and not isinstance(estimator, ErrorEstimator):
+        raise ValueError(f"estimator must be a reduction.ErrorEstimator (or None), got {type(estimator).__name__}")
+    estimator = ErrorEstimator(method="dynamic") if estimator is None else estimator
+    estimator = dataclasses.replace(estimator, integration=True)
+    controller = options.pop("controller", None)
+    if controller is None:
+        rtol = setup.rtol if options.get("rtol") is None else float(options["rtol"])
+        step_control = options.get("step_control") or setup.step_control
+        controller = adaptive_step_size(rtol, rtol / 10, step_control)
+    options = {k: v for k, v in options.items() if k not in ("rtol", "step_control", "dt")}
+    last = run_setup(setup, controller=controller, estimator=estimator, **options)
+
+    def rerun(c):
+        nonlocal last
+        last = run_setup(setup, controller=c, estimator=estimator, **options)
+
+    def judged(est) -> float:  # the largest compared sensor's integration part, else the positions'
+        parts = est.sensor_integration_percent or {}
+        return max(parts.values()) if parts else est.integration_percent
+
+    est, controller = step_tolerances_to(float(tol), controller, lambda c: last.estimate, rerun,
+                                         float(np.diff(last.ts).min()), judged=judged)
+    rtol, atol, *dt_max = chosen_step_settings(controller)
+    totals = [v for k, v in estimate_fields(est).items() if k.startswith("chi_rel_estimate_percent_")]
+    total = max(totals) if totals else estimate_fields(est)["chi_rel_estimate_percent"]
+    last.settings |= {"step_rtol": rtol, "step_atol": atol, **({"step_dt_max": dt_max[0]} if dt_max else {}),
+                      "tol_percent": float(tol), "tol_met": bool(total <= tol)}
+    return last
+
+
 def _run_step_ts(estimator: ErrorEstimator, ts):
     """Where the estimated run ends steps: the static estimate's samples, also where the estimate
     repeats the run for its ``integration`` part (``ErrorEstimator.step_ts`` would leave the run's
@@ -360,4 +412,4 @@ def _estimate(setup, system, full, estimator, run, states, solver, controller, n
                                   outputs={k: run.series[k] for k in compared}, repetition=repetition)
 
 __all__ = ["MechanismRun", "MechanismSetup", "compare_sensors", "dominant_part", "examples", "load_setup",
-           "run_setup"]
+           "run_setup", "run_to_tolerance"]

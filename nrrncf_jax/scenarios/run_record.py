@@ -222,7 +222,7 @@ def with_step_settings(controller: AdaptiveStepSize, settings: tuple) -> Adaptiv
 
 
 def step_tolerances_to(tol: float, controller: AdaptiveStepSize, estimate: Callable, rerun: Callable,
-                       dt_out: float) -> tuple:
+                       dt_out: float, judged: Callable | None = None) -> tuple:
     """The step settings of a reduced run chosen to a target χ_rel of ``tol`` per cent, beside a
     basis chosen to it (``tol=P`` of the scenarios): ``(estimate, controller)``, the estimate of
     the last run and the controller it ran with.
@@ -244,11 +244,13 @@ def step_tolerances_to(tol: float, controller: AdaptiveStepSize, estimate: Calla
       tolerance reaches.
 
     At most ``STEP_TOLERANCE_ROUNDS`` estimates; the last is kept whether or not it meets the
-    target (its figures say so: ``integration_percent`` against ``tol`` / 2)."""
+    target (its figures say so: ``integration_percent`` against ``tol`` / 2). ``judged(estimate)``:
+    the integration part judged (default its ``integration_percent``, on the reduced bodies'
+    positions; a mechanism's model file judges its sensors')."""
     previous, predicted = None, None  # the part before the last tightening, and the ratio the rule predicted
     for attempt in range(STEP_TOLERANCE_ROUNDS):
         est = estimate(controller)
-        part = est.integration_percent
+        part = est.integration_percent if judged is None else judged(est)
         if part <= 0.5 * tol or attempt == STEP_TOLERANCE_ROUNDS - 1:
             return est, controller
         if predicted is not None and part > previous * np.sqrt(predicted) and float(controller.dt_max) > dt_out:
