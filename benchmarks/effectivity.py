@@ -208,16 +208,10 @@ def _estimated_run(setup, ts):
     return series, np.asarray(sol.ys["__points__"]), np.asarray(sol.ys["__z__"]), np.asarray(sol.ys["__v__"]), system
 
 
-class _Series:
-    def __init__(self, series):
-        self.series = series
-
-
 def mechanism(name):
-    from nrrncf_jax.cli.run import _compared
     from nrrncf_jax.multibody.error_estimate import estimate_mechanism_error, full_counterpart
     from nrrncf_jax.post.outline import mechanism_outline
-    from nrrncf_jax.scenarios.mechanism_file import load_setup, run_setup
+    from nrrncf_jax.scenarios.mechanism_file import compare_sensors, load_setup, run_setup
 
     setup = load_setup(name, {"formulation": "nr-rncf"})
     rtol = setup.rtol
@@ -240,10 +234,11 @@ def mechanism(name):
     converged = run_setup(setup, rtol=rtol / REFERENCE_TIGHTENING**2, **adaptive)
     # the integration part's estimate: the run repeated at a tenth of its tolerances, its own settings
     repeat = run_setup(setup, rtol=rtol / REFERENCE_TIGHTENING, positions=True)
-    own = _Series(series)
-    sensors = {"total": _compared(setup, own, ref), "time integration": _compared(setup, own, converged),
-               "basis": _compared(setup, converged, ref), "reference's own": _compared(setup, loose, ref),
-               "estimate: integration †": _compared(setup, own, repeat)}
+    sensors = {"total": compare_sensors(setup, series, ref.series),
+               "time integration": compare_sensors(setup, series, converged.series),
+               "basis": compare_sensors(setup, converged.series, ref.series),
+               "reference's own": compare_sensors(setup, loose.series, ref.series),
+               "estimate: integration †": compare_sensors(setup, series, repeat.series)}
     w = disp(points)
     # Per reduced body, in the norm of the estimate's body_chi_percent: its position vectors' error
     # over its deformation |Ψ p| (the run's, at every output), the frame's rigid motion left out.
