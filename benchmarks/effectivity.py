@@ -189,8 +189,7 @@ class _SensorsAndState(eqx.Module):
 def _estimated_run(setup, ts):
     """``run_setup(setup)`` with its steps ending on the static estimate's samples, its state recorded:
     ``(series, points, zs, vs, system)``, the system as it ran (with the model's ``error_on``)."""
-    from nrrncf_jax.integrate import GeneralizedAlphaIndex3, simulate_timed
-    from nrrncf_jax.integrate.step_size import adaptive_step_size
+    from nrrncf_jax.integrate import simulate_timed
     from nrrncf_jax.multibody.sensors import observe
     from nrrncf_jax.post.outline import mechanism_outline
     from nrrncf_jax.reduction.run_error import estimate_times
@@ -201,8 +200,7 @@ def _estimated_run(setup, ts):
     nodes, _ = mechanism_outline(system)
     fn = _SensorsAndState(observe(system, setup.sensors), tuple(nodes))
     y0 = setup.y0 if setup.y0 is not None else (system.reference(), 0.0 * system.reference())
-    sol, _, _ = simulate_timed(system, GeneralizedAlphaIndex3(setup.rho_inf),
-                               adaptive_step_size(setup.rtol, setup.rtol / 10, setup.step_control), ts,
+    sol, _, _ = simulate_timed(system, setup.solver(), setup.controller(), ts,
                                observe=fn, y0=y0, step_ts=estimate_times(ts, SAMPLES))
     series = {k: np.asarray(sol.ys[k]) for k in setup.sensors}
     return series, np.asarray(sol.ys["__points__"]), np.asarray(sol.ys["__z__"]), np.asarray(sol.ys["__v__"]), system
@@ -229,11 +227,11 @@ def mechanism(name):
     # cli/run.py's _reference_errors, each run with its nodes
     adaptive = dict(error_on="nodes", positions=True)
     ref_setup = load_setup(name, {"formulation": "ancf"})
-    loose = run_setup(ref_setup, rtol=rtol / REFERENCE_TIGHTENING, **adaptive)
-    ref = run_setup(ref_setup, rtol=rtol / REFERENCE_TIGHTENING**2, **adaptive)
-    converged = run_setup(setup, rtol=rtol / REFERENCE_TIGHTENING**2, **adaptive)
+    loose = run_setup(ref_setup, controller=ref_setup.controller(rtol / REFERENCE_TIGHTENING), **adaptive)
+    ref = run_setup(ref_setup, controller=ref_setup.controller(rtol / REFERENCE_TIGHTENING**2), **adaptive)
+    converged = run_setup(setup, controller=setup.controller(rtol / REFERENCE_TIGHTENING**2), **adaptive)
     # the integration part's estimate: the run repeated at a tenth of its tolerances, its own settings
-    repeat = run_setup(setup, rtol=rtol / REFERENCE_TIGHTENING, positions=True)
+    repeat = run_setup(setup, controller=setup.controller(rtol / REFERENCE_TIGHTENING), positions=True)
     sensors = {"total": compare_sensors(setup, series, ref.series),
                "time integration": compare_sensors(setup, series, converged.series),
                "basis": compare_sensors(setup, converged.series, ref.series),

@@ -38,7 +38,8 @@ BASES = {
     "5 VMs + 15 MDs (the paper's)": PendulumBasis(pairs="all"),
     "5 VMs alone": PendulumBasis(pairs=()),
     "5 VMs + 15 MDs + 2 joint modes": PendulumBasis(pairs="all", joint_modes=True),
-    "extended Craig-Bampton (2 boundary + 5 VMs + 15 MDs + the constraint modes' MDs)": PendulumBasis(pairs="all", craig_bampton=True),
+    "extended Craig-Bampton (2 boundary + 5 VMs + 15 MDs + the constraint modes' MDs)":
+        PendulumBasis(pairs="all", craig_bampton=True),
 }
 
 

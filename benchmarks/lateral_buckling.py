@@ -84,7 +84,8 @@ def main() -> None:
     pin_to_one_core()
     runs = []
     for label, params, rtol in CASES:
-        run = run_setup(load_setup("lateral_buckling", params), rtol=rtol, n_out=N_OUT)
+        setup = load_setup("lateral_buckling", params)
+        run = run_setup(setup, n_out=N_OUT, controller=setup.controller(rtol))
         runs.append(((label, params, rtol), run))
         print(label, params, rtol, run.summary(), flush=True)
     ref = runs[REF][1]

@@ -27,7 +27,7 @@ from nrrncf_jax.post.metrics import chi_rel  # noqa: E402
 from nrrncf_jax.scenarios.mechanism_file import load_setup, run_setup  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-NODES = {"error_on": "nodes", "step_control": "plain"}  # the step error on every nodal vector, plain control
+NODES = {"error_on": "nodes"}  # the step error on every nodal vector, with plain step control (``slider_crank``)
 CASES = [  # (label, load_setup parameters, rtol, fixed step or None, run_setup options); the first is the reference
     ("ANCF, 8 elements", {"formulation": "ancf"}, 1e-6, None, NODES),
     ("ANCF, 12 elements", {"formulation": "ancf", "elements": 12}, 1e-5, None, NODES),
@@ -74,7 +74,7 @@ def rotor(out: str) -> None:
     rows, ref, times = [], None, {}
     for formulation, rtol in (("ancf", 1e-5), ("ancf", 1e-4), ("nr-rncf", 1e-5), ("nr-rncf", 1e-4)):
         setup = load_setup("rotor", {"formulation": formulation})
-        run = run_setup(setup, rtol=rtol, n_out=401)
+        run = run_setup(setup, n_out=401, controller=setup.controller(rtol))
         ref = run if ref is None else ref
         s, ts = run.series, run.ts
         H = impulse(ts, setup.info["torque"], setup.info["spin_time"])
@@ -164,7 +164,9 @@ def main(argv=None):
 def slider_crank(out: str) -> None:
     rows, ref = [], None
     for label, params, rtol, dt, options in CASES:
-        run = run_setup(load_setup("slider_crank", params), rtol=rtol, n_out=401, dt=dt, **options)
+        setup = load_setup("slider_crank", params)  # NODES: plain step control; else the model's (PI)
+        controller = setup.controller(rtol, dt, "plain" if options else None)
+        run = run_setup(setup, n_out=401, controller=controller, **options)
         if ref is None:
             ref = run
         w, wr = run.series["w_mid"], ref.series["w_mid"]

@@ -461,7 +461,8 @@ def shaft_section(lines):
             ("NR-RNCF default", {"formulation": "nr-rncf"}, None)]
     lib = []
     for label, params, rtol in ours:
-        run = run_setup(load_setup("rotating_shaft", params), rtol=rtol, n_out=int(round(SH_T_END / SH_DT_OUT)) + 1)
+        setup = load_setup("rotating_shaft", params)
+        run = run_setup(setup, n_out=int(round(SH_T_END / SH_DT_OUT)) + 1, controller=setup.controller(rtol))
         amp = _on(run.ts, np.hypot(run.series["mid_y"], run.series["mid_z"]), ts)
         lib.append((label, run, amp, _peaks(ts, amp)))
         print(label, run.steps, f"{run.compile_s:.1f} {run.run_s:.2f}", lib[-1][3], flush=True)

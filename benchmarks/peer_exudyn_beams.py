@@ -561,7 +561,8 @@ def lateral_buckling_section(lines, args):
         cases.append(("NR-RNCF default (4 el. reduced)", {"formulation": "nr-rncf"}, None))
     lib = []
     for label, params, rtol in cases:
-        run = run_setup(load_setup("lateral_buckling", params), rtol=rtol, n_out=len(ts))
+        setup = load_setup("lateral_buckling", params)
+        run = run_setup(setup, n_out=len(ts), controller=setup.controller(rtol))
         if not np.allclose(run.ts, ts, atol=1e-12):
             raise RuntimeError("the output times do not match")
         lib.append((label, run, {q: np.asarray(run.series[q]) for q in LB_QS}))

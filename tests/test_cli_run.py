@@ -144,7 +144,7 @@ def test_tol_chooses_the_step_settings_and_says_what_stands_in_the_way(tmp_path,
     assert "NOT MET" in out["tol_verdict"] and "basis" in out["tol_verdict"] and "w_mid" in out["tol_verdict"]
     setup = load_setup("slider_crank", {"formulation": "nr-rncf", "elements": 2})
     table = np.genfromtxt(csv, delimiter=",", names=True)  # the run at the chosen settings, as the user gets it
-    tight = run_setup(setup, rtol=out["step_rtol"] / 1000, t_end=0.02, n_out=41)
+    tight = run_setup(setup, t_end=0.02, n_out=41, controller=setup.controller(out["step_rtol"] / 1000))
     assert max(compare_sensors(setup, {k: table[k] for k in ("x_B", "w_mid")}, tight.series).values()) <= tol
 
 

@@ -23,8 +23,10 @@ def test_the_fourbar_converges_under_mesh_refinement():
     runs = {n: run_setup(load_setup("fourbar", {"elements": n, "t_end": 2.0}), n_out=11) for n in (2, 4)}
     runs["nr-rncf"] = run_setup(load_setup("fourbar", {"formulation": "nr-rncf", "elements": 4}), n_out=11)
     # fixed steps as the peers run it (h = 4 ms, rho_inf = 1/3): the same motion
-    runs["fixed"] = run_setup(load_setup("fourbar", {"elements": 2, "rho_inf": 1 / 3}), n_out=11, dt=4e-3)
+    fixed = load_setup("fourbar", {"elements": 2, "rho_inf": 1 / 3})
+    runs["fixed"] = run_setup(fixed, n_out=11, controller=fixed.controller(dt=4e-3))
     assert runs["fixed"].steps == 500 and runs["fixed"].rejected == 0
+    assert runs["fixed"].settings["dt"] == 4e-3 and runs["fixed"].settings["step_control"] == "constant"
     names, table = runs[4].table()
     assert names == ["t", "C_x", "C_y", "C_z", "crank_N", "crank_T", "crank_M", "drive_torque"]
     for name in ("C_z", "crank_M", "drive_torque"):

@@ -69,7 +69,7 @@ def test_the_compound_pendulum_has_its_period():
 @pytest.fixture(scope="module")
 def rigid_crank():
     setup = load_setup("slider_crank", {"formulation": "rigid"})
-    return setup, run_setup(setup, rtol=1e-6, n_out=201)
+    return setup, run_setup(setup, n_out=201, controller=setup.controller(1e-6))
 
 
 def _rigid_kinetic_energy(theta, omega=150.0, r=0.152, L=0.304, rho=2770.0, radius=0.005, m_s=0.033):
@@ -650,9 +650,11 @@ def test_a_rerun_with_new_parameter_values_does_not_compile(reduced_crank):
 @pytest.mark.xdist_group("reduced_crank")
 def test_a_setup_runs_with_the_users_solver_controller_and_newton(reduced_crank):
     """``run_setup(solver=, controller=, newton=)``, the integrator's objects as ``simulate`` takes
-    them: the default objects give the default run exactly (the same program, not compiled again),
-    the settings say what ran, and a tighter Newton iterates more; an object with its scalar twin,
-    or of the wrong kind, is refused before anything runs."""
+    them: the model's own objects (``MechanismSetup.solver()``, ``.controller()``), built by hand,
+    give the default run exactly (the same program, not compiled again) and the same settings,
+    which say what ran; a tighter Newton iterates more; an object
+    of the wrong kind, a fixed step longer than the run, a non-physical rtol, ρ∞ or step, and a
+    step control for fixed steps are refused before anything runs."""
     from nrrncf_jax.examples.slider_crank import mechanism
     from nrrncf_jax.integrate import ConstantStepSize, Newton, adaptive_step_size
 
@@ -663,11 +665,20 @@ def test_a_setup_runs_with_the_users_solver_controller_and_newton(reduced_crank)
     for k in base.series:
         np.testing.assert_array_equal(same.series[k], base.series[k])
     assert (same.steps, same.rejected) == (base.steps, base.rejected)
-    assert same.settings["controller"] == "AdaptiveStepSize" and same.settings["solver"] == "GeneralizedAlphaIndex3"
-    with pytest.raises(ValueError, match="a controller or rtol/dt/step_control, not both"):
-        run_setup(setup, rtol=1e-3, controller=ConstantStepSize(1e-4))
-    with pytest.raises(ValueError, match="a solver or rho_inf, not both"):
-        run_setup(setup, rho_inf=0.5, solver=GeneralizedAlphaIndex3(0.5))
+    assert same.settings == base.settings
+    assert base.settings["solver"] == "GeneralizedAlphaIndex3" and base.settings["step_control"] == setup.step_control
+    assert base.settings["rtol"] == setup.rtol and base.settings["rho_inf"] == setup.rho_inf
+    assert setup.controller(dt=5e-4) == ConstantStepSize(5e-4, rtol=setup.rtol, atol=setup.rtol / 10)
+    with pytest.raises(ValueError, match="fixed step must lie in"):
+        run_setup(setup, t_end=2e-3, controller=ConstantStepSize(1e-2))
+    with pytest.raises(ValueError, match="rtol must lie in"):
+        setup.controller(rtol=2.0)
+    with pytest.raises(ValueError, match="dt must be > 0"):
+        setup.controller(dt=0.0)
+    with pytest.raises(ValueError, match="not both"):
+        setup.controller(dt=1e-4, step_control="pi")
+    with pytest.raises(ValueError, match="rho_inf must lie in"):
+        setup.solver(1.5)
     with pytest.raises(ValueError, match="newton must be a Newton, got float"):
         run_setup(setup, newton=1e-3)
     assert run_setup(setup, t_end=2e-3, n_out=5, newton=Newton(1e-6)).newton_iters >= base.newton_iters

@@ -55,7 +55,7 @@ def test_a_run_controlled_on_its_sensors_converges_in_them(crank):
     method's should (global error ∝ tol^(2/3): 10× tighter, ≥ 3× smaller; the ratio here is
     about 4-5)."""
     assert crank.error_on == ("w_mid", "x_B")
-    runs = {rtol: run_setup(crank, rtol=rtol, n_out=101) for rtol in (1e-8, 1e-4, 1e-5)}
+    runs = {rtol: run_setup(crank, n_out=101, controller=crank.controller(rtol)) for rtol in (1e-8, 1e-4, 1e-5)}
     ref = runs[1e-8].series["w_mid"]
     err = {rtol: float(chi_rel(ref, runs[rtol].series["w_mid"])) for rtol in (1e-4, 1e-5)}
     assert err[1e-5] < err[1e-4] / 3

@@ -74,17 +74,19 @@ def _run(args) -> int:
     setup = load_setup(args.model, params)
     _common.say(args, f"{args.model}: {setup.system.formulation}, {setup.system.n_dof} coordinates, "
                       f"0-{args.t_end or setup.t_end:g} s ...")
-    kw = dict(t_end=args.t_end, rtol=args.rtol, n_out=args.n_out, rho_inf=args.rho_inf, dt=args.dt,
-              error_on=args.error_on, step_control=args.step_control)
+    kw = dict(t_end=args.t_end, n_out=args.n_out, error_on=args.error_on)
+    options = dict(solver=setup.solver(args.rho_inf), positions=bool(args.vtk or args.animate),
+                   controller=setup.controller(args.rtol, args.dt, args.step_control))
     estimator = _common.estimator(args) if args.estimate else None
+    rtol = setup.rtol if args.rtol is None else args.rtol
     if args.tol is None:
-        run = run_setup(setup, **kw, positions=bool(args.vtk or args.animate), estimator=estimator)
+        run = run_setup(setup, **kw, **options, estimator=estimator)
     else:
         from ..scenarios.mechanism_file import run_to_tolerance
 
         _common.say(args, f"the step settings to chi_rel <= {args.tol:g} % on the compared sensors ...")
-        run = run_to_tolerance(setup, args.tol, estimator, **kw, positions=bool(args.vtk or args.animate))
-        kw["rtol"] = run.settings["step_rtol"]  # a --reference runs at the chosen tolerance's tightenings
+        run = run_to_tolerance(setup, args.tol, estimator, **kw, **options)
+        rtol = run.settings["step_rtol"]  # a --reference runs at the chosen tolerance's tightenings
     out = run.summary() | {"model": args.model, "params": params}
     if args.tol is not None:
         out["tol_verdict"] = _tolerance_verdict(run)
@@ -100,7 +102,7 @@ def _run(args) -> int:
 
         animate_lines(args.animate, run.ts, run.points, run.lines, f"{args.model}, " + "t = {t:.4f} s")
     if args.reference == "full":
-        out |= _reference_errors(args, setup, params, run, kw)
+        out |= _reference_errors(args, setup, params, run, kw, rtol)
     return _common.emit(args, out)
 
 
@@ -121,7 +123,7 @@ def _tolerance_verdict(run) -> str:
             "after the tightenings allowed (run_record.STEP_TOLERANCE_ROUNDS)")
 
 
-def _reference_errors(args, setup, params, run, kw) -> dict:
+def _reference_errors(args, setup, params, run, kw, rtol) -> dict:
     """``--reference full``: the run's error against a converged full-order reference, and its parts.
 
     The full model (``formulation=ancf``) runs twice, error-controlled at a tenth and a hundredth
@@ -137,16 +139,19 @@ def _reference_errors(args, setup, params, run, kw) -> dict:
     from ..scenarios.mechanism_file import compare_sensors, load_setup, run_setup
     from ..scenarios.run_record import REFERENCE_TIGHTENING
 
-    rtol = setup.rtol if kw["rtol"] is None else float(kw["rtol"])
     loose, tight = rtol / REFERENCE_TIGHTENING, rtol / REFERENCE_TIGHTENING**2
-    # converged in every coordinate, not only in the outputs the run's own step error watches
-    adaptive = dict(kw, dt=None, error_on="nodes")
+    # error-controlled, converged in every coordinate, not only in the outputs the run's step error watches
+    adaptive = dict(kw, error_on="nodes")
     _common.say(args, f"the full-order reference (formulation=ancf) at rtol {loose:g} and {tight:g} ...")
     ref_setup = load_setup(args.model, params | {"formulation": "ancf"})
-    ref_loose = run_setup(ref_setup, **(adaptive | {"rtol": loose}))
-    ref = run_setup(ref_setup, **(adaptive | {"rtol": tight}))
+
+    def at(model, r):
+        return run_setup(model, **adaptive, solver=model.solver(args.rho_inf),
+                         controller=model.controller(r, step_control=args.step_control))
+
+    ref_loose, ref = at(ref_setup, loose), at(ref_setup, tight)
     _common.say(args, f"the model again at rtol {tight:g} (its time-integration error) ...")
-    converged = run_setup(setup, **(adaptive | {"rtol": tight}))
+    converged = at(setup, tight)
     total, own = compare_sensors(setup, run.series, ref.series), compare_sensors(setup, ref_loose.series, ref.series)
     integration = compare_sensors(setup, run.series, converged.series)
     basis = compare_sensors(setup, converged.series, ref.series)

@@ -23,12 +23,13 @@ from .. import _validate
 from ..integrate import (
     AbstractSolver,
     AbstractStepSizeController,
+    AdaptiveStepSize,
     ConstantStepSize,
     GeneralizedAlphaIndex3,
     Newton,
     simulate_timed,
 )
-from ..integrate.step_size import STEP_CONTROLS, adaptive_step_size, tightened
+from ..integrate.step_size import STEP_CONTROLS, adaptive_step_size, step_control_name, tightened
 from ..models.constrained import AbstractConstrainedModel
 from ..multibody.sensors import Observer, observe
 from ..post.metrics import chi_rel_of_changes
@@ -70,6 +71,32 @@ class MechanismSetup:
         self.error_on = _error_names(self.error_on, self.sensors)
         if self.step_control not in STEP_CONTROLS:
             raise ValueError(f"step_control must be one of {tuple(STEP_CONTROLS)}, got {self.step_control!r}")
+
+    def solver(self, rho_inf: float | None = None) -> GeneralizedAlphaIndex3:
+        """The model's integrator, ``GeneralizedAlphaIndex3`` at its ρ∞ (or ``rho_inf``): what
+        ``run_setup`` runs without a ``solver``."""
+        rho_inf = self.rho_inf if rho_inf is None else float(rho_inf)
+        if not 0.0 <= rho_inf <= 1.0:
+            raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf:g}")
+        return GeneralizedAlphaIndex3(rho_inf)
+
+    def controller(self, rtol: float | None = None, dt: float | None = None,
+                   step_control: str | None = None) -> AbstractStepSizeController:
+        """The model's step control, what ``run_setup`` runs without a ``controller``: error
+        control at its ``rtol`` (or ``rtol``; atol = rtol/10 of the nodal vectors' metres) by its
+        ``step_control`` (or ``step_control``, ``integrate.STEP_CONTROLS``), or fixed steps of
+        ``dt`` (``ConstantStepSize``; rtol then scales Newton's test only), as the peers run
+        quasi-static mechanisms."""
+        rtol = self.rtol if rtol is None else float(rtol)
+        if not 0 < rtol < 1:
+            raise ValueError(f"rtol must lie in (0, 1), got {rtol:g}")
+        if dt is not None:
+            if step_control is not None:
+                raise ValueError("fixed steps (dt) have no step control: pass dt or step_control, not both")
+            if not float(dt) > 0:
+                raise ValueError(f"dt must be > 0, got {dt}")
+            return ConstantStepSize(float(dt), rtol=rtol, atol=rtol / 10)
+        return adaptive_step_size(rtol, rtol / 10, self.step_control if step_control is None else step_control)
 
 
 def _error_names(error_on, sensors: dict) -> tuple:
@@ -221,26 +248,24 @@ class _WithOutline(eqx.Module):
         return self.sensors(t, z, v) | {_POINTS: jnp.stack([xs[b][i] for b, i in self.nodes])}
 
 
-def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | None = None, n_out: int = 201,
-              rho_inf: float | None = None, progress: bool = False, positions: bool = False,
-              dt: float | None = None, error_on=None, step_control: str | None = None, *,
+def run_setup(setup: MechanismSetup, t_end: float | None = None, n_out: int = 201, *,
               solver: AbstractSolver | None = None, controller: AbstractStepSizeController | None = None,
-              newton: Newton | None = None, estimator: ErrorEstimator | None = None) -> MechanismRun:
-    """Run ``setup`` to ``t_end`` (its default) at ``rtol`` (atol = rtol/10 of the nodal vectors'
-    metres) with ``GeneralizedAlphaIndex3(rho_inf)``, the sensors at ``n_out`` equal output times;
-    compile and run timed apart (ahead-of-time compilation, then a blocked run). ``rho_inf``: the
-    setup's by default. ``positions``: also record every body's nodes and their edges
-    (``post.outline``: ``points``, ``lines``), for a VTK series or an animation. ``dt``: fixed
-    steps of that size (``ConstantStepSize``; rtol then scales Newton's test only), as the peers
-    run quasi-static mechanisms, instead of error-controlled ones. ``error_on``: the sensors whose
-    values the step error is measured on (names, a comma-separated string, or ``"nodes"`` for every
-    nodal vector; the setup's ``error_on`` by default, ``multibody.Mechanism.observed_error``).
-    ``step_control``: the adaptive controller by name (the setup's by default).
+              newton: Newton | None = None, estimator: ErrorEstimator | None = None, error_on=None,
+              positions: bool = False, progress: bool = False) -> MechanismRun:
+    """Run ``setup`` to ``t_end`` (its default), the sensors at ``n_out`` equal output times;
+    compile and run timed apart (ahead-of-time compilation, then a blocked run).
 
-    Or, as ``simulate`` takes them, objects: ``solver`` (instead of ``rho_inf``: an index-3 solver,
-    ``GeneralizedAlphaIndex3``), ``controller`` (instead of ``rtol``, ``dt`` and ``step_control``:
-    ``AdaptiveStepSize``, ``ConstantStepSize``, or one of the user's own) and ``newton`` (each
-    step's ``Newton``; ``simulate``'s default otherwise).
+    The integrator's objects, as ``simulate`` takes them: ``solver`` (an index-3 solver; the
+    model's by default, ``MechanismSetup.solver()``: ``GeneralizedAlphaIndex3`` at its ρ∞),
+    ``controller`` (the model's by default, ``MechanismSetup.controller()``: error control at its
+    rtol and step control; ``setup.controller(rtol=1e-3)``, ``setup.controller(dt=4e-3)`` for fixed
+    steps, or any ``integrate`` controller) and ``newton`` (each step's ``Newton``; ``simulate``'s
+    default otherwise). ``error_on``: the sensors whose values the step error is measured on
+    (names, a comma-separated string, or ``"nodes"`` for every nodal vector; the setup's
+    ``error_on`` by default, ``multibody.Mechanism.observed_error``). ``positions``: also record
+    every body's nodes and their edges (``post.outline``: ``points``, ``lines``), for a VTK series
+    or an animation. ``MechanismRun.settings`` says what ran: rtol, atol, ρ∞, the solver, the step
+    control's name (``integrate.step_control_name``) and the fixed step where there is one.
 
     ``estimator`` (a ``reduction.ErrorEstimator``; a system with reduced bodies): the run's error
     from reduced runs alone, in ``MechanismRun.estimate`` (``run_record.estimate_fields`` in its
@@ -257,22 +282,17 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     ``nrrncf run --reference full`` measures as ``integration_error_percent_<name>``."""
     if estimator is not None and not isinstance(estimator, ErrorEstimator):
         raise ValueError(f"estimator must be a reduction.ErrorEstimator (or None), got {type(estimator).__name__}")
-    if controller is not None and (rtol is not None or dt is not None or step_control is not None):
-        raise ValueError("run_setup takes a controller or rtol/dt/step_control, not both (the controller holds "
-                         "its tolerances and step)")
-    if solver is not None and rho_inf is not None:
-        raise ValueError("run_setup takes a solver or rho_inf, not both (the solver holds its rho_inf)")
     for name, value, kind in (("solver", solver, AbstractSolver), ("newton", newton, Newton),
                               ("controller", controller, AbstractStepSizeController)):
         if value is not None and not isinstance(value, kind):
             raise ValueError(f"{name} must be a {kind.__name__}, got {type(value).__name__}")
     t_end = setup.t_end if t_end is None else float(t_end)
-    rtol = setup.rtol if rtol is None else float(rtol)
-    rho_inf = setup.rho_inf if rho_inf is None else float(rho_inf)
-    if not t_end > 0 or not 0 < rtol < 1:
-        raise ValueError(f"t_end must be > 0 and 0 < rtol < 1, got {t_end}, {rtol}")
-    if dt is not None and not 0 < float(dt) <= t_end:
-        raise ValueError(f"dt must lie in (0, t_end = {t_end:g}], got {dt}")
+    if not t_end > 0:
+        raise ValueError(f"t_end must be > 0, got {t_end}")
+    solver = setup.solver() if solver is None else solver
+    controller = setup.controller() if controller is None else controller
+    if isinstance(controller, ConstantStepSize) and not float(controller.dt) <= t_end:
+        raise ValueError(f"the fixed step must lie in (0, t_end = {t_end:g}], got {float(controller.dt):g}")
     system = setup.system
     error_on = setup.error_on if error_on is None else _error_names(error_on, setup.sensors)
     if error_on or getattr(system, "error_sensors", ()):
@@ -298,23 +318,13 @@ def run_setup(setup: MechanismSetup, t_end: float | None = None, rtol: float | N
     if estimator is not None:
         fn = _WithState(fn)
     y0 = setup.y0 if setup.y0 is not None else (system.reference(), 0.0 * system.reference())
-
-    step_control = setup.step_control if step_control is None else step_control
-    settings = {"rtol": rtol, "atol": float(f"{rtol / 10:.12g}"), "rho_inf": rho_inf,
-                "error_on": list(error_on) or "nodes"}
-    if controller is None:
-        controller = adaptive_step_size(rtol, rtol / 10, step_control) if dt is None else \
-            ConstantStepSize(float(dt), rtol=rtol, atol=rtol / 10)
-        settings |= {"step_control": step_control} if dt is None else {"dt": float(dt)}
-    else:
-        settings |= {"rtol": float(controller.rtol), "atol": float(controller.atol),
-                     "controller": type(controller).__name__}
-        settings |= {"dt": float(controller.dt)} if hasattr(controller, "dt") else {}
-    if solver is None:
-        solver = GeneralizedAlphaIndex3(rho_inf)
-    else:
-        settings |= {"rho_inf": float(solver.rho_inf) if hasattr(solver, "rho_inf") else None,
-                     "solver": type(solver).__name__}
+    rtol, atol = (getattr(controller, k, None) for k in ("rtol", "atol"))  # a controller of the user's may have none
+    settings = {"rtol": None if rtol is None else float(rtol),
+                "atol": None if atol is None else float(f"{float(atol):.12g}"),
+                "rho_inf": float(solver.rho_inf) if hasattr(solver, "rho_inf") else None,
+                "error_on": list(error_on) or "nodes", "solver": type(solver).__name__,
+                "step_control": step_control_name(controller)}
+    settings |= {"dt": float(controller.dt)} if isinstance(controller, ConstantStepSize) else {}
 
     # the system is an argument of the compiled program, not a constant in it (``simulate_timed``):
     # XLA does not fold its arrays, and a reduced mechanism compiles with ``simulate``'s small-kernel
@@ -343,28 +353,28 @@ def run_to_tolerance(setup: MechanismSetup, tol: float, estimator: ErrorEstimato
     part, at most ``tol`` / 2, the adaptive controller's tolerances tightened (or its steps
     limited to the output interval) until it is (``run_record.step_tolerances_to``).
 
-    The basis is the model's own (its parameters), so the other half of the target is the basis's:
+    ``controller``: where the tightening starts (the model's by default, ``setup.controller()``;
+    ``setup.controller(rtol=1e-3)`` from a looser rtol). The basis is the model's own (its
+    parameters), so the other half of the target is the basis's:
     its part is estimated and reported, not chosen. ``MechanismRun.settings`` gets ``step_rtol``,
     ``step_atol`` (``step_dt_max`` where the steps were limited), ``tol_percent`` and ``tol_met``:
     whether the estimated total on every compared sensor is at most ``tol`` (where it is not,
     because the basis part exceeds its half, only a larger basis, through the model's parameters,
     can meet it). ``estimator``: the dynamic ``ErrorEstimator`` by default (it carries the basis's
     error through the joints to every sensor, where the static one holds the frames). A fixed
-    step (``dt``, ``ConstantStepSize``) is refused: its error is not controlled by tolerances."""
+    step (``ConstantStepSize``) is refused: its error is not controlled by tolerances."""
     _validate.positive("tol (target chi_rel in per cent)", tol)
-    if options.get("dt") is not None or isinstance(options.get("controller"), ConstantStepSize):
-        raise ValueError("run_to_tolerance chooses error-controlled steps: a fixed step (dt) has no tolerance to "
-                         "tighten; leave dt out")
+    if isinstance(options.get("controller"), ConstantStepSize):
+        raise ValueError("run_to_tolerance chooses error-controlled steps: a fixed step has no tolerance to tighten")
     if estimator is not None and not isinstance(estimator, ErrorEstimator):
         raise ValueError(f"estimator must be a reduction.ErrorEstimator (or None), got {type(estimator).__name__}")
     estimator = ErrorEstimator(method="dynamic") if estimator is None else estimator
     estimator = dataclasses.replace(estimator, integration=True)
     controller = options.pop("controller", None)
-    if controller is None:
-        rtol = setup.rtol if options.get("rtol") is None else float(options["rtol"])
-        step_control = options.get("step_control") or setup.step_control
-        controller = adaptive_step_size(rtol, rtol / 10, step_control)
-    options = {k: v for k, v in options.items() if k not in ("rtol", "step_control", "dt")}
+    controller = setup.controller() if controller is None else controller
+    if not isinstance(controller, AdaptiveStepSize):
+        raise ValueError(f"run_to_tolerance tightens an integrate.AdaptiveStepSize's tolerances, got "
+                         f"{type(controller).__name__}")
     last = run_setup(setup, controller=controller, estimator=estimator, **options)
 
     def rerun(c):
