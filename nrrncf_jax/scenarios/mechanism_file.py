@@ -49,7 +49,9 @@ class MechanismSetup:
     χ_rel a reference run reports: positions and deflections; None: all) and ``info`` (anything
     the example reports: its parameters, an offline time), ``error_on`` (the sensors on which the
     step error is measured, ``multibody.Mechanism.observed_error``; empty: every nodal vector) and
-    ``step_control`` (the adaptive controller's name, ``integrate.STEP_CONTROLS``)."""
+    ``step_control`` (the adaptive controller's name, ``integrate.STEP_CONTROLS``). ``solver()`` and
+    ``controller()`` build the integrator's objects from these defaults (what ``run_setup`` runs
+    unless given others), with any of them overridden."""
 
     system: AbstractConstrainedModel
     sensors: dict
