@@ -154,12 +154,14 @@ def test_a_basis_chosen_to_a_tolerance_meets_it_measured(full_swing):
     and within tol / safety, every shorter prefix tried failed, and the chosen basis's χ_rel
     measured against the full counterpart's run is below the tolerance. With a tolerance no
     basis can reach, the search says so and keeps the longest prefix."""
-    from nrrncf_jax.multibody.basis_to_tolerance import mechanism_to_tolerance
+    from nrrncf_jax.multibody.basis_to_tolerance import TRAINING_TIGHTEN, mechanism_to_tolerance
+    from nrrncf_jax.reduction.basis_to_tolerance import ToTolerance
 
     full, x_full, _ = full_swing
     order = ["2 VMs", "their MDs", "VM 3 and its MDs", "VM 4 and its MDs", "VM 5 and its MDs"]
     tol = 0.5
-    search = mechanism_to_tolerance(_from_prefix, order, TS, tol, controller=AdaptiveStepSize(1e-5, 1e-7), start=3)
+    target = ToTolerance(tol=tol, start=3, tighten=TRAINING_TIGHTEN)
+    search = mechanism_to_tolerance(_from_prefix, order, TS, target, controller=AdaptiveStepSize(1e-5, 1e-7))
     chosen = search.chosen
     assert search.met and chosen.reliable and chosen.chi_rel_estimate_percent <= tol / search.safety
     assert chosen.columns > 3 and any(t.columns == chosen.columns - 1 for t in search.trials)  # it grew, then bisected

@@ -33,7 +33,7 @@ docs/multibody-theory.md).
 - ``error_estimate``: how good a reduced mechanism's run is, from the run alone
   (``estimate_mechanism_error`` against ``full_counterpart(system)``: each reduced body's static
   correction in its frame), and where that stops working (the drift of a long multibody motion).
-- ``basis_to_tolerance``: ``mechanism_to_tolerance(build, order, ts, tol)``, the reduced bodies'
+- ``basis_to_tolerance``: ``mechanism_to_tolerance(build, order, ts, target)``, the reduced bodies'
   bases grown along a ranked list of candidates until the error estimate of a training run meets
   a target χ_rel (``scenarios.pendulum.pendulum_to_tolerance`` for the paper's pendulum).
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from .. import _validate
 from ..integrate import AdaptiveStepSize, GeneralizedAlphaIndex3, Newton, simulate, tightened
-from ..reduction.basis_to_tolerance import candidate_name, shortest_passing
+from ..reduction.basis_to_tolerance import ToTolerance, candidate_name, shortest_passing
 from ..reduction.error_estimate import ErrorEstimate
 from ..reduction.run_error import estimate_times
 from .error_estimate import estimate_mechanism_error, full_counterpart
@@ -101,28 +101,31 @@ on the estimate's times (every output for the error equation; ``reduction.run_er
 so their estimates barely depend on it, and a tighter factor costs steps for nothing."""
 
 
-def mechanism_to_tolerance(build: Callable[[list], Mechanism], order: Sequence, ts, tol: float, *, y0=None,
-                           solver: GeneralizedAlphaIndex3 | None = None, controller: AdaptiveStepSize | None = None,
-                           newton: Newton | None = None, tighten: float = TRAINING_TIGHTEN, safety: float = 2.0,
-                           start: int = 1, method: str = "dynamic", samples: int = 16,
-                           max_steps: int = 500_000) -> MechanismSearch:
+def mechanism_to_tolerance(build: Callable[[list], Mechanism], order: Sequence, ts, target: "float | ToTolerance", *,
+                           y0=None, solver: GeneralizedAlphaIndex3 | None = None,
+                           controller: AdaptiveStepSize | None = None, newton: Newton | None = None,
+                           method: str = "dynamic", max_steps: int = 500_000) -> MechanismSearch:
     """The reduced mechanism ``build(order[:n])`` of the shortest prefix whose training run over
     ``ts`` (from ``y0`` = (z, ż), default: the mechanism's reference at rest) has a reliable
-    error estimate of at most ``tol / safety`` per cent χ_rel (module docstring). ``solver``,
-    ``controller``, ``newton`` and ``max_steps``: the integrator of the run the basis is for
-    (defaults built at the call, as ``scenarios.pendulum.run_chain``'s: an
-    ``integrate.GeneralizedAlphaIndex3`` at ρ∞ = 0.9, the plain ``integrate.AdaptiveStepSize`` at
-    rtol 1e-4, atol 1e-5, and ``integrate.Newton(1e-2)``, Newton stopping at 1 % of the step's
-    tolerance); the training runs go at the controller's tolerances divided by ``tighten``
-    (``integrate.tightened``). ``method`` and ``samples``: ``estimate_mechanism_error``'s.
-    ``start``: the first prefix length tried. Returns the ``MechanismSearch`` with every trial;
-    ``met`` is False (and the longest prefix kept) when none passes."""
+    error estimate of at most ``tol / safety`` per cent χ_rel (module docstring). ``target``: a
+    ``reduction.ToTolerance`` (its ``tol``, ``safety``, ``samples``, ``start``, the first prefix
+    length tried, and ``tighten``; its ``prune`` is not used: a mechanism's candidates are groups
+    the builder takes in order, searched by prefix), or its ``tol`` alone, the search then
+    starting at one group, the training runs at a tenth of the run's tolerances
+    (``TRAINING_TIGHTEN``). ``solver``, ``controller``, ``newton`` and ``max_steps``: the
+    integrator of the run the basis is for (defaults built at the call, as
+    ``scenarios.pendulum.run_chain``'s: an ``integrate.GeneralizedAlphaIndex3`` at ρ∞ = 0.9, the
+    plain ``integrate.AdaptiveStepSize`` at rtol 1e-4, atol 1e-5, and ``integrate.Newton(1e-2)``,
+    Newton stopping at 1 % of the step's tolerance); the training runs go at the controller's
+    tolerances divided by ``tighten`` (``integrate.tightened``). ``method``:
+    ``estimate_mechanism_error``'s. Returns the ``MechanismSearch`` with every trial; ``met`` is
+    False (and the longest prefix kept) when none passes."""
     order = list(order)
     if not order:
         raise ValueError("mechanism_to_tolerance needs at least one candidate in order")
-    _validate.positive("tol (a target χ_rel in per cent)", tol)
-    _validate.positive("safety", safety)
-    _validate.positive("tighten", tighten)
+    if not isinstance(target, ToTolerance):
+        target = ToTolerance(tol=target, start=1, tighten=TRAINING_TIGHTEN)
+    tol, safety, samples, start = target.tol, target.safety, target.samples, target.start
     solver = GeneralizedAlphaIndex3(0.9) if solver is None else solver
     controller = AdaptiveStepSize(1e-4, 1e-5) if controller is None else controller
     newton = Newton(1e-2) if newton is None else newton
@@ -131,7 +134,7 @@ def mechanism_to_tolerance(build: Callable[[list], Mechanism], order: Sequence, 
         if not isinstance(value, kind):
             raise ValueError(f"{name} must be an integrate.{kind.__name__}, got {type(value).__name__}")
     _validate.tolerances(float(controller.rtol), float(controller.atol))
-    training = tightened(controller, tighten)
+    training = tightened(controller, target.tighten)
     ts = np.asarray(ts, dtype=float)
     if ts.ndim != 1 or ts.size < 3 or np.any(np.diff(ts) <= 0):
         raise ValueError("ts must be at least three increasing output times (the training manoeuvre)")

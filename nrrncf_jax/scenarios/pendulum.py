@@ -365,15 +365,17 @@ def pendulum_to_tolerance(spec: PendulumSpec = PendulumSpec(), tol: float = 0.5,
     the basis is for, as ``run_chain`` takes them (the same defaults); the training runs go at the
     controller's tolerances tightened (``mechanism_to_tolerance``). Returns the
     ``MechanismSearch``."""
-    from ..multibody.basis_to_tolerance import mechanism_to_tolerance
+    from ..multibody.basis_to_tolerance import TRAINING_TIGHTEN, mechanism_to_tolerance
+    from ..reduction.basis_to_tolerance import ToTolerance
 
     positive_int("n_vms", n_vms)
     ts = _validate.output_times(t_train, dt_out)
     solver, controller = run_integrator(solver, controller, 1e-4, 1e-5, solver_type=GeneralizedAlphaIndex3)
     newton = _chain_newton(newton)
     order = candidate_order(spec, n_vms, t_end, joint_modes=joint_modes)
-    return mechanism_to_tolerance(lambda prefix: build_from_candidates(spec, prefix), order, ts, tol,
-                                  solver=solver, controller=controller, newton=newton, safety=safety, method=method)
+    target = ToTolerance(tol=tol, safety=safety, start=1, tighten=TRAINING_TIGHTEN)
+    return mechanism_to_tolerance(lambda prefix: build_from_candidates(spec, prefix), order, ts, target,
+                                  solver=solver, controller=controller, newton=newton, method=method)
 
 
 def tip_vectors(spec: PendulumSpec) -> list[tuple[int, int]]:
