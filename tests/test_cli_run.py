@@ -80,6 +80,7 @@ def test_run_refuses_bad_arguments(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("crank_cli")  # one worker: the --tol test below reuses this one's compiled runs
 def test_reference_full_reports_the_error_against_a_converged_reference_and_its_parts(capsys):
     """``--reference full``: the total error against the full model run at a hundredth of the
     tolerance, split into the run's time-integration error and the basis's. The parts bound the
@@ -123,6 +124,7 @@ def test_reference_full_reports_the_error_against_a_converged_reference_and_its_
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("crank_cli")  # the same reduced crank's programs as the --reference full test
 def test_tol_chooses_the_step_settings_and_says_what_stands_in_the_way(tmp_path, capsys):
     """``--tol P`` (``run_to_tolerance``) from a loose rtol (1e-3): the tolerances shrink until the
     estimated time-integration part on every compared sensor is at most P / 2, and the run's true
@@ -132,19 +134,19 @@ def test_tol_chooses_the_step_settings_and_says_what_stands_in_the_way(tmp_path,
     and the verdict names the basis and the sensor."""
     from nrrncf_jax.scenarios.mechanism_file import compare_sensors, load_setup, run_setup
 
-    tol, kw, csv = 0.5, ["--t-end", "0.02", "--n-out", "41"], tmp_path / "run.csv"
+    tol, kw, csv = 0.5, ["--t-end", "0.02"], tmp_path / "run.csv"
     assert main(["run", "slider_crank", "--param", "formulation=nr-rncf", "--param", "elements=2", *kw,
                  "--rtol", "1e-3", "--tol", str(tol), "--out", str(csv), "--json", "--no-progress"]) == 0
     out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert out["step_rtol"] < 1e-3 and out["step_atol"] == pytest.approx(out["step_rtol"] / 10)
-    assert out["tol_percent"] == tol and out["estimate_samples"] == 41  # the dynamic estimate, every output
+    assert out["tol_percent"] == tol and out["estimate_samples"] == 201  # the dynamic estimate, every output
     for name in ("x_B", "w_mid"):
         assert out[f"integration_error_estimate_percent_{name}"] <= tol / 2
     assert out["basis_error_estimate_percent_w_mid"] > tol / 2 and not out["tol_met"]
     assert "NOT MET" in out["tol_verdict"] and "basis" in out["tol_verdict"] and "w_mid" in out["tol_verdict"]
     setup = load_setup("slider_crank", {"formulation": "nr-rncf", "elements": 2})
     table = np.genfromtxt(csv, delimiter=",", names=True)  # the run at the chosen settings, as the user gets it
-    tight = run_setup(setup, t_end=0.02, n_out=41, controller=setup.controller(out["step_rtol"] / 1000))
+    tight = run_setup(setup, t_end=0.02, controller=setup.controller(out["step_rtol"] / 1000))
     assert max(compare_sensors(setup, {k: table[k] for k in ("x_B", "w_mid")}, tight.series).values()) <= tol
 
 
