@@ -112,8 +112,7 @@ def _tolerance_verdict(run) -> str:
     tol, rtol = s["tol_percent"], s["step_rtol"]
     if s["tol_met"]:
         return f"target {tol:g} % met (estimated) at rtol {rtol:.3g}"
-    basis = {k.removeprefix("basis_error_estimate_percent_"): v for k, v in s.items()
-             if k.startswith("basis_error_estimate_percent_")}
+    basis = run.estimate.sensor_chi_percent or {}
     worst = max(basis, key=basis.get) if basis else None
     if worst is not None and basis[worst] > tol / 2:
         return (f"target {tol:g} % NOT MET: the basis's part on {worst} is {basis[worst]:.3g} % (more than half the "

@@ -162,6 +162,13 @@ class MechanismRun:
         return out | estimate_fields(self.estimate) | ({} if dominant is None else {"estimate_dominant_part": dominant})
 
 
+def sensor_totals(e) -> dict:
+    """A mechanism's estimate's total on each sensor: its basis part plus its integration part
+    where that was estimated ({name: per cent}; empty without sensors)."""
+    basis, integration = e.sensor_chi_percent or {}, e.sensor_integration_percent or {}
+    return {k: basis.get(k, 0.0) + integration.get(k, 0.0) for k in [*basis, *integration]}
+
+
 def dominant_part(e) -> str | None:
     """Which part of the estimated error dominates, in words, where both the basis part and the
     time-integration part were estimated (None otherwise): on the compared sensor whose estimated
@@ -171,7 +178,7 @@ def dominant_part(e) -> str | None:
     if e.integration_percent is None:
         return None
     basis, integration = e.sensor_chi_percent or {}, e.sensor_integration_percent or {}
-    totals = {k: basis.get(k, 0.0) + integration.get(k, 0.0) for k in [*basis, *integration]}
+    totals = sensor_totals(e)
     if totals:
         name = max(totals, key=totals.get)
         b, i, where = basis.get(name, 0.0), integration.get(name, 0.0), f" on {name}"
@@ -366,17 +373,15 @@ def run_to_tolerance(setup: MechanismSetup, tol: float, estimator: ErrorEstimato
     error through the joints to every sensor, where the static one holds the frames). A fixed
     step (``ConstantStepSize``) is refused: its error is not controlled by tolerances."""
     _validate.positive("tol (target chi_rel in per cent)", tol)
-    if isinstance(options.get("controller"), ConstantStepSize):
-        raise ValueError("run_to_tolerance chooses error-controlled steps: a fixed step has no tolerance to tighten")
     if estimator is not None and not isinstance(estimator, ErrorEstimator):
         raise ValueError(f"estimator must be a reduction.ErrorEstimator (or None), got {type(estimator).__name__}")
     estimator = ErrorEstimator(method="dynamic") if estimator is None else estimator
     estimator = dataclasses.replace(estimator, integration=True)
     controller = options.pop("controller", None)
     controller = setup.controller() if controller is None else controller
-    if not isinstance(controller, AdaptiveStepSize):
-        raise ValueError(f"run_to_tolerance tightens an integrate.AdaptiveStepSize's tolerances, got "
-                         f"{type(controller).__name__}")
+    if not isinstance(controller, AdaptiveStepSize):  # a fixed step has no tolerance to tighten
+        raise ValueError(f"run_to_tolerance chooses error-controlled steps: it tightens an "
+                         f"integrate.AdaptiveStepSize's tolerances, got {type(controller).__name__}")
     last = run_setup(setup, controller=controller, estimator=estimator, **options)
 
     def rerun(c):
@@ -390,8 +395,8 @@ def run_to_tolerance(setup: MechanismSetup, tol: float, estimator: ErrorEstimato
     est, controller = step_tolerances_to(float(tol), controller, lambda c: last.estimate, rerun,
                                          float(np.diff(last.ts).min()), judged=judged)
     rtol, atol, *dt_max = chosen_step_settings(controller)
-    totals = [v for k, v in estimate_fields(est).items() if k.startswith("chi_rel_estimate_percent_")]
-    total = max(totals) if totals else estimate_fields(est)["chi_rel_estimate_percent"]
+    totals = sensor_totals(est)
+    total = max(totals.values()) if totals else est.chi_rel_percent + est.integration_percent
     last.settings |= {"step_rtol": rtol, "step_atol": atol, **({"step_dt_max": dt_max[0]} if dt_max else {}),
                       "tol_percent": float(tol), "tol_met": bool(total <= tol)}
     return last
@@ -424,4 +429,4 @@ def _estimate(setup, system, full, estimator, run, states, solver, controller, n
                                   outputs={k: run.series[k] for k in compared}, repetition=repetition)
 
 __all__ = ["MechanismRun", "MechanismSetup", "compare_sensors", "dominant_part", "examples", "load_setup",
-           "run_setup", "run_to_tolerance"]
+           "run_setup", "run_to_tolerance", "sensor_totals"]
